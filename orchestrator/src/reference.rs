@@ -1,0 +1,113 @@
+//! The reference run (`launch --reference`): the plant and every agent as threads of this process
+//! over the in-memory transport, through the same drivers as the multi-process run. Its
+//! telemetry must equal the multi-process run's byte for byte.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use cohort_runtime::drive::{DriveParams, report_ready, run_agent, run_plant};
+use cohort_runtime::record::{ProcessReport, RunDirs};
+use cohort_runtime::rng::process_rng;
+use cohort_scenario::Scenario;
+use cohort_wire::msg::{PLANT_ID, STATUS_PROGRESS};
+use cohort_wire::transport::Proc;
+use cohort_wire::transport::memory::MemoryBus;
+
+use crate::progress::Progress;
+use crate::supervise::{LaunchOutcome, SIGNALLED};
+
+fn run_one(s: &Scenario, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) -> ProcessReport {
+    let mut t = bus.endpoint(p);
+    report_ready(&mut t, params, p);
+    let report = match p {
+        Proc::Plant => {
+            let mut model = plant::build(s);
+            let mut rng = process_rng(s.scenario.seed, Proc::Plant);
+            run_plant(&mut t, model.as_mut(), &mut rng, s.n_agents(), params)
+        }
+        Proc::Agent(id) => {
+            let mut algo = agent::build(s, id);
+            run_agent(&mut t, algo.as_mut(), id, &s.agent(id).neighbours, params)
+        }
+    };
+    if report.error.is_some() {
+        // Let every other thread stop at its next wait instead of timing out.
+        bus.request_stop();
+    }
+    let log = match &report.error {
+        None => format!("{} (reference thread): done: {} steps in {:.3} s\n", p.name(), report.steps_completed, report.wall_s),
+        Some(e) => format!("{} (reference thread): error: {e}\n", p.name()),
+    };
+    let _ = std::fs::write(params.dirs.logs().join(format!("{}.log", p.name())), log);
+    let _ = report.write(&params.dirs);
+    report
+}
+
+pub fn launch(s: &Scenario, dirs: &RunDirs, run_id: u64, progress: &Progress) -> LaunchOutcome {
+    let started = Instant::now();
+    let bus = MemoryBus::new(s.topology());
+    let terminate = Arc::new(AtomicBool::new(false));
+    let params = DriveParams {
+        run_id,
+        n_steps: s.n_steps(),
+        dt_s: s.scenario.dt_s,
+        step_timeout: Duration::from_secs_f64(s.run.step_timeout_s),
+        dirs: dirs.clone(),
+        terminate: Arc::clone(&terminate),
+        process_start: started,
+    };
+    let procs: Vec<Proc> = std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)).collect();
+    let mut signal = 0usize;
+    let reports: Vec<ProcessReport> = std::thread::scope(|sc| {
+        let handles: Vec<_> = procs
+            .iter()
+            .map(|&p| {
+                let (bus, params) = (&bus, &params);
+                std::thread::Builder::new()
+                    .name(p.name())
+                    .spawn_scoped(sc, move || run_one(s, bus, p, params))
+                    .expect("spawning a thread")
+            })
+            .collect();
+        while !handles.iter().all(|h| h.is_finished()) {
+            for st in bus.take_status() {
+                if st.sender == PLANT_ID && st.kind == STATUS_PROGRESS {
+                    progress.set(st.step);
+                }
+            }
+            let sig = SIGNALLED.load(Ordering::SeqCst);
+            if sig != 0 && signal == 0 {
+                signal = sig;
+                terminate.store(true, Ordering::SeqCst);
+                bus.request_stop();
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        handles.into_iter().map(|h| h.join().expect("a reference thread panicked")).collect()
+    });
+    let wall_s = started.elapsed().as_secs_f64();
+    if signal != 0 {
+        return LaunchOutcome {
+            status: "interrupted",
+            error: Some(format!("interrupted by signal {signal}")),
+            wall_s,
+            exit_code: 128 + signal as u8,
+        };
+    }
+    // The first genuine failure (others merely stopped because of it).
+    let failure = reports
+        .iter()
+        .filter_map(|r| r.error.as_ref().map(|e| (r, e)))
+        .find(|(_, e)| !e.starts_with("stopped"))
+        .or_else(|| reports.iter().filter_map(|r| r.error.as_ref().map(|e| (r, e))).next());
+    match failure {
+        Some((r, e)) => {
+            LaunchOutcome { status: "failed", error: Some(format!("{}: {e}", r.process)), wall_s, exit_code: 1 }
+        }
+        None => {
+            progress.set(s.n_steps());
+            LaunchOutcome { status: "ok", error: None, wall_s, exit_code: 0 }
+        }
+    }
+}

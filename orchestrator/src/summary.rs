@@ -1,0 +1,138 @@
+//! `summary.json`: the run's headline metrics, message counters, and wall-clock figures, folded
+//! from every process's `status/<proc>.json` and the `timing/` CSVs.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use cohort_runtime::record::{ProcessReport, RunDirs};
+use cohort_scenario::Scenario;
+use serde::Serialize;
+
+#[derive(Debug, Serialize)]
+pub struct Percentiles {
+    pub samples: usize,
+    pub p50: u64,
+    pub p99: u64,
+    pub max: u64,
+}
+
+impl Percentiles {
+    pub fn of(mut xs: Vec<u64>) -> Option<Self> {
+        if xs.is_empty() {
+            return None;
+        }
+        xs.sort_unstable();
+        let at = |q: f64| xs[((xs.len() - 1) as f64 * q).round() as usize];
+        Some(Self { samples: xs.len(), p50: at(0.5), p99: at(0.99), max: *xs.last().unwrap_or(&0) })
+    }
+}
+
+#[derive(Debug, Serialize)]
+pub struct Summary {
+    pub scenario: String,
+    pub seed: u64,
+    pub mode: &'static str,
+    pub run_id: String,
+    /// "ok", "failed" or "interrupted".
+    pub status: &'static str,
+    pub error: Option<String>,
+    pub n_agents: u32,
+    pub steps: u64,
+    pub steps_completed: u64,
+    pub sim_time_s: f64,
+    /// Wall time of the whole launch (spawn to last exit, or thread start to join).
+    pub wall_s: f64,
+    /// Steps per second of the plant's step loop.
+    pub steps_per_s: f64,
+    pub metrics: BTreeMap<String, f64>,
+    pub messages_received: u64,
+    pub messages_rejected: BTreeMap<String, u64>,
+    pub timeouts: u64,
+    /// Wall-clock latencies from `timing/`, in ns.
+    pub latency_ns: BTreeMap<String, Percentiles>,
+    pub processes: Vec<ProcessReport>,
+}
+
+/// Read one column of a timing CSV as integers (missing or malformed files give nothing: timing
+/// is diagnostic, never a reason to lose the summary).
+fn timing_column(path: &Path, column: &str) -> Vec<u64> {
+    let Ok(text) = std::fs::read_to_string(path) else { return Vec::new() };
+    let mut lines = text.lines();
+    let Some(idx) = lines.next().and_then(|h| h.split(',').position(|c| c == column)) else { return Vec::new() };
+    lines.filter_map(|l| l.split(',').nth(idx)?.parse().ok()).collect()
+}
+
+pub struct Outcome {
+    pub mode: &'static str,
+    pub run_id: String,
+    pub status: &'static str,
+    pub error: Option<String>,
+    pub wall_s: f64,
+}
+
+pub fn build(s: &Scenario, dirs: &RunDirs, outcome: Outcome) -> Summary {
+    let mut processes: Vec<ProcessReport> = Vec::new();
+    let names = std::iter::once("plant".to_string()).chain((1..=s.n_agents()).map(|i| format!("agent-{i}")));
+    for name in names {
+        let path = dirs.status().join(format!("{name}.json"));
+        if let Some(r) = std::fs::read_to_string(&path).ok().and_then(|t| serde_json::from_str(&t).ok()) {
+            processes.push(r);
+        }
+    }
+    let plant = processes.iter().find(|p| p.process == "plant");
+    let steps_completed = plant.map_or(0, |p| p.steps_completed);
+    let loop_wall = plant.map_or(0.0, |p| p.wall_s);
+    let mut rejected: BTreeMap<String, u64> = BTreeMap::new();
+    for p in &processes {
+        for (k, v) in &p.messages_rejected {
+            *rejected.entry(k.clone()).or_default() += v;
+        }
+    }
+    let mut latency = BTreeMap::new();
+    let t = dirs.timing();
+    if let Some(p) = Percentiles::of(timing_column(&t.join("plant.csv"), "round_ns")) {
+        latency.insert("plant_round".to_string(), p);
+    }
+    if let Some(p) = Percentiles::of(timing_column(&t.join("plant.csv"), "share_latency_max_ns")) {
+        latency.insert("share_to_plant".to_string(), p);
+    }
+    let mut meas = Vec::new();
+    let mut nbr = Vec::new();
+    let mut compute = Vec::new();
+    for i in 1..=s.n_agents() {
+        let f = t.join(format!("agent-{i}.csv"));
+        meas.extend(timing_column(&f, "meas_latency_ns"));
+        nbr.extend(timing_column(&f, "neighbour_wait_ns"));
+        compute.extend(timing_column(&f, "compute_ns"));
+    }
+    for (name, xs) in [("measurement_to_agent", meas), ("agent_neighbour_wait", nbr), ("agent_compute", compute)] {
+        if let Some(p) = Percentiles::of(xs) {
+            latency.insert(name.to_string(), p);
+        }
+    }
+    Summary {
+        scenario: s.scenario.name.clone(),
+        seed: s.scenario.seed,
+        mode: outcome.mode,
+        run_id: outcome.run_id,
+        status: outcome.status,
+        error: outcome.error,
+        n_agents: s.n_agents(),
+        steps: s.n_steps(),
+        steps_completed,
+        sim_time_s: steps_completed as f64 * s.scenario.dt_s,
+        wall_s: outcome.wall_s,
+        steps_per_s: if loop_wall > 0.0 { steps_completed as f64 / loop_wall } else { 0.0 },
+        metrics: plant.map(|p| p.metrics.clone()).unwrap_or_default(),
+        messages_received: processes.iter().map(|p| p.messages_received).sum(),
+        messages_rejected: rejected,
+        timeouts: processes.iter().map(|p| p.timeouts).sum(),
+        latency_ns: latency,
+        processes,
+    }
+}
+
+pub fn write(dirs: &RunDirs, summary: &Summary) -> std::io::Result<()> {
+    let text = serde_json::to_string_pretty(summary).map_err(std::io::Error::other)?;
+    std::fs::write(dirs.root.join("summary.json"), text + "\n")
+}

@@ -1,0 +1,3 @@
+//! Truth models behind the `PlantModel` trait, one file each.
+
+pub mod double_integrator;

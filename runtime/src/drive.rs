@@ -1,0 +1,499 @@
+//! The lockstep step protocol (design.md "One step"), once for the plant and once for an agent,
+//! generic over the transport. The multi-process binaries and the in-process reference run call
+//! exactly these functions; only the `Transport` differs.
+//!
+//! For step k:
+//! 1. plant → agent i: `Measurement{k}`;
+//! 2. agent i: `Algorithm::share`, publishes `Share{k}` (command + values for neighbours);
+//! 3. agent i waits for `Share{k}` of every neighbour, then `Algorithm::step` (tₖ → tₖ₊₁);
+//! 4. plant waits for every `Share{k}`, applies the commands, integrates to tₖ₊₁.
+//!
+//! Every wait is a loop of short timed waits that re-polls (a wakeup can be lost under heavy
+//! preemption) and ends with [`RunError::Timeout`] naming the silent peer after the step timeout.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use cohort_wire::msg::{
+    Header, Measurement, PLANT_ID, STATUS_DONE, STATUS_PROGRESS, STATUS_READY, STATUS_WAITING, SCHEMA_VERSION,
+    Share, Status,
+};
+use cohort_wire::transport::{Incoming, Proc, Transport, TransportError, monotonic_ns};
+use cohort_wire::validate::{Expect, RejectCounts, Rejection, validate_measurement, validate_share};
+use rand_chacha::ChaCha8Rng;
+
+use crate::model::{AgentInput, Algorithm, Neighbour, PlantModel, ShareOut};
+use crate::record::{CsvWriter, ProcessReport, RunDirs, reject_map};
+
+/// Longest single blocking wait before re-polling.
+const POLL: Duration = Duration::from_millis(10);
+/// After this long in one wait, the process tells the orchestrator whom it is waiting for.
+const REPORT_WAITING_AFTER: Duration = Duration::from_millis(200);
+/// The plant reports progress at most this often.
+const PROGRESS_EVERY: Duration = Duration::from_millis(20);
+
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("timeout at step {step}: no {what} from {from} for {after_s:.1} s")]
+    Timeout { step: u64, from: String, what: &'static str, after_s: f64 },
+    #[error("stopped at step {step} on request ({why})")]
+    Stopped { step: u64, why: &'static str },
+    #[error("transport: {0}")]
+    Transport(#[from] TransportError),
+    #[error("writing {what}: {source}")]
+    Io { what: String, source: std::io::Error },
+}
+
+fn io(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> RunError {
+    let what = what.into();
+    move |source| RunError::Io { what, source }
+}
+
+/// Settings shared by both drivers.
+#[derive(Clone)]
+pub struct DriveParams {
+    pub run_id: u64,
+    pub n_steps: u64,
+    pub dt_s: f64,
+    pub step_timeout: Duration,
+    pub dirs: RunDirs,
+    /// Set by SIGTERM (or by the reference run's supervisor): stop at the next wait.
+    pub terminate: Arc<AtomicBool>,
+    /// When the process started (for the start-up time in its report).
+    pub process_start: Instant,
+}
+
+impl DriveParams {
+    fn t_s(&self, k: u64) -> f64 {
+        // Sim time from the step index, never accumulated, so every process agrees exactly.
+        k as f64 * self.dt_s
+    }
+}
+
+/// What a process collects while it waits: it takes each incoming message, says when the wait
+/// is over, and names whom it still lacks.
+trait Inbox {
+    fn take(&mut self, inc: Incoming<'_>);
+    fn complete(&self) -> bool;
+    /// (id, description) of the first peer still missing.
+    fn missing(&self) -> (u32, String);
+}
+
+struct Waiter<'a, T: Transport> {
+    t: &'a mut T,
+    p: &'a DriveParams,
+    me: u32,
+    timeouts: u64,
+}
+
+impl<T: Transport> Waiter<'_, T> {
+    /// Drain into `inbox`, check it, wait briefly; repeat until it is complete or the step
+    /// timeout passes.
+    fn until(&mut self, step: u64, what: &'static str, inbox: &mut impl Inbox) -> Result<(), RunError> {
+        let started = Instant::now();
+        let mut reported = false;
+        loop {
+            self.t.drain(&mut |inc| inbox.take(inc))?;
+            if inbox.complete() {
+                return Ok(());
+            }
+            let waited = started.elapsed();
+            if waited >= self.p.step_timeout {
+                self.timeouts += 1;
+                let (_, from) = inbox.missing();
+                return Err(RunError::Timeout { step, from, what, after_s: waited.as_secs_f64() });
+            }
+            if self.t.stop_requested() {
+                return Err(RunError::Stopped { step, why: "orchestrator" });
+            }
+            if self.p.terminate.load(Ordering::Relaxed) {
+                return Err(RunError::Stopped { step, why: "SIGTERM" });
+            }
+            if !reported && waited >= REPORT_WAITING_AFTER {
+                reported = true;
+                let (id, _) = inbox.missing();
+                let s = status(self.p, self.me, STATUS_WAITING, step, id);
+                self.t.report(&s);
+            }
+            self.t.wait(POLL.min(self.p.step_timeout - waited))?;
+        }
+    }
+}
+
+fn status(p: &DriveParams, me: u32, kind: u32, step: u64, waiting_for: u32) -> Status {
+    Status {
+        version: SCHEMA_VERSION,
+        sender: me,
+        run_id: p.run_id,
+        kind,
+        waiting_for,
+        step,
+        t_s: p.t_s(step),
+        build_hash: cohort_wire::build_id_hash(),
+    }
+}
+
+/// Tell the orchestrator this process's ports exist.
+pub fn report_ready<T: Transport>(t: &mut T, p: &DriveParams, me: Proc) {
+    t.report(&status(p, me.sender_id(), STATUS_READY, 0, 0));
+}
+
+fn new_report(me: Proc, p: &DriveParams) -> ProcessReport {
+    ProcessReport {
+        process: me.name(),
+        pid: std::process::id(),
+        steps_completed: 0,
+        wall_s: 0.0,
+        messages_received: 0,
+        messages_rejected: Default::default(),
+        timeouts: 0,
+        startup_s: p.process_start.elapsed().as_secs_f64(),
+        metrics: Default::default(),
+        error: None,
+    }
+}
+
+/// Run the plant's side of every step. Returns its report (also on error, with `error` set);
+/// telemetry written so far is flushed either way.
+pub fn run_plant<T: Transport>(
+    t: &mut T,
+    model: &mut dyn PlantModel,
+    rng: &mut ChaCha8Rng,
+    n_agents: u32,
+    p: &DriveParams,
+) -> ProcessReport {
+    let mut report = new_report(Proc::Plant, p);
+    let result = plant_loop(t, model, rng, n_agents, p, &mut report);
+    report.metrics = model.metrics().into_iter().collect();
+    if let Err(e) = result {
+        report.error = Some(e.to_string());
+    } else {
+        t.report(&status(p, PLANT_ID, STATUS_DONE, p.n_steps, 0));
+    }
+    report
+}
+
+/// The plant's inbox for step k: every agent's command.
+struct PlantInbox {
+    run_id: u64,
+    k: u64,
+    commands: Vec<Vec<f64>>,
+    got: Vec<bool>,
+    n_got: usize,
+    latency_max_ns: u64,
+    received: u64,
+    rejects: RejectCounts,
+}
+
+impl PlantInbox {
+    fn reset(&mut self, k: u64) {
+        self.k = k;
+        self.got.iter_mut().for_each(|g| *g = false);
+        self.n_got = 0;
+        self.latency_max_ns = 0;
+    }
+}
+
+impl Inbox for PlantInbox {
+    fn take(&mut self, inc: Incoming<'_>) {
+        self.received += 1;
+        let Incoming::Share { from, share } = inc else {
+            self.rejects.add(Rejection::Sender); // the plant reads no measurements
+            return;
+        };
+        let e = Expect { run_id: self.run_id, sender: from, step_min: self.k, step_max: self.k };
+        match validate_share(share, &e) {
+            Ok(()) => {
+                let idx = (from - 1) as usize;
+                if !self.got[idx] {
+                    self.got[idx] = true;
+                    self.n_got += 1;
+                    self.commands[idx].clear();
+                    self.commands[idx].extend_from_slice(share.command());
+                    let latency = monotonic_ns().saturating_sub(share.header.sent_wall_ns);
+                    self.latency_max_ns = self.latency_max_ns.max(latency);
+                }
+            }
+            Err(r) => self.rejects.add(r),
+        }
+    }
+    fn complete(&self) -> bool {
+        self.n_got == self.got.len()
+    }
+    fn missing(&self) -> (u32, String) {
+        let id = self.got.iter().position(|g| !g).map_or(0, |i| i as u32 + 1);
+        (id, format!("agent {id}"))
+    }
+}
+
+fn plant_loop<T: Transport>(
+    t: &mut T,
+    model: &mut dyn PlantModel,
+    rng: &mut ChaCha8Rng,
+    n_agents: u32,
+    p: &DriveParams,
+    report: &mut ProcessReport,
+) -> Result<(), RunError> {
+    let mut columns = vec!["k".to_string(), "t_s".to_string()];
+    columns.extend(model.columns());
+    let tel_path = p.dirs.telemetry().join("plant.csv");
+    let mut tel = CsvWriter::create(&tel_path, &columns).map_err(io(tel_path.display().to_string()))?;
+    let tim_path = p.dirs.timing().join("plant.csv");
+    let mut timing = CsvWriter::create(&tim_path, &["k".into(), "round_ns".into(), "share_latency_max_ns".into()])
+        .map_err(io(tim_path.display().to_string()))?;
+
+    // Start barrier: nothing is sent before every reader exists.
+    let barrier_start = Instant::now();
+    let barrier_limit = p.step_timeout.max(Duration::from_secs(60));
+    while !t.start_granted() {
+        if t.stop_requested() || p.terminate.load(Ordering::Relaxed) {
+            return Err(RunError::Stopped { step: 0, why: "before start" });
+        }
+        if barrier_start.elapsed() > barrier_limit {
+            let after_s = barrier_limit.as_secs_f64();
+            return Err(RunError::Timeout { step: 0, from: "the orchestrator".into(), what: "start signal", after_s });
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    report.startup_s = p.process_start.elapsed().as_secs_f64();
+    let loop_start = Instant::now();
+
+    let n = n_agents as usize;
+    let mut inbox = PlantInbox {
+        run_id: p.run_id,
+        k: 0,
+        commands: vec![Vec::new(); n],
+        got: vec![false; n],
+        n_got: 0,
+        latency_max_ns: 0,
+        received: 0,
+        rejects: RejectCounts::default(),
+    };
+    let mut readings = Vec::with_capacity(64);
+    let mut row = Vec::with_capacity(columns.len());
+    let mut waiter = Waiter { t, p, me: PLANT_ID, timeouts: 0 };
+    let mut last_progress = Instant::now();
+    let result = (|| {
+        for k in 0..p.n_steps {
+            let t_s = p.t_s(k);
+            let round_start = monotonic_ns();
+            for i in 1..=n_agents {
+                readings.clear();
+                model.readings(i, rng, &mut readings);
+                let m = Measurement::new(Header::new(p.run_id, PLANT_ID, k, t_s), &readings);
+                waiter.t.send_measurement(i, &m)?;
+            }
+            inbox.reset(k);
+            waiter.until(k, "share", &mut inbox)?;
+            for (i, u) in inbox.commands.iter().enumerate() {
+                model.apply_command(i as u32 + 1, u);
+            }
+            row.clear();
+            row.push(t_s);
+            model.row(&mut row);
+            tel.row(k, &row).map_err(io("plant telemetry"))?;
+            timing.row_u64(&[k, monotonic_ns() - round_start, inbox.latency_max_ns]).map_err(io("plant timing"))?;
+            model.advance(p.dt_s);
+            report.steps_completed = k + 1;
+            if last_progress.elapsed() >= PROGRESS_EVERY {
+                last_progress = Instant::now();
+                waiter.t.report(&status(p, PLANT_ID, STATUS_PROGRESS, k + 1, 0));
+            }
+        }
+        Ok(())
+    })();
+    report.wall_s = loop_start.elapsed().as_secs_f64();
+    report.timeouts = waiter.timeouts;
+    report.messages_received = inbox.received;
+    report.messages_rejected = reject_map(&inbox.rejects);
+    // Never lose telemetry: flush whatever was written, also after an error.
+    let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("plant telemetry"));
+    result.and(flushed)
+}
+
+/// Run agent `id`'s side of every step.
+pub fn run_agent<T: Transport>(
+    t: &mut T,
+    algo: &mut dyn Algorithm,
+    id: u32,
+    neighbours: &[u32],
+    p: &DriveParams,
+) -> ProcessReport {
+    let me = Proc::Agent(id);
+    let mut report = new_report(me, p);
+    let started = Instant::now();
+    let result = agent_loop(t, algo, id, neighbours, p, &mut report);
+    report.wall_s = started.elapsed().as_secs_f64();
+    if let Err(e) = result {
+        report.error = Some(e.to_string());
+    } else {
+        t.report(&status(p, id, STATUS_DONE, p.n_steps, 0));
+    }
+    report
+}
+
+/// A neighbour's shares of step k and k+1 (it may be one step ahead), by step parity.
+#[derive(Default, Clone)]
+struct Slots {
+    step: [Option<u64>; 2],
+    values: [Vec<f64>; 2],
+}
+
+/// An agent's inbox for step k: the plant's measurement, then every neighbour's share.
+struct AgentInbox<'a> {
+    run_id: u64,
+    k: u64,
+    neighbours: &'a [u32],
+    /// Waiting for the measurement (true) or for the neighbours' shares (false).
+    want_measurement: bool,
+    meas: Option<Box<Measurement>>,
+    meas_latency_ns: u64,
+    slots: Vec<Slots>,
+    received: u64,
+    rejects: RejectCounts,
+}
+
+impl Inbox for AgentInbox<'_> {
+    fn take(&mut self, inc: Incoming<'_>) {
+        self.received += 1;
+        match inc {
+            Incoming::Measurement(m) => {
+                // Once every share of step k is in, the plant may already send step k+1's
+                // measurement while this agent still waits for a neighbour: keep it.
+                let want = if self.want_measurement { self.k } else { self.k + 1 };
+                let e = Expect { run_id: self.run_id, sender: PLANT_ID, step_min: want, step_max: want };
+                match validate_measurement(m, &e) {
+                    // A duplicate is harmless: the first one counts.
+                    Ok(()) if self.meas.is_none() => {
+                        self.meas_latency_ns = monotonic_ns().saturating_sub(m.header.sent_wall_ns);
+                        self.meas = Some(Box::new(*m));
+                    }
+                    Ok(()) => {}
+                    Err(r) => self.rejects.add(r),
+                }
+            }
+            Incoming::Share { from, share } => {
+                let Some(slot) = self.neighbours.iter().position(|&j| j == from) else {
+                    self.rejects.add(Rejection::Sender);
+                    return;
+                };
+                let e = Expect { run_id: self.run_id, sender: from, step_min: self.k, step_max: self.k + 1 };
+                match validate_share(share, &e) {
+                    Ok(()) => {
+                        let s = &mut self.slots[slot];
+                        let par = (share.header.step % 2) as usize;
+                        if s.step[par] != Some(share.header.step) {
+                            s.step[par] = Some(share.header.step);
+                            s.values[par].clear();
+                            s.values[par].extend_from_slice(share.values());
+                        }
+                    }
+                    Err(r) => self.rejects.add(r),
+                }
+            }
+        }
+    }
+    fn complete(&self) -> bool {
+        if self.want_measurement {
+            self.meas.is_some()
+        } else {
+            let par = (self.k % 2) as usize;
+            self.slots.iter().all(|s| s.step[par] == Some(self.k))
+        }
+    }
+    fn missing(&self) -> (u32, String) {
+        if self.want_measurement {
+            return (PLANT_ID, "the plant".into());
+        }
+        let par = (self.k % 2) as usize;
+        let j = self.slots.iter().position(|s| s.step[par] != Some(self.k)).map_or(0, |i| self.neighbours[i]);
+        (j, format!("neighbour agent {j}"))
+    }
+}
+
+fn agent_loop<T: Transport>(
+    t: &mut T,
+    algo: &mut dyn Algorithm,
+    id: u32,
+    neighbours: &[u32],
+    p: &DriveParams,
+    report: &mut ProcessReport,
+) -> Result<(), RunError> {
+    let name = Proc::Agent(id).name();
+    let mut columns = vec!["k".to_string(), "t_s".to_string()];
+    columns.extend(algo.columns());
+    let tel_path = p.dirs.telemetry().join(format!("{name}.csv"));
+    let mut tel = CsvWriter::create(&tel_path, &columns).map_err(io(tel_path.display().to_string()))?;
+    let tim_path = p.dirs.timing().join(format!("{name}.csv"));
+    let mut timing = CsvWriter::create(
+        &tim_path,
+        &["k".into(), "meas_latency_ns".into(), "neighbour_wait_ns".into(), "compute_ns".into()],
+    )
+    .map_err(io(tim_path.display().to_string()))?;
+
+    let mut inbox = AgentInbox {
+        run_id: p.run_id,
+        k: 0,
+        neighbours,
+        want_measurement: true,
+        meas: None,
+        meas_latency_ns: 0,
+        slots: vec![Slots::default(); neighbours.len()],
+        received: 0,
+        rejects: RejectCounts::default(),
+    };
+    let mut out = ShareOut::default();
+    let mut row = Vec::with_capacity(columns.len());
+    let mut waiter = Waiter { t, p, me: id, timeouts: 0 };
+    let result = (|| {
+        for k in 0..p.n_steps {
+            let t_s = p.t_s(k);
+            inbox.k = k;
+            inbox.want_measurement = true;
+            waiter.until(k, "measurement", &mut inbox)?;
+
+            let compute_start = monotonic_ns();
+            let m = inbox.meas.take().expect("the wait completed");
+            out.command.clear();
+            out.values.clear();
+            algo.share(&AgentInput { k, t_s, readings: m.readings() }, &mut out);
+            let share = Share::new(Header::new(p.run_id, id, k, t_s), &out.command, &out.values);
+            waiter.t.send_share(&share)?;
+            row.clear();
+            row.push(t_s);
+            algo.row(&mut row);
+            let mut compute_ns = monotonic_ns() - compute_start;
+
+            let wait_start = monotonic_ns();
+            inbox.want_measurement = false;
+            waiter.until(k, "share", &mut inbox)?;
+            let neighbour_wait_ns = monotonic_ns() - wait_start;
+
+            let step_start = monotonic_ns();
+            let par = (k % 2) as usize;
+            let nb: Vec<Neighbour<'_>> = neighbours
+                .iter()
+                .zip(&inbox.slots)
+                .map(|(&j, s)| Neighbour { id: j, values: &s.values[par] })
+                .collect();
+            algo.step(p.dt_s, &nb);
+            drop(nb);
+            for s in &mut inbox.slots {
+                s.step[par] = None;
+            }
+            compute_ns += monotonic_ns() - step_start;
+            tel.row(k, &row).map_err(io("agent telemetry"))?;
+            timing
+                .row_u64(&[k, inbox.meas_latency_ns, neighbour_wait_ns, compute_ns])
+                .map_err(io("agent timing"))?;
+            report.steps_completed = k + 1;
+        }
+        Ok(())
+    })();
+    report.timeouts = waiter.timeouts;
+    report.messages_received = inbox.received;
+    report.messages_rejected = reject_map(&inbox.rejects);
+    let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("agent telemetry"));
+    result.and(flushed)
+}

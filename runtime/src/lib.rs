@@ -1,0 +1,9 @@
+//! Cohort's runtime: the traits a plant model and an algorithm implement ([`model`]), the
+//! lockstep step drivers generic over the transport ([`drive`]), what a process records
+//! ([`record`]), and per-process random generators ([`rng`]).
+
+pub mod drive;
+pub mod model;
+pub mod process;
+pub mod record;
+pub mod rng;

@@ -1,0 +1,57 @@
+//! The two traits every paper method and every plant model implements. They never see the
+//! transport: a driver feeds them, so each is testable in a unit test with no processes.
+
+use rand_chacha::ChaCha8Rng;
+
+/// The truth of every body, the sensors, and the commands' effect. Advanced by the plant driver.
+pub trait PlantModel: Send {
+    /// Telemetry columns after `k,t_s` (units in the names).
+    fn columns(&self) -> Vec<String>;
+    /// Agent `agent`'s sensor readings at the current time (noise drawn from `rng`, in agent
+    /// order, so the sequence is the same in every run mode).
+    fn readings(&mut self, agent: u32, rng: &mut ChaCha8Rng, out: &mut Vec<f64>);
+    /// The command agent `agent` sent for the current step, held over it (zero-order hold).
+    fn apply_command(&mut self, agent: u32, command: &[f64]);
+    /// Integrate the truth by `dt_s` with the commands held.
+    fn advance(&mut self, dt_s: f64);
+    /// Telemetry values at the current time, matching [`PlantModel::columns`].
+    fn row(&self, out: &mut Vec<f64>);
+    /// Headline metrics for `summary.json`, computed at the end of the run.
+    fn metrics(&self) -> Vec<(String, f64)>;
+}
+
+/// What an agent's algorithm gets from its own sensors at step k.
+#[derive(Debug, Clone, Copy)]
+pub struct AgentInput<'a> {
+    pub k: u64,
+    pub t_s: f64,
+    pub readings: &'a [f64],
+}
+
+/// What the agent owes at step k: the command the plant applies, and the values its neighbours
+/// read.
+#[derive(Debug, Clone, Default)]
+pub struct ShareOut {
+    pub command: Vec<f64>,
+    pub values: Vec<f64>,
+}
+
+/// One live neighbour's share of step k.
+#[derive(Debug, Clone, Copy)]
+pub struct Neighbour<'a> {
+    pub id: u32,
+    pub values: &'a [f64],
+}
+
+/// One spacecraft's estimator, controller and learner. The step protocol calls `share` when the
+/// measurement of step k arrives, then `step` once every neighbour's share of step k is in.
+pub trait Algorithm: Send {
+    fn columns(&self) -> Vec<String>;
+    /// Compute what this agent owes the others at tₖ from its state and the measurement.
+    fn share(&mut self, input: &AgentInput<'_>, out: &mut ShareOut);
+    /// Advance internal states from tₖ to tₖ₊₁, the neighbours' values held over the step.
+    fn step(&mut self, dt_s: f64, neighbours: &[Neighbour<'_>]);
+    /// Telemetry values matching [`Algorithm::columns`], taken right after `share` (state at tₖ
+    /// and the command of step k).
+    fn row(&self, out: &mut Vec<f64>);
+}

@@ -1,0 +1,138 @@
+//! What the `plant` and `agent` binaries share: the handshake checks, signals, opening the
+//! iceoryx2 transport, running the driver, writing the report, and the exit code.
+//!
+//! Exit codes (the orchestrator reads them):
+//! - 0: every step done;
+//! - 1: the run failed (timeout, transport error, I/O error);
+//! - 2: bad input (the resolved scenario in the run directory does not validate);
+//! - 3: built from other sources than the orchestrator (build id mismatch);
+//! - 4: stopped on request (stop message or SIGTERM) before the end.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+use cohort_scenario::Scenario;
+use cohort_wire::transport::Proc;
+use cohort_wire::transport::iox::{IoxRun, IoxTransport};
+
+use crate::drive::{DriveParams, report_ready};
+use crate::record::{ProcessReport, RunDirs};
+
+pub const EXIT_OK: u8 = 0;
+pub const EXIT_RUN_FAILED: u8 = 1;
+pub const EXIT_BAD_INPUT: u8 = 2;
+pub const EXIT_BUILD_MISMATCH: u8 = 3;
+pub const EXIT_STOPPED: u8 = 4;
+
+/// What the orchestrator passes every child on its command line.
+pub struct ChildSpec {
+    pub me: Proc,
+    pub run_dir: PathBuf,
+    /// Run id in hex (it names the run's iceoryx2 prefix).
+    pub run_id: String,
+    pub build_id: String,
+    pub step_timeout_s: Option<f64>,
+}
+
+fn log(me: Proc, start: Instant, msg: impl std::fmt::Display) {
+    eprintln!("[{:9.3} s] {}: {msg}", start.elapsed().as_secs_f64(), me.name());
+}
+
+/// Run one child process to its end. `run` builds the model and calls the driver.
+pub fn child_main(
+    spec: ChildSpec,
+    run: impl FnOnce(&Scenario, &mut IoxTransport, &DriveParams) -> ProcessReport,
+) -> ExitCode {
+    let start = Instant::now();
+    let me = spec.me;
+    if spec.build_id != cohort_wire::BUILD_ID {
+        log(
+            me,
+            start,
+            format!(
+                "refusing to run: built from {} but the orchestrator is {} — rebuild the workspace (cargo build --release)",
+                cohort_wire::BUILD_ID,
+                spec.build_id
+            ),
+        );
+        return ExitCode::from(EXIT_BUILD_MISMATCH);
+    }
+    let Ok(run_id) = u64::from_str_radix(&spec.run_id, 16) else {
+        log(me, start, format!("--run-id {:?}: not a hexadecimal run id", spec.run_id));
+        return ExitCode::from(EXIT_BAD_INPUT);
+    };
+    let dirs = RunDirs::new(&spec.run_dir);
+    let overrides =
+        cohort_scenario::Overrides { step_timeout_s: spec.step_timeout_s, ..Default::default() };
+    let scenario = match cohort_scenario::load(&spec.run_dir.join("scenario.toml"), &overrides) {
+        Ok(s) => s,
+        Err(e) => {
+            log(me, start, e);
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    };
+    if let Proc::Agent(id) = me {
+        if id == 0 || id > scenario.n_agents() {
+            log(me, start, format!("--id {id}: out of range, the scenario has agents 1..={}", scenario.n_agents()));
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+    }
+    // Ctrl-C belongs to the orchestrator, which stops its children in order; SIGTERM asks this
+    // process to stop at its next wait, flushing its telemetry.
+    let terminate = Arc::new(AtomicBool::new(false));
+    // SAFETY: ignoring SIGINT installs no handler code.
+    unsafe { libc_ignore_sigint() };
+    if let Err(e) = signal_hook::flag::register(signal_hook::consts::SIGTERM, Arc::clone(&terminate)) {
+        log(me, start, format!("cannot install the SIGTERM handler: {e}"));
+        return ExitCode::from(EXIT_RUN_FAILED);
+    }
+    let topo = scenario.topology();
+    let iox_run = IoxRun::new(run_id);
+    let mut transport = match IoxTransport::open(&iox_run, &topo, me) {
+        Ok(t) => t,
+        Err(e) => {
+            log(me, start, format!("cannot open the run's services: {e}"));
+            return ExitCode::from(EXIT_RUN_FAILED);
+        }
+    };
+    let params = DriveParams {
+        run_id,
+        n_steps: scenario.n_steps(),
+        dt_s: scenario.scenario.dt_s,
+        step_timeout: Duration::from_secs_f64(scenario.run.step_timeout_s),
+        dirs: dirs.clone(),
+        terminate,
+        process_start: start,
+    };
+    report_ready(&mut transport, &params, me);
+    log(me, start, format!("ready ({} steps of {} s)", params.n_steps, params.dt_s));
+    let report = run(&scenario, &mut transport, &params);
+    drop(transport); // release the ports before exiting
+    if let Err(e) = report.write(&dirs) {
+        log(me, start, format!("cannot write status/{}.json: {e}", me.name()));
+    }
+    match &report.error {
+        None => {
+            log(me, start, format!("done: {} steps in {:.3} s", report.steps_completed, report.wall_s));
+            ExitCode::from(EXIT_OK)
+        }
+        Some(e) if e.starts_with("stopped") => {
+            log(me, start, e);
+            ExitCode::from(EXIT_STOPPED)
+        }
+        Some(e) => {
+            log(me, start, format!("error: {e}"));
+            ExitCode::from(EXIT_RUN_FAILED)
+        }
+    }
+}
+
+unsafe fn libc_ignore_sigint() {
+    // SAFETY: SIG_IGN is a valid disposition for SIGINT.
+    unsafe {
+        libc::signal(libc::SIGINT, libc::SIG_IGN);
+    }
+}

@@ -1,0 +1,113 @@
+//! What a process records: sim-time telemetry (deterministic, in `telemetry/`), wall-clock timing
+//! (not deterministic, kept apart in `timing/`), and an end-of-process report (`status/`).
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use cohort_wire::validate::{RejectCounts, Rejection};
+use serde::{Deserialize, Serialize};
+
+/// Where each kind of output goes inside a run directory.
+#[derive(Debug, Clone)]
+pub struct RunDirs {
+    pub root: PathBuf,
+}
+
+impl RunDirs {
+    pub fn new(root: impl Into<PathBuf>) -> Self {
+        Self { root: root.into() }
+    }
+    pub fn telemetry(&self) -> PathBuf {
+        self.root.join("telemetry")
+    }
+    pub fn timing(&self) -> PathBuf {
+        self.root.join("timing")
+    }
+    pub fn status(&self) -> PathBuf {
+        self.root.join("status")
+    }
+    pub fn logs(&self) -> PathBuf {
+        self.root.join("logs")
+    }
+    pub fn create_all(&self) -> std::io::Result<()> {
+        for d in [self.telemetry(), self.timing(), self.status(), self.logs()] {
+            std::fs::create_dir_all(d)?;
+        }
+        Ok(())
+    }
+}
+
+/// One CSV of sim-time rows. Numbers are written with `{:?}`, Rust's shortest representation
+/// that parses back to the same bits, so telemetry round-trips exactly and two runs that
+/// computed the same values write the same bytes.
+pub struct CsvWriter {
+    out: BufWriter<File>,
+    path: PathBuf,
+    width: usize,
+    line: String,
+}
+
+impl CsvWriter {
+    pub fn create(path: &Path, columns: &[String]) -> std::io::Result<Self> {
+        let mut out = BufWriter::with_capacity(1 << 16, File::create(path)?);
+        writeln!(out, "{}", columns.join(","))?;
+        Ok(Self { out, path: path.to_path_buf(), width: columns.len(), line: String::with_capacity(256) })
+    }
+    /// Write `k`, then the values (the header must have 1 + values.len() columns).
+    pub fn row(&mut self, k: u64, values: &[f64]) -> std::io::Result<()> {
+        use std::fmt::Write as _;
+        debug_assert_eq!(values.len() + 1, self.width, "{}", self.path.display());
+        self.line.clear();
+        let _ = write!(self.line, "{k}");
+        for v in values {
+            let _ = write!(self.line, ",{v:?}");
+        }
+        self.line.push('\n');
+        self.out.write_all(self.line.as_bytes())
+    }
+    pub fn row_u64(&mut self, values: &[u64]) -> std::io::Result<()> {
+        use std::fmt::Write as _;
+        self.line.clear();
+        for (i, v) in values.iter().enumerate() {
+            let _ = write!(self.line, "{}{v}", if i == 0 { "" } else { "," });
+        }
+        self.line.push('\n');
+        self.out.write_all(self.line.as_bytes())
+    }
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// Rejected-message counters as a name → count map for JSON.
+pub fn reject_map(c: &RejectCounts) -> std::collections::BTreeMap<String, u64> {
+    Rejection::ALL.iter().map(|r| (r.name().to_string(), c.get(*r))).collect()
+}
+
+/// Written by every process at exit (success or failure) to `status/<proc>.json`; the
+/// orchestrator folds them into `summary.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ProcessReport {
+    pub process: String,
+    pub pid: u32,
+    pub steps_completed: u64,
+    pub wall_s: f64,
+    pub messages_received: u64,
+    pub messages_rejected: std::collections::BTreeMap<String, u64>,
+    pub timeouts: u64,
+    /// Wall time from process start to its first step (start-up cost).
+    pub startup_s: f64,
+    /// Headline metrics (plant only).
+    pub metrics: std::collections::BTreeMap<String, f64>,
+    /// Why the process ended early, if it did.
+    pub error: Option<String>,
+}
+
+impl ProcessReport {
+    pub fn write(&self, dirs: &RunDirs) -> std::io::Result<()> {
+        let path = dirs.status().join(format!("{}.json", self.process));
+        let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other)?;
+        std::fs::write(path, text)
+    }
+}

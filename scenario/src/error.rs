@@ -1,0 +1,48 @@
+//! Scenario errors: every problem names the file, the key path, the value when there is one, and
+//! the reason.
+
+use std::fmt;
+use std::path::PathBuf;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Problem {
+    /// Dotted key path with indices, e.g. `agents[2].neighbours[0]`; `(file)` for problems with
+    /// the file as a whole (unreadable, not TOML).
+    pub path: String,
+    /// The offending value as written, when there is one.
+    pub value: Option<String>,
+    pub reason: String,
+}
+
+impl Problem {
+    pub fn new(path: impl Into<String>, value: Option<String>, reason: impl Into<String>) -> Self {
+        Self { path: path.into(), value, reason: reason.into() }
+    }
+}
+
+impl fmt::Display for Problem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.value {
+            Some(v) => write!(f, "{} = {}: {}", self.path, v, self.reason),
+            None => write!(f, "{}: {}", self.path, self.reason),
+        }
+    }
+}
+
+/// All problems found in one scenario file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub struct ScenarioError {
+    pub file: PathBuf,
+    pub problems: Vec<Problem>,
+}
+
+impl fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let n = self.problems.len();
+        write!(f, "{}: invalid scenario ({n} problem{})", self.file.display(), if n == 1 { "" } else { "s" })?;
+        for p in &self.problems {
+            write!(f, "\n  {}: {p}", self.file.display())?;
+        }
+        Ok(())
+    }
+}

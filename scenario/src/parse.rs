@@ -1,0 +1,162 @@
+//! Parsing: TOML text → table → typed sections. Each section is deserialised on its own with
+//! `serde_path_to_error`, so one file reports every section's problem at once and each problem
+//! carries its full key path (including inside the `kind`-tagged `plant` and `algorithm` tables).
+
+use std::path::Path;
+
+use serde::de::DeserializeOwned;
+
+use crate::error::{Problem, ScenarioError};
+use crate::schema::*;
+use crate::validate::validate;
+
+/// Values the command line may override before validation.
+#[derive(Debug, Clone, Default)]
+pub struct Overrides {
+    pub seed: Option<u64>,
+    pub duration_s: Option<f64>,
+    pub step_timeout_s: Option<f64>,
+}
+
+/// Read, parse and validate a scenario file.
+pub fn load(file: &Path, overrides: &Overrides) -> Result<Scenario, ScenarioError> {
+    let text = std::fs::read_to_string(file).map_err(|e| ScenarioError {
+        file: file.to_path_buf(),
+        problems: vec![Problem::new("(file)", None, format!("cannot read: {e}"))],
+    })?;
+    parse(&text, file, overrides)
+}
+
+/// Parse and validate scenario text; `file` is only used in messages.
+pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario, ScenarioError> {
+    let err = |problems| ScenarioError { file: file.to_path_buf(), problems };
+    let mut s = parse_only(text).map_err(err)?;
+    if let Some(seed) = overrides.seed {
+        s.scenario.seed = seed;
+    }
+    if let Some(d) = overrides.duration_s {
+        s.scenario.duration_s = d;
+    }
+    if let Some(t) = overrides.step_timeout_s {
+        s.run.step_timeout_s = t;
+    }
+    let problems = validate(&s);
+    if problems.is_empty() { Ok(s) } else { Err(err(problems)) }
+}
+
+const TOP_KEYS: &[&str] = &["scenario", "run", "plant", "algorithm", "agents"];
+
+fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
+    let mut table: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| vec![Problem::new("(file)", None, format!("not valid TOML: {}", one_line(&e.to_string())))])?;
+    let mut problems = Vec::new();
+    for k in table.keys() {
+        if !TOP_KEYS.contains(&k.as_str()) {
+            problems.push(Problem::new(k.clone(), None, format!("unknown key (expected one of: {})", TOP_KEYS.join(", "))));
+        }
+    }
+    let mut required = |key: &str, problems: &mut Vec<Problem>| {
+        let v = table.remove(key);
+        if v.is_none() {
+            problems.push(Problem::new(key, None, "required key is missing"));
+        }
+        v
+    };
+    let meta = required("scenario", &mut problems).and_then(|v| section::<Meta>(v, "scenario", &mut problems));
+    let plant = required("plant", &mut problems).and_then(|v| tagged(v, "plant", PlantConfig::KINDS, &mut problems));
+    let algorithm =
+        required("algorithm", &mut problems).and_then(|v| tagged(v, "algorithm", AlgorithmConfig::KINDS, &mut problems));
+    let agents = required("agents", &mut problems).and_then(|v| section::<Vec<AgentConfig>>(v, "agents", &mut problems));
+    let run = match table.remove("run") {
+        Some(v) => section::<RunSettings>(v, "run", &mut problems),
+        None => Some(RunSettings::default()),
+    };
+
+    let plant = plant.and_then(|(kind, body)| match kind.as_str() {
+        "double-integrator" => section(body, "plant", &mut problems).map(PlantConfig::DoubleIntegrator),
+        _ => unreachable!("tagged() only returns known kinds"),
+    });
+    let algorithm = algorithm.and_then(|(kind, body)| match kind.as_str() {
+        "consensus-formation" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::ConsensusFormation),
+        _ => unreachable!("tagged() only returns known kinds"),
+    });
+    match (meta, run, plant, algorithm, agents) {
+        (Some(scenario), Some(run), Some(plant), Some(algorithm), Some(agents)) if problems.is_empty() => {
+            Ok(Scenario { scenario, run, plant, algorithm, agents })
+        }
+        _ => Err(problems),
+    }
+}
+
+/// Split a `kind`-tagged table into its kind and the rest.
+fn tagged(v: toml::Value, path: &str, kinds: &[&str], problems: &mut Vec<Problem>) -> Option<(String, toml::Value)> {
+    let toml::Value::Table(mut t) = v else {
+        problems.push(Problem::new(path, Some(short(&v)), format!("must be a table, found a {}", v.type_str())));
+        return None;
+    };
+    let expected = format!("expected one of: {}", kinds.join(", "));
+    match t.remove("kind") {
+        None => {
+            problems.push(Problem::new(format!("{path}.kind"), None, format!("required key is missing ({expected})")));
+            None
+        }
+        Some(toml::Value::String(k)) if kinds.contains(&k.as_str()) => Some((k, toml::Value::Table(t))),
+        Some(other) => {
+            problems.push(Problem::new(format!("{path}.kind"), Some(short(&other)), format!("unknown kind ({expected})")));
+            None
+        }
+    }
+}
+
+/// Deserialise one section, recording a problem with its full key path on failure.
+fn section<T: DeserializeOwned>(v: toml::Value, path: &str, problems: &mut Vec<Problem>) -> Option<T> {
+    match serde_path_to_error::deserialize::<_, T>(v) {
+        Ok(t) => Some(t),
+        Err(e) => {
+            let inner = e.path().to_string();
+            let mut full = join(path, &inner);
+            let mut reason = one_line(&e.inner().to_string());
+            // toml's messages end with " in `key`", which the path already says.
+            if let Some((head, _)) = reason.rsplit_once(" in `") {
+                reason = head.to_string();
+            }
+            // serde reports a missing field at the enclosing table: name the key itself.
+            if let Some(rest) = reason.strip_prefix("missing field `") {
+                if let Some(field) = rest.strip_suffix('`') {
+                    full = join(&full, field);
+                    reason = "required key is missing".into();
+                }
+            } else if let Some(rest) = reason.strip_prefix("unknown field `") {
+                if let Some((field, tail)) = rest.split_once('`') {
+                    if !full.ends_with(field) {
+                        full = join(&full, field);
+                    }
+                    let expected = tail.trim_start_matches(',').trim();
+                    reason = if expected.is_empty() { "unknown key".into() } else { format!("unknown key ({expected})") };
+                }
+            }
+            problems.push(Problem::new(full, None, reason));
+            None
+        }
+    }
+}
+
+fn join(path: &str, inner: &str) -> String {
+    if inner.is_empty() || inner == "." {
+        path.to_string()
+    } else if inner.starts_with('[') {
+        format!("{path}{inner}")
+    } else {
+        format!("{path}.{inner}")
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+fn short(v: &toml::Value) -> String {
+    let s = v.to_string();
+    if s.len() > 60 { format!("{}…", &s[..s.char_indices().nth(60).map_or(s.len(), |(i, _)| i)]) } else { s }
+}

@@ -1,0 +1,293 @@
+//! `orchestrator check FILE...` against every scenario in `topologies/`.
+//!
+//! - `topologies/invalid-*.toml` each hold one defect. Each must be rejected with exit code 2, and
+//!   stderr must name the file and the expected key path. The path comes from the file's first line
+//!   `# expect: <text>`, or from [`NO_EXPECT_LINE`] for files that cannot hold a comment.
+//! - Every other `topologies/*.toml` must pass (exit code 0, `ok: FILE` on stdout).
+//! - No input may make `check` panic.
+//!
+//! Run with `cargo test --workspace --release`, so that cargo builds the orchestrator binary
+//! next to this test (see [`cohort::bin_path`]).
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+use cohort::{bin_path, repo_root};
+
+/// Invalid files with no `# expect:` line, mapped to the text their error must contain.
+const NO_EXPECT_LINE: &[(&str, &str)] = &[
+    // 0 bytes: there is nowhere to put a comment. `scenario` is the first required key it lacks.
+    ("invalid-empty.toml", "scenario: required key is missing"),
+];
+
+/// At least this many invalid cases must exist, so that a bad glob cannot pass vacuously.
+const MIN_INVALID_FILES: usize = 12;
+
+/// The result of one `orchestrator check` run, with what is needed to explain a failure.
+struct Run {
+    cmd: String,
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+impl Run {
+    fn report(&self) -> String {
+        format!(
+            "command: {}\nexit code: {}\n--- stdout ---\n{}--- stderr ---\n{}--------------",
+            self.cmd,
+            self.code
+                .map_or("none (killed by a signal)".to_string(), |c| c.to_string()),
+            with_newline(&self.stdout),
+            with_newline(&self.stderr),
+        )
+    }
+    fn panicked(&self) -> bool {
+        self.stdout.contains("panicked")
+            || self.stderr.contains("panicked")
+            || self.code == Some(101)
+    }
+}
+
+fn with_newline(s: &str) -> String {
+    if s.is_empty() || s.ends_with('\n') {
+        s.to_string()
+    } else {
+        format!("{s}\n")
+    }
+}
+
+/// Run `orchestrator check ARGS...` from the repository root (so relative paths in messages look
+/// like `topologies/x.toml`).
+fn check(args: &[&str]) -> Run {
+    let bin = bin_path("orchestrator");
+    assert!(
+        bin.is_file(),
+        "orchestrator binary not found at {}\n\
+         run the tests with `cargo test --workspace --release` (or first `cargo build --release -p orchestrator`)",
+        bin.display()
+    );
+    let out: Output = Command::new(&bin)
+        .arg("check")
+        .args(args)
+        .current_dir(repo_root())
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {}: {e}", bin.display()));
+    Run {
+        cmd: format!(
+            "(cd {} && {} check {})",
+            repo_root().display(),
+            bin.display(),
+            args.join(" ")
+        ),
+        code: out.status.code(),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
+
+/// `topologies/*.toml` file names, sorted, split into (valid, invalid-*).
+fn topology_files() -> (Vec<String>, Vec<String>) {
+    let dir = repo_root().join("topologies");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
+        .map(|e| {
+            e.expect("readable directory entry")
+                .file_name()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .filter(|n| n.ends_with(".toml"))
+        .collect();
+    names.sort();
+    names.into_iter().partition(|n| !n.starts_with("invalid-"))
+}
+
+fn rel(name: &str) -> String {
+    format!("topologies/{name}")
+}
+
+fn abs(name: &str) -> PathBuf {
+    repo_root().join("topologies").join(name)
+}
+
+/// What `name`'s error must contain: its `# expect:` line, else its [`NO_EXPECT_LINE`] entry.
+fn expectation(name: &str) -> String {
+    let bytes =
+        std::fs::read(abs(name)).unwrap_or_else(|e| panic!("cannot read {}: {e}", rel(name)));
+    // Lossy: one case is deliberately not UTF-8 (after its first line).
+    let text = String::from_utf8_lossy(&bytes);
+    let first = text.lines().next().unwrap_or("");
+    if let Some(want) = first.strip_prefix("# expect:") {
+        let want = want.trim();
+        assert!(
+            !want.is_empty(),
+            "{}: the `# expect:` line is empty",
+            rel(name)
+        );
+        return want.to_string();
+    }
+    match NO_EXPECT_LINE.iter().find(|(n, _)| *n == name) {
+        Some((_, want)) => want.to_string(),
+        None => panic!(
+            "{}: the first line must be `# expect: <key path>` (or add the file to NO_EXPECT_LINE in tests/check.rs)",
+            rel(name)
+        ),
+    }
+}
+
+#[test]
+fn every_invalid_file_is_rejected_naming_the_file_and_key() {
+    let (_, invalid) = topology_files();
+    assert!(
+        invalid.len() >= MIN_INVALID_FILES,
+        "expected at least {MIN_INVALID_FILES} topologies/invalid-*.toml, found {}: {invalid:?}",
+        invalid.len()
+    );
+    let mut failures = Vec::new();
+    for name in &invalid {
+        let want = expectation(name);
+        let run = check(&[&rel(name)]);
+        let mut why = Vec::new();
+        if run.code != Some(2) {
+            why.push("exit code is not 2".to_string());
+        }
+        if !run.stderr.contains(name.as_str()) {
+            why.push(format!("stderr does not name the file {name:?}"));
+        }
+        // The expected text must be on a problem line that also names the file.
+        if !run
+            .stderr
+            .lines()
+            .any(|l| l.contains(name.as_str()) && l.contains(&want))
+        {
+            why.push(format!(
+                "no stderr line names both {name:?} and the expected {want:?}"
+            ));
+        }
+        if run.stdout.lines().any(|l| l.starts_with("ok:")) {
+            why.push("stdout says `ok:`".to_string());
+        }
+        if run.panicked() {
+            why.push("it panicked".to_string());
+        }
+        if !why.is_empty() {
+            failures.push(format!(
+                "{}: {}\n{}",
+                rel(name),
+                why.join("; "),
+                run.report()
+            ));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} invalid scenarios were not rejected as expected:\n\n{}",
+        failures.len(),
+        invalid.len(),
+        failures.join("\n\n")
+    );
+}
+
+#[test]
+fn every_valid_file_passes() {
+    let (valid, _) = topology_files();
+    assert!(
+        valid.iter().any(|n| n == "consensus-ring.toml"),
+        "topologies/consensus-ring.toml is missing; found {valid:?}"
+    );
+    let mut failures = Vec::new();
+    for name in &valid {
+        let run = check(&[&rel(name)]);
+        let says_ok = run
+            .stdout
+            .lines()
+            .any(|l| l.starts_with("ok:") && l.contains(name.as_str()));
+        if run.code != Some(0) || !says_ok || run.panicked() {
+            failures.push(format!(
+                "{}: expected exit code 0 and `ok: {}` on stdout\n{}",
+                rel(name),
+                rel(name),
+                run.report()
+            ));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "valid scenarios were not accepted:\n\n{}",
+        failures.join("\n\n")
+    );
+}
+
+#[test]
+fn a_missing_file_is_rejected_naming_it() {
+    let name = "does-not-exist.toml";
+    let run = check(&[&rel(name)]);
+    assert!(
+        run.code == Some(2) && run.stderr.contains(name) && !run.panicked(),
+        "expected exit code 2 and stderr naming {name:?}\n{}",
+        run.report()
+    );
+}
+
+/// All files in one call: the exit code is 2 as one is invalid, yet every file is checked and
+/// reported (`ok:` for the valid ones, an error naming each invalid one).
+#[test]
+fn checking_many_files_reports_each() {
+    let (valid, invalid) = topology_files();
+    let paths: Vec<String> = valid.iter().chain(&invalid).map(|n| rel(n)).collect();
+    let args: Vec<&str> = paths.iter().map(String::as_str).collect();
+    let run = check(&args);
+    let mut why = Vec::new();
+    if run.code != Some(2) {
+        why.push("exit code is not 2".to_string());
+    }
+    for name in &valid {
+        if !run
+            .stdout
+            .lines()
+            .any(|l| l.starts_with("ok:") && l.contains(name.as_str()))
+        {
+            why.push(format!("stdout has no `ok:` line for {name}"));
+        }
+    }
+    for name in &invalid {
+        if !run.stderr.contains(name.as_str()) {
+            why.push(format!("stderr does not name {name}"));
+        }
+    }
+    if run.panicked() {
+        why.push("it panicked".to_string());
+    }
+    assert!(why.is_empty(), "{}\n{}", why.join("\n"), run.report());
+}
+
+/// No input, however odd, makes `check` panic (a panic is a bug: every bad input has a message).
+#[test]
+fn check_never_panics() {
+    let (valid, invalid) = topology_files();
+    let mut cases: Vec<Vec<String>> = valid.iter().chain(&invalid).map(|n| vec![rel(n)]).collect();
+    cases.extend([
+        vec![],                         // no files at all
+        vec![String::new()],            // an empty path
+        vec!["topologies".to_string()], // a directory
+        vec!["topologies/does-not-exist.toml".to_string()],
+        vec![abs("consensus-ring.toml").display().to_string()], // an absolute path
+    ]);
+    if std::path::Path::new("/dev/null").exists() {
+        cases.push(vec!["/dev/null".to_string()]); // empty, and not a regular file
+    }
+    let mut failures = Vec::new();
+    for args in &cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let run = check(&args);
+        if run.panicked() {
+            failures.push(run.report());
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "`orchestrator check` panicked:\n\n{}",
+        failures.join("\n\n")
+    );
+}

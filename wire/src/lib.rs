@@ -1,0 +1,15 @@
+//! Cohort's wire layer: the messages processes exchange ([`msg`]), how a receiver validates them
+//! ([`validate`]), and the [`transport::Transport`] abstraction with its iceoryx2 and in-memory
+//! implementations.
+
+pub mod msg;
+pub mod transport;
+pub mod validate;
+
+/// Identifies the exact sources every binary was built from (see `build.rs`).
+pub const BUILD_ID: &str = env!("COHORT_BUILD_ID");
+
+/// A 64-bit digest of [`BUILD_ID`], small enough for a status message.
+pub fn build_id_hash() -> u64 {
+    BUILD_ID.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}

@@ -1,0 +1,149 @@
+//! Fixed-size `#[repr(C)]` message payloads. No heap, no pointers: every type here can be placed
+//! in iceoryx2 shared memory as is. Variable-length content sits in a bounded array with an
+//! explicit length; the bound is checked when a scenario is validated, never discovered mid-run.
+//!
+//! Names say the direction: [`Measurement`] goes plant → agent, [`Share`] goes agent → plant and
+//! neighbours, [`RunControl`] goes orchestrator → every process, [`Status`] goes process →
+//! orchestrator.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+/// Bumped whenever a payload's layout or meaning changes.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// Sender id of the plant. Agents are numbered 1..=N as in the scenario; the orchestrator is
+/// [`ORCHESTRATOR_ID`].
+pub const PLANT_ID: u32 = 0;
+pub const ORCHESTRATOR_ID: u32 = u32::MAX;
+
+/// Most sensor readings one measurement can carry.
+pub const MAX_READINGS: usize = 64;
+/// Most command components one share can carry (what the plant applies).
+pub const MAX_COMMAND: usize = 8;
+/// Most values one share can carry for the neighbours (e.g. gᵢuᵢ and θ̂ᵢ, or Uᵢ and Xᵢ).
+pub const MAX_SHARE_VALUES: usize = 512;
+/// Most agents in one scenario (service limits and ids are sized from the scenario below this).
+pub const MAX_AGENTS: usize = 256;
+
+/// Common header of every payload (design.md "Messages").
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("cohort::Header")]
+pub struct Header {
+    pub version: u32,
+    pub sender: u32,
+    pub run_id: u64,
+    pub step: u64,
+    pub t_s: f64,
+    /// CLOCK_MONOTONIC at send, ns; shared by all processes of one machine, used only for
+    /// latency histograms (never for anything that reaches telemetry).
+    pub sent_wall_ns: u64,
+}
+
+impl Header {
+    pub fn new(run_id: u64, sender: u32, step: u64, t_s: f64) -> Self {
+        Self { version: SCHEMA_VERSION, sender, run_id, step, t_s, sent_wall_ns: 0 }
+    }
+}
+
+/// Plant → agent i at step k: that agent's sensor readings (never the truth).
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[repr(C)]
+#[type_name("cohort::Measurement")]
+pub struct Measurement {
+    pub header: Header,
+    pub len: u32,
+    pub _pad: u32,
+    pub readings: [f64; MAX_READINGS],
+}
+
+impl Measurement {
+    pub fn new(header: Header, readings: &[f64]) -> Self {
+        assert!(readings.len() <= MAX_READINGS, "bound checked at scenario validation");
+        let mut m = Self { header, len: readings.len() as u32, _pad: 0, readings: [0.0; MAX_READINGS] };
+        m.readings[..readings.len()].copy_from_slice(readings);
+        m
+    }
+    /// The readings; empty when `len` is out of bounds (validation rejects such a message first).
+    pub fn readings(&self) -> &[f64] {
+        self.readings.get(..self.len as usize).unwrap_or(&[])
+    }
+}
+
+/// Agent i → plant and i's subscribers at step k: the command the plant applies over
+/// [tₖ, tₖ₊₁) and the values the neighbours' algorithms need.
+#[derive(Debug, Clone, Copy, ZeroCopySend)]
+#[repr(C)]
+#[type_name("cohort::Share")]
+pub struct Share {
+    pub header: Header,
+    pub command_len: u32,
+    pub values_len: u32,
+    pub command: [f64; MAX_COMMAND],
+    pub values: [f64; MAX_SHARE_VALUES],
+}
+
+impl Share {
+    pub fn new(header: Header, command: &[f64], values: &[f64]) -> Self {
+        assert!(command.len() <= MAX_COMMAND && values.len() <= MAX_SHARE_VALUES);
+        let mut s = Self {
+            header,
+            command_len: command.len() as u32,
+            values_len: values.len() as u32,
+            command: [0.0; MAX_COMMAND],
+            values: [0.0; MAX_SHARE_VALUES],
+        };
+        s.command[..command.len()].copy_from_slice(command);
+        s.values[..values.len()].copy_from_slice(values);
+        s
+    }
+    pub fn command(&self) -> &[f64] {
+        self.command.get(..self.command_len as usize).unwrap_or(&[])
+    }
+    pub fn values(&self) -> &[f64] {
+        self.values.get(..self.values_len as usize).unwrap_or(&[])
+    }
+}
+
+/// Orchestrator → every process.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("cohort::RunControl")]
+pub struct RunControl {
+    pub version: u32,
+    /// One of the `CONTROL_*` constants.
+    pub command: u32,
+    pub run_id: u64,
+}
+
+/// Stop: finish nothing more, write what you have, exit.
+pub const CONTROL_STOP: u32 = 1;
+/// Start: every process reported ready (all ports exist), the plant may send step 0.
+pub const CONTROL_START: u32 = 2;
+
+/// Process → orchestrator: lifecycle and progress (never on the step's critical path).
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("cohort::Status")]
+pub struct Status {
+    pub version: u32,
+    pub sender: u32,
+    pub run_id: u64,
+    /// One of the `STATUS_*` constants.
+    pub kind: u32,
+    /// For `STATUS_WAITING`: the process being waited for.
+    pub waiting_for: u32,
+    pub step: u64,
+    pub t_s: f64,
+    /// Build id hash (see `build_id_hash`) so the orchestrator can check it in the handshake.
+    pub build_hash: u64,
+}
+
+/// All ports exist; the process is ready for step 0.
+pub const STATUS_READY: u32 = 1;
+/// The plant completed `step` (sent at most every few ms).
+pub const STATUS_PROGRESS: u32 = 2;
+/// The sender has been waiting noticeably long in `step` for `waiting_for`.
+pub const STATUS_WAITING: u32 = 3;
+/// The process finished every step.
+pub const STATUS_DONE: u32 = 4;

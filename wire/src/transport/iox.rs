@@ -1,0 +1,443 @@
+//! iceoryx2 transport: zero-copy publish–subscribe between processes, with event services for
+//! wakeups.
+//!
+//! Layout of one run (everything under the run's own prefix `cohort_<run id>_` and root
+//! directory, so two runs on one machine never see each other):
+//! - `meas/<i>`   pub/sub [`Measurement`], plant → agent i.
+//! - `share/<i>`  pub/sub [`Share`], agent i → plant and every agent that has i as neighbour.
+//! - `wake/<p>`   event, one per process: whoever sends p a message notifies it afterwards.
+//! - `control`    pub/sub [`RunControl`], orchestrator → all (history 1, so a late reader sees stop).
+//! - `status`     pub/sub [`Status`], all → orchestrator.
+//!
+//! The orchestrator creates every service with limits sized from the scenario ([`IoxServices`])
+//! before it spawns anything, and holds them for the run; plant and agents only `open()` them, so
+//! there is no creation race and every limit is set in one place.
+
+use std::path::{Path as StdPath, PathBuf};
+use std::time::Duration;
+
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use iceoryx2::service::port_factory::{event as ev_factory, publish_subscribe as ps_factory};
+
+use super::{Incoming, Proc, Topology, Transport, TransportError, monotonic_ns};
+use crate::msg::{CONTROL_START, CONTROL_STOP, Measurement, RunControl, SCHEMA_VERSION, Share, Status};
+
+type Svc = ipc::Service;
+
+/// Subscriber queue depth for shares: a neighbour can be one step ahead, so two suffice; four
+/// leave room without ever making a sender wait (safe overflow is on, and in lockstep the queue
+/// never fills).
+const SHARE_BUFFER: usize = 4;
+const MEAS_BUFFER: usize = 2;
+const STATUS_BUFFER: usize = 64;
+
+/// The names and locations of one run's iceoryx2 resources.
+#[derive(Debug, Clone)]
+pub struct IoxRun {
+    pub run_id: u64,
+}
+
+impl IoxRun {
+    pub fn new(run_id: u64) -> Self {
+        Self { run_id }
+    }
+    /// File prefix of every shared-memory segment and file of this run.
+    pub fn prefix(&self) -> String {
+        format!("cohort_{:016x}_", self.run_id)
+    }
+    /// The run's own iceoryx2 root directory (removed whole at the end of the run).
+    pub fn root_dir(&self) -> PathBuf {
+        PathBuf::from(format!("/tmp/iceoryx2/cohort_{:016x}", self.run_id))
+    }
+    pub fn config(&self) -> Result<Config, TransportError> {
+        let mut cfg = Config::default();
+        cfg.global.prefix =
+            FileName::new(self.prefix().as_bytes()).map_err(|e| TransportError::iox("prefix", e))?;
+        let root = format!("{}/", self.root_dir().display());
+        cfg.global.set_root_path(&Path::new(root.as_bytes()).map_err(|e| TransportError::iox("root path", e))?);
+        Ok(cfg)
+    }
+    fn service(&self, what: &str) -> Result<ServiceName, TransportError> {
+        ServiceName::new(&format!("cohort/{:016x}/{what}", self.run_id))
+            .map_err(|e| TransportError::iox(format!("service name {what}"), e))
+    }
+    fn node(&self, name: &str) -> Result<Node<Svc>, TransportError> {
+        let cfg = self.config()?;
+        NodeBuilder::new()
+            .name(&NodeName::new(name).map_err(|e| TransportError::iox("node name", e))?)
+            .config(&cfg)
+            // Signals stay ours: SIGTERM/SIGINT handling is done by the processes themselves.
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<Svc>()
+            .map_err(|e| TransportError::iox(format!("create node {name}"), e))
+    }
+
+    /// Remove everything this run left in /dev/shm and its root directory — including the
+    /// per-prefix management segment iceoryx2 keeps by design. Call only when no process of the
+    /// run is alive. Returns how many entries were removed.
+    pub fn remove_all_resources(&self) -> usize {
+        let mut removed = 0;
+        let prefix = self.prefix();
+        if let Ok(rd) = std::fs::read_dir("/dev/shm") {
+            for e in rd.flatten() {
+                if e.file_name().to_string_lossy().starts_with(&prefix) && std::fs::remove_file(e.path()).is_ok() {
+                    removed += 1;
+                }
+            }
+        }
+        let root = self.root_dir();
+        if root.exists() {
+            removed += count_files(&root);
+            let _ = std::fs::remove_dir_all(&root);
+        }
+        removed
+    }
+
+    /// Entries of this run currently in /dev/shm and under its root directory.
+    pub fn count_resources(&self) -> usize {
+        let prefix = self.prefix();
+        let shm = std::fs::read_dir("/dev/shm")
+            .map(|rd| rd.flatten().filter(|e| e.file_name().to_string_lossy().starts_with(&prefix)).count())
+            .unwrap_or(0);
+        shm + count_files(&self.root_dir())
+    }
+}
+
+fn count_files(dir: &StdPath) -> usize {
+    let Ok(rd) = std::fs::read_dir(dir) else { return 0 };
+    rd.flatten().map(|e| if e.path().is_dir() { count_files(&e.path()) } else { 1 }).sum()
+}
+
+/// Every service of a run, created and held by the orchestrator.
+pub struct IoxServices {
+    _meas: Vec<ps_factory::PortFactory<Svc, Measurement, ()>>,
+    _share: Vec<ps_factory::PortFactory<Svc, Share, ()>>,
+    _wake: Vec<ev_factory::PortFactory<Svc>>,
+    _control: ps_factory::PortFactory<Svc, RunControl, ()>,
+    _status: ps_factory::PortFactory<Svc, Status, ()>,
+    control_pub: Publisher<Svc, RunControl, ()>,
+    status_sub: Subscriber<Svc, Status, ()>,
+    run: IoxRun,
+    // Dropped last: ports and factories above belong to this node.
+    _node: Node<Svc>,
+}
+
+impl IoxServices {
+    pub fn create(run: &IoxRun, topo: &Topology) -> Result<Self, TransportError> {
+        let node = run.node("orchestrator")?;
+        let n = topo.n_agents() as usize;
+        // Every process of the run may hold a port: size node limits generously from N.
+        let max_nodes = n + 3;
+        let mut meas = Vec::with_capacity(n);
+        let mut share = Vec::with_capacity(n);
+        let mut wake = Vec::with_capacity(n + 1);
+        for i in 1..=topo.n_agents() {
+            meas.push(
+                node.service_builder(&run.service(&format!("meas/{i}"))?)
+                    .publish_subscribe::<Measurement>()
+                    .max_publishers(1)
+                    .max_subscribers(1)
+                    .max_nodes(max_nodes)
+                    .subscriber_max_buffer_size(MEAS_BUFFER)
+                    .history_size(0)
+                    .create()
+                    .map_err(|e| TransportError::iox(format!("create meas/{i}"), e))?,
+            );
+            share.push(
+                node.service_builder(&run.service(&format!("share/{i}"))?)
+                    .publish_subscribe::<Share>()
+                    .max_publishers(1)
+                    .max_subscribers(1 + topo.readers_of(i).len())
+                    .max_nodes(max_nodes)
+                    .subscriber_max_buffer_size(SHARE_BUFFER)
+                    .history_size(0)
+                    .create()
+                    .map_err(|e| TransportError::iox(format!("create share/{i}"), e))?,
+            );
+        }
+        for p in std::iter::once(Proc::Plant).chain((1..=topo.n_agents()).map(Proc::Agent)) {
+            wake.push(
+                node.service_builder(&run.service(&format!("wake/{}", p.name()))?)
+                    .event()
+                    .max_notifiers(topo.senders_to(p) + 1)
+                    .max_listeners(1)
+                    .max_nodes(max_nodes)
+                    .create()
+                    .map_err(|e| TransportError::iox(format!("create wake/{}", p.name()), e))?,
+            );
+        }
+        let control = node
+            .service_builder(&run.service("control")?)
+            .publish_subscribe::<RunControl>()
+            .max_publishers(1)
+            .max_subscribers(n + 1)
+            .max_nodes(max_nodes)
+            .subscriber_max_buffer_size(2)
+            .history_size(1)
+            .create()
+            .map_err(|e| TransportError::iox("create control", e))?;
+        let status = node
+            .service_builder(&run.service("status")?)
+            .publish_subscribe::<Status>()
+            .max_publishers(n + 1)
+            .max_subscribers(1)
+            .max_nodes(max_nodes)
+            .subscriber_max_buffer_size(STATUS_BUFFER)
+            .history_size(0)
+            .create()
+            .map_err(|e| TransportError::iox("create status", e))?;
+        let control_pub = control.publisher_builder().create().map_err(|e| TransportError::iox("control publisher", e))?;
+        let status_sub = status
+            .subscriber_builder()
+            .buffer_size(STATUS_BUFFER)
+            .create()
+            .map_err(|e| TransportError::iox("status subscriber", e))?;
+        Ok(Self {
+            _meas: meas,
+            _share: share,
+            _wake: wake,
+            _control: control,
+            _status: status,
+            control_pub,
+            status_sub,
+            run: run.clone(),
+            _node: node,
+        })
+    }
+
+    /// Publish the stop request (kept in the service's history for late readers).
+    pub fn request_stop(&self) -> Result<(), TransportError> {
+        self.control(CONTROL_STOP)
+    }
+
+    /// Tell the plant that every process is ready (see [`Transport::start_granted`]).
+    pub fn grant_start(&self) -> Result<(), TransportError> {
+        self.control(CONTROL_START)
+    }
+
+    fn control(&self, command: u32) -> Result<(), TransportError> {
+        let msg = RunControl { version: SCHEMA_VERSION, command, run_id: self.run.run_id };
+        self.control_pub.send_copy(msg).map(|_| ()).map_err(|e| TransportError::iox("send control", e))
+    }
+
+    /// Hand every status received so far to `f`; messages of another version or run are skipped.
+    pub fn poll_status(&self, mut f: impl FnMut(&Status)) -> Result<(), TransportError> {
+        while let Some(s) = self.status_sub.receive().map_err(|e| TransportError::iox("receive status", e))? {
+            let st = s.payload();
+            if st.version == SCHEMA_VERSION && st.run_id == self.run.run_id {
+                f(st);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One plant or agent process's endpoint.
+pub struct IoxTransport {
+    me: Proc,
+    meas_pubs: Vec<Publisher<Svc, Measurement, ()>>,
+    meas_sub: Option<Subscriber<Svc, Measurement, ()>>,
+    share_pub: Option<Publisher<Svc, Share, ()>>,
+    /// (owner id, subscriber), in a fixed order.
+    share_subs: Vec<(u32, Subscriber<Svc, Share, ()>)>,
+    /// Plant: notifier of agent i at index i-1. Agent: plant first, then its readers.
+    notifiers: Vec<Notifier<Svc>>,
+    listener: Listener<Svc>,
+    control_sub: Subscriber<Svc, RunControl, ()>,
+    status_pub: Publisher<Svc, Status, ()>,
+    run_id: u64,
+    stop: bool,
+    started: bool,
+    _node: Node<Svc>,
+}
+
+impl IoxTransport {
+    /// Open this process's ports on the services the orchestrator created.
+    pub fn open(run: &IoxRun, topo: &Topology, me: Proc) -> Result<Self, TransportError> {
+        let node = run.node(&me.name())?;
+        let ps_open = |what: String| -> Result<ServiceName, TransportError> { run.service(&what) };
+        let open_meas = |i: u32| {
+            node.service_builder(&ps_open(format!("meas/{i}"))?)
+                .publish_subscribe::<Measurement>()
+                .open()
+                .map_err(|e| TransportError::iox(format!("open meas/{i}"), e))
+        };
+        let open_share = |i: u32| {
+            node.service_builder(&ps_open(format!("share/{i}"))?)
+                .publish_subscribe::<Share>()
+                .open()
+                .map_err(|e| TransportError::iox(format!("open share/{i}"), e))
+        };
+        let open_wake = |p: Proc| {
+            node.service_builder(&ps_open(format!("wake/{}", p.name()))?)
+                .event()
+                .open()
+                .map_err(|e| TransportError::iox(format!("open wake/{}", p.name()), e))
+        };
+        let notifier = |p: Proc| -> Result<Notifier<Svc>, TransportError> {
+            open_wake(p)?.notifier_builder().create().map_err(|e| TransportError::iox("notifier", e))
+        };
+        let share_sub = |i: u32| -> Result<(u32, Subscriber<Svc, Share, ()>), TransportError> {
+            let s = open_share(i)?
+                .subscriber_builder()
+                .buffer_size(SHARE_BUFFER)
+                .create()
+                .map_err(|e| TransportError::iox(format!("subscribe share/{i}"), e))?;
+            Ok((i, s))
+        };
+
+        let mut meas_pubs = Vec::new();
+        let mut meas_sub = None;
+        let mut share_pub = None;
+        let mut share_subs = Vec::new();
+        let mut notifiers = Vec::new();
+        match me {
+            Proc::Plant => {
+                for i in 1..=topo.n_agents() {
+                    meas_pubs.push(
+                        open_meas(i)?.publisher_builder().create().map_err(|e| TransportError::iox("meas publisher", e))?,
+                    );
+                    share_subs.push(share_sub(i)?);
+                    notifiers.push(notifier(Proc::Agent(i))?);
+                }
+            }
+            Proc::Agent(id) => {
+                meas_sub = Some(
+                    open_meas(id)?
+                        .subscriber_builder()
+                        .buffer_size(MEAS_BUFFER)
+                        .create()
+                        .map_err(|e| TransportError::iox("meas subscriber", e))?,
+                );
+                share_pub = Some(
+                    open_share(id)?.publisher_builder().create().map_err(|e| TransportError::iox("share publisher", e))?,
+                );
+                for &j in topo.neighbours_of(id) {
+                    share_subs.push(share_sub(j)?);
+                }
+                notifiers.push(notifier(Proc::Plant)?);
+                for j in topo.readers_of(id) {
+                    notifiers.push(notifier(Proc::Agent(j))?);
+                }
+            }
+        }
+        let listener = open_wake(me)?.listener_builder().create().map_err(|e| TransportError::iox("listener", e))?;
+        let control_sub = node
+            .service_builder(&run.service("control")?)
+            .publish_subscribe::<RunControl>()
+            .open()
+            .map_err(|e| TransportError::iox("open control", e))?
+            .subscriber_builder()
+            .create()
+            .map_err(|e| TransportError::iox("control subscriber", e))?;
+        let status_pub = node
+            .service_builder(&run.service("status")?)
+            .publish_subscribe::<Status>()
+            .open()
+            .map_err(|e| TransportError::iox("open status", e))?
+            .publisher_builder()
+            .create()
+            .map_err(|e| TransportError::iox("status publisher", e))?;
+        Ok(Self {
+            me,
+            meas_pubs,
+            meas_sub,
+            share_pub,
+            share_subs,
+            notifiers,
+            listener,
+            control_sub,
+            status_pub,
+            run_id: run.run_id,
+            stop: false,
+            started: false,
+            _node: node,
+        })
+    }
+
+    fn poll_control(&mut self) {
+        while let Ok(Some(s)) = self.control_sub.receive() {
+            let c = s.payload();
+            if c.version == SCHEMA_VERSION && c.run_id == self.run_id {
+                match c.command {
+                    CONTROL_STOP => self.stop = true,
+                    CONTROL_START => self.started = true,
+                    _ => {}
+                }
+            }
+        }
+    }
+
+    fn notify(n: &Notifier<Svc>) -> Result<(), TransportError> {
+        n.notify().map(|_| ()).map_err(|e| TransportError::iox("notify", e))
+    }
+}
+
+impl Transport for IoxTransport {
+    fn send_measurement(&mut self, to: u32, m: &Measurement) -> Result<(), TransportError> {
+        let idx = (to as usize).checked_sub(1).filter(|&i| i < self.meas_pubs.len());
+        let Some(idx) = idx else {
+            return Err(TransportError::Other(format!("{} cannot send a measurement to agent {to}", self.me.name())));
+        };
+        let sample = self.meas_pubs[idx].loan_uninit().map_err(|e| TransportError::iox("loan measurement", e))?;
+        let mut m = *m;
+        m.header.sent_wall_ns = monotonic_ns();
+        sample.write_payload(m).send().map_err(|e| TransportError::iox("send measurement", e))?;
+        Self::notify(&self.notifiers[idx])
+    }
+
+    fn send_share(&mut self, s: &Share) -> Result<(), TransportError> {
+        let Some(p) = &self.share_pub else {
+            return Err(TransportError::Other("the plant has no share to send".into()));
+        };
+        let sample = p.loan_uninit().map_err(|e| TransportError::iox("loan share", e))?;
+        let mut s = *s;
+        s.header.sent_wall_ns = monotonic_ns();
+        sample.write_payload(s).send().map_err(|e| TransportError::iox("send share", e))?;
+        for n in &self.notifiers {
+            Self::notify(n)?;
+        }
+        Ok(())
+    }
+
+    fn drain(&mut self, f: &mut dyn FnMut(Incoming<'_>)) -> Result<(), TransportError> {
+        if let Some(sub) = &self.meas_sub {
+            while let Some(s) = sub.receive().map_err(|e| TransportError::iox("receive measurement", e))? {
+                f(Incoming::Measurement(s.payload()));
+            }
+        }
+        for (from, sub) in &self.share_subs {
+            while let Some(s) = sub.receive().map_err(|e| TransportError::iox("receive share", e))? {
+                f(Incoming::Share { from: *from, share: s.payload() });
+            }
+        }
+        Ok(())
+    }
+
+    fn wait(&mut self, timeout: Duration) -> Result<(), TransportError> {
+        self.listener.timed_wait(|_| {}, timeout).map(|_| ()).map_err(|e| TransportError::iox("wait", e))
+    }
+
+    fn report(&mut self, s: &Status) {
+        // Best effort: a full status queue must never stall a step.
+        let _ = self.status_pub.send_copy(*s);
+    }
+
+    fn stop_requested(&mut self) -> bool {
+        if !self.stop {
+            self.poll_control();
+        }
+        self.stop
+    }
+
+    fn start_granted(&mut self) -> bool {
+        if !self.started {
+            self.poll_control();
+        }
+        self.started
+    }
+}
