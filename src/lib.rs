@@ -20,3 +20,78 @@ pub fn bin_path(name: &str) -> PathBuf {
         .expect("test executable is not in <target dir>/<profile>/deps/");
     profile_dir.join(format!("{name}{}", std::env::consts::EXE_SUFFIX))
 }
+
+/// A fresh, empty scratch directory under the system temp dir, unique per call.
+pub fn scratch_dir(tag: &str) -> PathBuf {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static N: AtomicU32 = AtomicU32::new(0);
+    let dir = std::env::temp_dir().join(format!(
+        "cohort-test-{tag}-{}-{}",
+        std::process::id(),
+        N.fetch_add(1, Ordering::SeqCst)
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("creating a scratch directory");
+    dir
+}
+
+/// Pids of live processes whose command line mentions `needle` (e.g. a run directory), other
+/// than the calling process.
+pub fn processes_mentioning(needle: &str) -> Vec<(u32, String)> {
+    let me = std::process::id();
+    let mut out = Vec::new();
+    let Ok(rd) = std::fs::read_dir("/proc") else { return out };
+    for e in rd.flatten() {
+        let Ok(pid) = e.file_name().to_string_lossy().parse::<u32>() else { continue };
+        if pid == me {
+            continue;
+        }
+        let Ok(raw) = std::fs::read(e.path().join("cmdline")) else { continue };
+        let cmd = String::from_utf8_lossy(&raw).replace('\0', " ");
+        // A zombie has an empty command line; it is not running.
+        if cmd.contains(needle) {
+            out.push((pid, cmd.trim().to_string()));
+        }
+    }
+    out
+}
+
+/// iceoryx2 entries of run `run_id_hex` left in /dev/shm or under its root directory.
+pub fn iceoryx2_leftovers(run_id_hex: &str) -> Vec<String> {
+    let prefix = format!("cohort_{run_id_hex}_");
+    let mut left: Vec<String> = std::fs::read_dir("/dev/shm")
+        .map(|rd| {
+            rd.flatten()
+                .map(|e| e.file_name().to_string_lossy().to_string())
+                .filter(|n| n.starts_with(&prefix))
+                .collect()
+        })
+        .unwrap_or_default();
+    let root = PathBuf::from(format!("/tmp/iceoryx2/cohort_{run_id_hex}"));
+    if root.exists() {
+        left.push(root.display().to_string());
+    }
+    left
+}
+
+/// Every telemetry value of a run directory as (file, line, column, bits), in file order.
+pub fn telemetry_bits(run_dir: &std::path::Path) -> Vec<(String, usize, usize, u64)> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(run_dir.join("telemetry"))
+        .expect("telemetry directory")
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    files.sort();
+    let mut out = Vec::new();
+    for f in files {
+        let name = f.file_name().unwrap().to_string_lossy().to_string();
+        let text = std::fs::read_to_string(&f).expect("telemetry file");
+        for (ln, line) in text.lines().enumerate().skip(1) {
+            for (col, v) in line.split(',').enumerate() {
+                let x: f64 = v.parse().unwrap_or_else(|_| panic!("{name}:{}: {v:?} is not a number", ln + 1));
+                out.push((name.clone(), ln + 1, col, x.to_bits()));
+            }
+        }
+    }
+    out
+}

@@ -36,25 +36,18 @@ impl Run {
         format!(
             "command: {}\nexit code: {}\n--- stdout ---\n{}--- stderr ---\n{}--------------",
             self.cmd,
-            self.code
-                .map_or("none (killed by a signal)".to_string(), |c| c.to_string()),
+            self.code.map_or("none (killed by a signal)".to_string(), |c| c.to_string()),
             with_newline(&self.stdout),
             with_newline(&self.stderr),
         )
     }
     fn panicked(&self) -> bool {
-        self.stdout.contains("panicked")
-            || self.stderr.contains("panicked")
-            || self.code == Some(101)
+        self.stdout.contains("panicked") || self.stderr.contains("panicked") || self.code == Some(101)
     }
 }
 
 fn with_newline(s: &str) -> String {
-    if s.is_empty() || s.ends_with('\n') {
-        s.to_string()
-    } else {
-        format!("{s}\n")
-    }
+    if s.is_empty() || s.ends_with('\n') { s.to_string() } else { format!("{s}\n") }
 }
 
 /// Run `orchestrator check ARGS...` from the repository root (so relative paths in messages look
@@ -74,12 +67,7 @@ fn check(args: &[&str]) -> Run {
         .output()
         .unwrap_or_else(|e| panic!("cannot run {}: {e}", bin.display()));
     Run {
-        cmd: format!(
-            "(cd {} && {} check {})",
-            repo_root().display(),
-            bin.display(),
-            args.join(" ")
-        ),
+        cmd: format!("(cd {} && {} check {})", repo_root().display(), bin.display(), args.join(" ")),
         code: out.status.code(),
         stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
         stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
@@ -91,12 +79,7 @@ fn topology_files() -> (Vec<String>, Vec<String>) {
     let dir = repo_root().join("topologies");
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
-        .map(|e| {
-            e.expect("readable directory entry")
-                .file_name()
-                .to_string_lossy()
-                .into_owned()
-        })
+        .map(|e| e.expect("readable directory entry").file_name().to_string_lossy().into_owned())
         .filter(|n| n.ends_with(".toml"))
         .collect();
     names.sort();
@@ -113,18 +96,13 @@ fn abs(name: &str) -> PathBuf {
 
 /// What `name`'s error must contain: its `# expect:` line, else its [`NO_EXPECT_LINE`] entry.
 fn expectation(name: &str) -> String {
-    let bytes =
-        std::fs::read(abs(name)).unwrap_or_else(|e| panic!("cannot read {}: {e}", rel(name)));
+    let bytes = std::fs::read(abs(name)).unwrap_or_else(|e| panic!("cannot read {}: {e}", rel(name)));
     // Lossy: one case is deliberately not UTF-8 (after its first line).
     let text = String::from_utf8_lossy(&bytes);
     let first = text.lines().next().unwrap_or("");
     if let Some(want) = first.strip_prefix("# expect:") {
         let want = want.trim();
-        assert!(
-            !want.is_empty(),
-            "{}: the `# expect:` line is empty",
-            rel(name)
-        );
+        assert!(!want.is_empty(), "{}: the `# expect:` line is empty", rel(name));
         return want.to_string();
     }
     match NO_EXPECT_LINE.iter().find(|(n, _)| *n == name) {
@@ -156,14 +134,8 @@ fn every_invalid_file_is_rejected_naming_the_file_and_key() {
             why.push(format!("stderr does not name the file {name:?}"));
         }
         // The expected text must be on a problem line that also names the file.
-        if !run
-            .stderr
-            .lines()
-            .any(|l| l.contains(name.as_str()) && l.contains(&want))
-        {
-            why.push(format!(
-                "no stderr line names both {name:?} and the expected {want:?}"
-            ));
+        if !run.stderr.lines().any(|l| l.contains(name.as_str()) && l.contains(&want)) {
+            why.push(format!("no stderr line names both {name:?} and the expected {want:?}"));
         }
         if run.stdout.lines().any(|l| l.starts_with("ok:")) {
             why.push("stdout says `ok:`".to_string());
@@ -172,12 +144,7 @@ fn every_invalid_file_is_rejected_naming_the_file_and_key() {
             why.push("it panicked".to_string());
         }
         if !why.is_empty() {
-            failures.push(format!(
-                "{}: {}\n{}",
-                rel(name),
-                why.join("; "),
-                run.report()
-            ));
+            failures.push(format!("{}: {}\n{}", rel(name), why.join("; "), run.report()));
         }
     }
     assert!(
@@ -199,10 +166,7 @@ fn every_valid_file_passes() {
     let mut failures = Vec::new();
     for name in &valid {
         let run = check(&[&rel(name)]);
-        let says_ok = run
-            .stdout
-            .lines()
-            .any(|l| l.starts_with("ok:") && l.contains(name.as_str()));
+        let says_ok = run.stdout.lines().any(|l| l.starts_with("ok:") && l.contains(name.as_str()));
         if run.code != Some(0) || !says_ok || run.panicked() {
             failures.push(format!(
                 "{}: expected exit code 0 and `ok: {}` on stdout\n{}",
@@ -212,11 +176,7 @@ fn every_valid_file_passes() {
             ));
         }
     }
-    assert!(
-        failures.is_empty(),
-        "valid scenarios were not accepted:\n\n{}",
-        failures.join("\n\n")
-    );
+    assert!(failures.is_empty(), "valid scenarios were not accepted:\n\n{}", failures.join("\n\n"));
 }
 
 #[test]
@@ -243,11 +203,7 @@ fn checking_many_files_reports_each() {
         why.push("exit code is not 2".to_string());
     }
     for name in &valid {
-        if !run
-            .stdout
-            .lines()
-            .any(|l| l.starts_with("ok:") && l.contains(name.as_str()))
-        {
+        if !run.stdout.lines().any(|l| l.starts_with("ok:") && l.contains(name.as_str())) {
             why.push(format!("stdout has no `ok:` line for {name}"));
         }
     }
@@ -285,9 +241,5 @@ fn check_never_panics() {
             failures.push(run.report());
         }
     }
-    assert!(
-        failures.is_empty(),
-        "`orchestrator check` panicked:\n\n{}",
-        failures.join("\n\n")
-    );
+    assert!(failures.is_empty(), "`orchestrator check` panicked:\n\n{}", failures.join("\n\n"));
 }

@@ -1,5 +1,8 @@
 //! Cohort's agent: the algorithms ([`algorithms`]) and how a scenario selects one ([`build`]).
 
+// Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
+#![allow(clippy::needless_range_loop)]
+
 pub mod algorithms;
 
 use cohort_runtime::model::Algorithm;

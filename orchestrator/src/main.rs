@@ -94,7 +94,13 @@ fn check(files: &[PathBuf]) -> ExitCode {
     let mut bad = false;
     for f in files {
         match cohort_scenario::load(f, &Overrides::default()) {
-            Ok(s) => println!("ok: {} ({} agents, {} steps of {} s)", f.display(), s.n_agents(), s.n_steps(), s.scenario.dt_s),
+            Ok(s) => println!(
+                "ok: {} ({} agents, {} steps of {} s)",
+                f.display(),
+                s.n_agents(),
+                s.n_steps(),
+                s.scenario.dt_s
+            ),
             Err(e) => {
                 eprintln!("{e}");
                 bad = true;

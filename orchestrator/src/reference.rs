@@ -36,7 +36,12 @@ fn run_one(s: &Scenario, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) ->
         bus.request_stop();
     }
     let log = match &report.error {
-        None => format!("{} (reference thread): done: {} steps in {:.3} s\n", p.name(), report.steps_completed, report.wall_s),
+        None => format!(
+            "{} (reference thread): done: {} steps in {:.3} s\n",
+            p.name(),
+            report.steps_completed,
+            report.wall_s
+        ),
         Some(e) => format!("{} (reference thread): error: {e}\n", p.name()),
     };
     let _ = std::fs::write(params.dirs.logs().join(format!("{}.log", p.name())), log);

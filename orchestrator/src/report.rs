@@ -61,34 +61,18 @@ pub enum ReportError {
     #[error("telemetry directory {} holds no .csv files", .path.display())]
     NoTelemetry { path: PathBuf },
     #[error("cannot read {}: {error}", .path.display())]
-    Io {
-        path: PathBuf,
-        error: std::io::Error,
-    },
+    Io { path: PathBuf, error: std::io::Error },
     #[error("{}: bad header: {reason}", .path.display())]
     BadHeader { path: PathBuf, reason: String },
     #[error(
         "{}:{line}: expected {expected} columns (as in the header), found {found}",
         .path.display()
     )]
-    ColumnCount {
-        path: PathBuf,
-        line: usize,
-        expected: usize,
-        found: usize,
-    },
+    ColumnCount { path: PathBuf, line: usize, expected: usize, found: usize },
     #[error("{}:{line}: column `{column}`: cannot parse {value:?} as a number", .path.display())]
-    BadNumber {
-        path: PathBuf,
-        line: usize,
-        column: String,
-        value: String,
-    },
+    BadNumber { path: PathBuf, line: usize, column: String, value: String },
     #[error("cannot create plot directory {}: {error}", .path.display())]
-    CreatePlotDir {
-        path: PathBuf,
-        error: std::io::Error,
-    },
+    CreatePlotDir { path: PathBuf, error: std::io::Error },
     #[error("cannot register the embedded plot font (assets/DejaVuSans.ttf)")]
     Font,
     #[error("cannot draw {}: {message}", .path.display())]
@@ -113,10 +97,7 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
             FileKind::Agent(id) => agent_tables.push((id, table)),
             FileKind::Other => {
                 let quantities = classify_columns(&table, None);
-                let source = Source {
-                    label: file.stem.clone(),
-                    file_desc: format!("{}.csv", file.stem),
-                };
+                let source = Source { label: file.stem.clone(), file_desc: format!("{}.csv", file.stem) };
                 let tables = [(&table, quantities)];
                 figures.extend(time_figures(&source, &tables, &mut used_stems));
                 let xy_stem = if file.stem == "plant" {
@@ -131,23 +112,16 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
         }
     }
     if !agent_tables.is_empty() {
-        let source = Source {
-            label: "agents".to_string(),
-            file_desc: "agent-*.csv".to_string(),
-        };
-        let tables: Vec<_> = agent_tables
-            .iter()
-            .map(|(id, table)| (table, classify_columns(table, Some(*id))))
-            .collect();
+        let source = Source { label: "agents".to_string(), file_desc: "agent-*.csv".to_string() };
+        let tables: Vec<_> =
+            agent_tables.iter().map(|(id, table)| (table, classify_columns(table, Some(*id)))).collect();
         figures.extend(time_figures(&source, &tables, &mut used_stems));
     }
 
     ensure_font()?;
     let plots_dir = run_dir.join("plots");
-    std::fs::create_dir_all(&plots_dir).map_err(|error| ReportError::CreatePlotDir {
-        path: plots_dir.clone(),
-        error,
-    })?;
+    std::fs::create_dir_all(&plots_dir)
+        .map_err(|error| ReportError::CreatePlotDir { path: plots_dir.clone(), error })?;
 
     let mut written = Vec::with_capacity(figures.len());
     for figure in &figures {
@@ -161,16 +135,10 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
         match outcome {
             Ok(Ok(())) => written.push(path),
             Ok(Err(e)) => {
-                return Err(ReportError::Plot {
-                    path,
-                    message: e.to_string(),
-                });
+                return Err(ReportError::Plot { path, message: e.to_string() });
             }
             Err(_) => {
-                return Err(ReportError::Plot {
-                    path,
-                    message: "the plotting library panicked".to_string(),
-                });
+                return Err(ReportError::Plot { path, message: "the plotting library panicked".to_string() });
             }
         }
     }
@@ -198,30 +166,21 @@ struct TelemetryFile {
 /// The `.csv` files in `dir`: `plant.csv` first, then other non-agent files by name, then
 /// `agent-<id>.csv` by id.
 fn list_telemetry(dir: &Path) -> Result<Vec<TelemetryFile>, ReportError> {
-    let io_err = |error| ReportError::Io {
-        path: dir.to_path_buf(),
-        error,
-    };
+    let io_err = |error| ReportError::Io { path: dir.to_path_buf(), error };
     match std::fs::metadata(dir) {
         Ok(meta) if meta.is_dir() => {}
         Ok(_) => {
-            return Err(ReportError::MissingTelemetryDir {
-                path: dir.to_path_buf(),
-            });
+            return Err(ReportError::MissingTelemetryDir { path: dir.to_path_buf() });
         }
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            return Err(ReportError::MissingTelemetryDir {
-                path: dir.to_path_buf(),
-            });
+            return Err(ReportError::MissingTelemetryDir { path: dir.to_path_buf() });
         }
         Err(e) => return Err(io_err(e)),
     }
     let mut files = Vec::new();
     for entry in std::fs::read_dir(dir).map_err(io_err)? {
         let path = entry.map_err(io_err)?.path();
-        let is_csv = path
-            .extension()
-            .is_some_and(|ext| ext.eq_ignore_ascii_case("csv"));
+        let is_csv = path.extension().is_some_and(|ext| ext.eq_ignore_ascii_case("csv"));
         if !is_csv || !path.is_file() {
             continue;
         }
@@ -235,9 +194,7 @@ fn list_telemetry(dir: &Path) -> Result<Vec<TelemetryFile>, ReportError> {
         files.push(TelemetryFile { path, stem, kind });
     }
     if files.is_empty() {
-        return Err(ReportError::NoTelemetry {
-            path: dir.to_path_buf(),
-        });
+        return Err(ReportError::NoTelemetry { path: dir.to_path_buf() });
     }
     files.sort_by(|a, b| {
         let rank = |f: &TelemetryFile| match f.kind {
@@ -266,24 +223,14 @@ struct Column {
 }
 
 fn read_table(path: &Path) -> Result<Table, ReportError> {
-    let io_err = |error| ReportError::Io {
-        path: path.to_path_buf(),
-        error,
-    };
-    let bad_header = |reason: String| ReportError::BadHeader {
-        path: path.to_path_buf(),
-        reason,
-    };
+    let io_err = |error| ReportError::Io { path: path.to_path_buf(), error };
+    let bad_header = |reason: String| ReportError::BadHeader { path: path.to_path_buf(), reason };
     let mut lines = BufReader::new(File::open(path).map_err(io_err)?).lines();
     let header = match lines.next() {
         None => return Err(bad_header("the file is empty".to_string())),
         Some(line) => line.map_err(io_err)?,
     };
-    let names: Vec<&str> = header
-        .trim_end_matches('\r')
-        .split(',')
-        .map(str::trim)
-        .collect();
+    let names: Vec<&str> = header.trim_end_matches('\r').split(',').map(str::trim).collect();
     if names.len() < 2 || names[0] != "k" || names[1] != "t_s" {
         return Err(bad_header(format!(
             "the first two columns must be `k,t_s`, found `{}`",
@@ -301,13 +248,8 @@ fn read_table(path: &Path) -> Result<Table, ReportError> {
     }
 
     let mut t = Vec::new();
-    let mut columns: Vec<Column> = names[2..]
-        .iter()
-        .map(|name| Column {
-            name: (*name).to_string(),
-            values: Vec::new(),
-        })
-        .collect();
+    let mut columns: Vec<Column> =
+        names[2..].iter().map(|name| Column { name: (*name).to_string(), values: Vec::new() }).collect();
     for (index, line) in lines.enumerate() {
         let line_no = index + 2; // 1-based, after the header
         let line = line.map_err(io_err)?;
@@ -337,9 +279,7 @@ fn read_table(path: &Path) -> Result<Table, ReportError> {
         k.parse::<u64>().map_err(|_| bad_number("k", k))?;
         t.push(t_s.parse::<f64>().map_err(|_| bad_number("t_s", t_s))?);
         for (column, field) in columns.iter_mut().zip(fields) {
-            let value = field
-                .parse::<f64>()
-                .map_err(|_| bad_number(&column.name, field))?;
+            let value = field.parse::<f64>().map_err(|_| bad_number(&column.name, field))?;
             column.values.push(value);
         }
     }
@@ -389,17 +329,14 @@ struct ColumnName {
 }
 
 fn parse_column_name(column: &str, allow_owner: bool) -> ColumnName {
-    let owner_prefix = column
-        .split_once('_')
-        .filter(|_| allow_owner)
-        .and_then(|(prefix, tail)| {
-            let digits = prefix.strip_prefix('a')?;
-            let is_id = !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit());
-            if !is_id || tail.is_empty() {
-                return None;
-            }
-            Some((digits.parse::<u32>().ok()?, tail))
-        });
+    let owner_prefix = column.split_once('_').filter(|_| allow_owner).and_then(|(prefix, tail)| {
+        let digits = prefix.strip_prefix('a')?;
+        let is_id = !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit());
+        if !is_id || tail.is_empty() {
+            return None;
+        }
+        Some((digits.parse::<u32>().ok()?, tail))
+    });
     let (owner, rest) = match owner_prefix {
         Some((id, tail)) => (Some(id), tail),
         None => (None, column),
@@ -414,12 +351,7 @@ fn parse_column_name(column: &str, allow_owner: bool) -> ColumnName {
         axis = a.chars().next();
         tokens.pop();
     }
-    ColumnName {
-        owner,
-        name: tokens.join("_"),
-        axis,
-        unit,
-    }
+    ColumnName { owner, name: tokens.join("_"), axis, unit }
 }
 
 /// A plotted quantity of one table: a scalar column, or a vector of axis columns.
@@ -442,28 +374,16 @@ impl Quantity {
         if let [(_, col)] = self.components[..] {
             return table.columns[col].values.clone();
         }
-        let rows = self
-            .components
-            .iter()
-            .map(|&(_, col)| table.columns[col].values.len())
-            .min()
-            .unwrap_or(0);
+        let rows = self.components.iter().map(|&(_, col)| table.columns[col].values.len()).min().unwrap_or(0);
         (0..rows)
             .map(|row| {
-                self.components
-                    .iter()
-                    .map(|&(_, col)| table.columns[col].values[row].powi(2))
-                    .sum::<f64>()
-                    .sqrt()
+                self.components.iter().map(|&(_, col)| table.columns[col].values[row].powi(2)).sum::<f64>().sqrt()
             })
             .collect()
     }
 
     fn column<'t>(&self, table: &'t Table, axis: char) -> Option<&'t [f64]> {
-        self.components
-            .iter()
-            .find(|(a, _)| *a == Some(axis))
-            .map(|&(_, col)| table.columns[col].values.as_slice())
+        self.components.iter().find(|(a, _)| *a == Some(axis)).map(|&(_, col)| table.columns[col].values.as_slice())
     }
 }
 
@@ -490,12 +410,9 @@ fn classify_columns(table: &Table, file_owner: Option<u32>) -> Vec<Quantity> {
                     });
                 }
             }
-            None => quantities.push(Quantity {
-                owner,
-                name: parsed.name,
-                unit: parsed.unit,
-                components: vec![(None, col)],
-            }),
+            None => {
+                quantities.push(Quantity { owner, name: parsed.name, unit: parsed.unit, components: vec![(None, col)] })
+            }
         }
     }
     // A lone axis column (say `r_x_m` without `r_y_m`) is a scalar named `r_x`.
@@ -553,11 +470,7 @@ impl Figure {
 
 /// One time-history figure per family (name, unit, scalar/vector) across `tables`, one line
 /// per quantity.
-fn time_figures(
-    source: &Source,
-    tables: &[(&Table, Vec<Quantity>)],
-    used_stems: &mut HashSet<String>,
-) -> Vec<Figure> {
+fn time_figures(source: &Source, tables: &[(&Table, Vec<Quantity>)], used_stems: &mut HashSet<String>) -> Vec<Figure> {
     type FamilyKey = (String, Option<String>, bool);
     let mut order: Vec<FamilyKey> = Vec::new();
     let mut members: HashMap<FamilyKey, Vec<(&Table, &Quantity)>> = HashMap::new();
@@ -579,21 +492,14 @@ fn time_figures(
         };
         let (name, unit, vector) = &key;
         let per_agent = family.iter().any(|(_, q)| q.owner.is_some());
-        let quantity = if *vector {
-            format!("‖{name}‖")
-        } else {
-            name.clone()
-        };
+        let quantity = if *vector { format!("‖{name}‖") } else { name.clone() };
         let mut title = format!("{} — {quantity}", source.file_desc);
         if per_agent {
             title.push_str(" per agent");
         }
         if let (true, Some((_, q))) = (*vector, family.first()) {
-            let axes: Vec<String> = q
-                .components
-                .iter()
-                .filter_map(|(axis, _)| axis.map(|a| format!("{name}_{a}")))
-                .collect();
+            let axes: Vec<String> =
+                q.components.iter().filter_map(|(axis, _)| axis.map(|a| format!("{name}_{a}"))).collect();
             title.push_str(&format!(" (norm of {})", axes.join(", ")));
         }
         let y_desc = match unit.as_deref().and_then(unit_label) {
@@ -613,14 +519,7 @@ fn time_figures(
             })
             .collect();
         let stem = unique_stem(&format!("{}_{}", source.label, sanitize(name)), used_stems);
-        figures.push(Figure::Time(
-            stem,
-            TimeFigure {
-                title,
-                y_desc,
-                series,
-            },
-        ));
+        figures.push(Figure::Time(stem, TimeFigure { title, y_desc, series }));
     }
     figures
 }
@@ -661,21 +560,9 @@ fn trajectory_figure(source: &Source, table: &Table, quantities: &[Quantity]) ->
 }
 
 fn sanitize(name: &str) -> String {
-    let s: String = name
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if s.is_empty() {
-        "unnamed".to_string()
-    } else {
-        s
-    }
+    let s: String =
+        name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect();
+    if s.is_empty() { "unnamed".to_string() } else { s }
 }
 
 /// `stem`, or `stem_2`, `stem_3`, ... if already taken.
@@ -798,9 +685,7 @@ fn downsample_stride(x: &[f64], y: &[f64], max_points: usize) -> Vec<(f64, f64)>
 
 /// The runs of finite points between gaps.
 fn finite_runs(points: &[(f64, f64)]) -> impl Iterator<Item = &[(f64, f64)]> {
-    points
-        .split(|p| !is_finite_point(p))
-        .filter(|run| !run.is_empty())
+    points.split(|p| !is_finite_point(p)).filter(|run| !run.is_empty())
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -810,19 +695,16 @@ type DrawResult = Result<(), Box<dyn Error + Send + Sync>>;
 
 fn ensure_font() -> Result<(), ReportError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
-    let ok = *REGISTERED
-        .get_or_init(|| register_font(FONT_FAMILY, FontStyle::Normal, FONT_BYTES).is_ok());
+    let ok = *REGISTERED.get_or_init(|| register_font(FONT_FAMILY, FontStyle::Normal, FONT_BYTES).is_ok());
     if ok { Ok(()) } else { Err(ReportError::Font) }
 }
 
 /// Smallest and largest finite value, if any.
 fn finite_bounds(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    values
-        .filter(|v| v.is_finite())
-        .fold(None, |acc, v| match acc {
-            None => Some((v, v)),
-            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
-        })
+    values.filter(|v| v.is_finite()).fold(None, |acc, v| match acc {
+        None => Some((v, v)),
+        Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
+    })
 }
 
 /// A finite, non-empty axis range around `bounds` with 5 % margins.
@@ -859,17 +741,11 @@ fn format_tick(v: &f64) -> String {
 
 /// `"2.500"` → `"2.5"`, `"40.000"` → `"40"`.
 fn trim_zeros(s: &str) -> &str {
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.')
-    } else {
-        s
-    }
+    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.') } else { s }
 }
 
 fn draw_time_figure(path: &Path, fig: &TimeFigure) -> DrawResult {
-    let x_range = linear_range(finite_bounds(
-        fig.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
-    ));
+    let x_range = linear_range(finite_bounds(fig.series.iter().flat_map(|s| s.points.iter().map(|p| p.0))));
     let y_bounds = finite_bounds(fig.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
 
     let root = BitMapBackend::new(path, TIME_FIGURE_SIZE).into_drawing_area();
@@ -883,15 +759,13 @@ fn draw_time_figure(path: &Path, fig: &TimeFigure) -> DrawResult {
     match y_bounds {
         Some((lo, hi)) if lo > 0.0 && hi / lo > LOG_SCALE_RATIO => {
             let y_range = (lo / 1.5)..(hi * 1.5);
-            let mut chart =
-                builder.build_cartesian_2d(x_range.0..x_range.1, y_range.log_scale())?;
+            let mut chart = builder.build_cartesian_2d(x_range.0..x_range.1, y_range.log_scale())?;
             let y_desc = format!("{} (log scale)", fig.y_desc);
             fill_time_chart(&mut chart, &y_desc, &fig.series)?;
         }
         _ => {
             let y_range = linear_range(y_bounds);
-            let mut chart =
-                builder.build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)?;
+            let mut chart = builder.build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)?;
             fill_time_chart(&mut chart, &fig.y_desc, &fig.series)?;
         }
     }
@@ -923,9 +797,7 @@ where
         chart
             .draw_series(LineSeries::new(std::iter::empty::<(f64, f64)>(), style))?
             .label(&s.label)
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
-            });
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3)));
         for run in finite_runs(&s.points) {
             if let [p] = run {
                 chart.draw_series(std::iter::once(Circle::new(*p, 2, color.filled())))?;
@@ -957,10 +829,7 @@ fn draw_polyline<'a, 'b: 'a, Y>(
 where
     Y: Ranged<ValueType = f64>,
 {
-    chart.draw_series(
-        run.windows(2)
-            .map(|w| PathElement::new(vec![w[0], w[1]], style)),
-    )?;
+    chart.draw_series(run.windows(2).map(|w| PathElement::new(vec![w[0], w[1]], style)))?;
     Ok(())
 }
 
@@ -971,19 +840,12 @@ fn draw_xy_figure(path: &Path, fig: &XyFigure) -> DrawResult {
     // Equal scales on both axes: widen the narrower range to the plotting area's aspect ratio.
     let (w, h) = XY_FIGURE_SIZE;
     let plot_w = f64::from(w.saturating_sub(2 * MARGIN + Y_LABEL_AREA).max(1));
-    let plot_h = f64::from(
-        h.saturating_sub(2 * MARGIN + X_LABEL_AREA + 2 * CAPTION_SIZE)
-            .max(1),
-    );
+    let plot_h = f64::from(h.saturating_sub(2 * MARGIN + X_LABEL_AREA + 2 * CAPTION_SIZE).max(1));
     let scale = ((x.1 - x.0) / plot_w).max((y.1 - y.0) / plot_h);
     let widen = |(lo, hi): (f64, f64), px: f64| {
         let mid = lo / 2.0 + hi / 2.0;
         let half = scale * px / 2.0;
-        if (mid - half).is_finite() && (mid + half).is_finite() {
-            (mid - half, mid + half)
-        } else {
-            (lo, hi)
-        }
+        if (mid - half).is_finite() && (mid + half).is_finite() { (mid - half, mid + half) } else { (lo, hi) }
     };
     let (x, y) = (widen(x, plot_w), widen(y, plot_h));
 
@@ -1010,9 +872,7 @@ fn draw_xy_figure(path: &Path, fig: &XyFigure) -> DrawResult {
         chart
             .draw_series(LineSeries::new(std::iter::empty::<(f64, f64)>(), style))?
             .label(&s.label)
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
-            });
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3)));
         for run in finite_runs(&s.points) {
             draw_polyline(&mut chart, run, style)?;
         }
@@ -1103,11 +963,8 @@ mod tests {
             for i in 1..=agents {
                 let phase = f64::from(i) * std::f64::consts::TAU / f64::from(agents);
                 let radius = 20.0 + 15.0 * decay * f64::from(i);
-                let r = [
-                    radius * (phase + 0.02 * t).cos(),
-                    radius * (phase + 0.02 * t).sin(),
-                    0.5 * decay * f64::from(i),
-                ];
+                let r =
+                    [radius * (phase + 0.02 * t).cos(), radius * (phase + 0.02 * t).sin(), 0.5 * decay * f64::from(i)];
                 let v = [
                     -0.02 * radius * (phase + 0.02 * t).sin(),
                     0.02 * radius * (phase + 0.02 * t).cos(),
@@ -1134,10 +991,7 @@ mod tests {
     }
 
     fn file_names(paths: &[PathBuf]) -> Vec<String> {
-        paths
-            .iter()
-            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
-            .collect()
+        paths.iter().map(|p| p.file_name().unwrap().to_string_lossy().into_owned()).collect()
     }
 
     /// With `COHORT_REPORT_KEEP=<dir>` set, copies the figures to `<dir>/<tag>/` to be looked at.
@@ -1154,18 +1008,8 @@ mod tests {
 
     fn assert_png(path: &Path) {
         let bytes = std::fs::read(path).unwrap();
-        assert!(
-            bytes.len() > 1024,
-            "{} is only {} bytes",
-            path.display(),
-            bytes.len()
-        );
-        assert_eq!(
-            &bytes[..8],
-            b"\x89PNG\r\n\x1a\n",
-            "{} is not a PNG",
-            path.display()
-        );
+        assert!(bytes.len() > 1024, "{} is only {} bytes", path.display(), bytes.len());
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{} is not a PNG", path.display());
     }
 
     #[test]
@@ -1220,13 +1064,7 @@ mod tests {
         let written = report(&run.0).unwrap();
         assert_eq!(
             file_names(&written),
-            [
-                "plant_formation_error.png",
-                "plant_r.png",
-                "plant_mystery.png",
-                "trajectories_xy.png",
-                "agents_u.png",
-            ]
+            ["plant_formation_error.png", "plant_r.png", "plant_mystery.png", "trajectories_xy.png", "agents_u.png",]
         );
         written.iter().for_each(|p| assert_png(p));
         keep_for_inspection("odd", &written);
@@ -1235,18 +1073,10 @@ mod tests {
     #[test]
     fn bad_number_names_file_line_and_column() {
         let run = TempRun::new("badnum");
-        let path = run.write(
-            "plant.csv",
-            "k,t_s,formation_error_m,a1_r_x_m\n0,0.0,1.0,2.0\n1,0.1,1.0e,2.0\n",
-        );
+        let path = run.write("plant.csv", "k,t_s,formation_error_m,a1_r_x_m\n0,0.0,1.0,2.0\n1,0.1,1.0e,2.0\n");
         let err = report(&run.0).unwrap_err();
         match &err {
-            ReportError::BadNumber {
-                path: p,
-                line,
-                column,
-                value,
-            } => {
+            ReportError::BadNumber { path: p, line, column, value } => {
                 assert_eq!(p, &path);
                 assert_eq!(*line, 3);
                 assert_eq!(column, "formation_error_m");
@@ -1266,10 +1096,7 @@ mod tests {
         let run = TempRun::new("badk");
         run.write("agent-4.csv", "k,t_s,u_x_mps2\n0.5,0.0,1.0\n");
         let err = report(&run.0).unwrap_err();
-        assert!(
-            matches!(&err, ReportError::BadNumber { line: 2, column, .. } if column == "k"),
-            "{err:?}"
-        );
+        assert!(matches!(&err, ReportError::BadNumber { line: 2, column, .. } if column == "k"), "{err:?}");
         assert!(err.to_string().contains("agent-4.csv:2"), "{err}");
     }
 
@@ -1277,18 +1104,10 @@ mod tests {
     fn wrong_column_count_names_file_and_line() {
         let run = TempRun::new("cols");
         write_synthetic_run(&run, 2, 5);
-        let path = run.write(
-            "agent-2.csv",
-            "k,t_s,u_x_mps2,u_y_mps2\n0,0.0,1.0,2.0\n1,0.1,1.0\n",
-        );
+        let path = run.write("agent-2.csv", "k,t_s,u_x_mps2,u_y_mps2\n0,0.0,1.0,2.0\n1,0.1,1.0\n");
         let err = report(&run.0).unwrap_err();
         match &err {
-            ReportError::ColumnCount {
-                path: p,
-                line,
-                expected,
-                found,
-            } => {
+            ReportError::ColumnCount { path: p, line, expected, found } => {
                 assert_eq!(p, &path);
                 assert_eq!((*line, *expected, *found), (3, 4, 3));
             }
@@ -1304,15 +1123,9 @@ mod tests {
         let run = TempRun::new("missing");
         std::fs::remove_dir_all(run.0.join("telemetry")).unwrap();
         let err = report(&run.0).unwrap_err();
-        assert!(
-            matches!(err, ReportError::MissingTelemetryDir { .. }),
-            "{err:?}"
-        );
+        assert!(matches!(err, ReportError::MissingTelemetryDir { .. }), "{err:?}");
         let msg = err.to_string();
-        assert!(
-            msg.contains(&run.0.join("telemetry").display().to_string()),
-            "{msg}"
-        );
+        assert!(msg.contains(&run.0.join("telemetry").display().to_string()), "{msg}");
     }
 
     #[test]
@@ -1350,26 +1163,11 @@ mod tests {
             axis,
             unit: unit.map(str::to_string),
         };
-        assert_eq!(
-            parse("a12_r_x_m", true),
-            cn(Some(12), "r", Some('x'), Some("m"))
-        );
-        assert_eq!(
-            parse("a12_r_x_m", false),
-            cn(None, "a12_r", Some('x'), Some("m"))
-        );
-        assert_eq!(
-            parse("r_hat_z_m", false),
-            cn(None, "r_hat", Some('z'), Some("m"))
-        );
-        assert_eq!(
-            parse("u_y_mps2", false),
-            cn(None, "u", Some('y'), Some("mps2"))
-        );
-        assert_eq!(
-            parse("formation_error_m", true),
-            cn(None, "formation_error", None, Some("m"))
-        );
+        assert_eq!(parse("a12_r_x_m", true), cn(Some(12), "r", Some('x'), Some("m")));
+        assert_eq!(parse("a12_r_x_m", false), cn(None, "a12_r", Some('x'), Some("m")));
+        assert_eq!(parse("r_hat_z_m", false), cn(None, "r_hat", Some('z'), Some("m")));
+        assert_eq!(parse("u_y_mps2", false), cn(None, "u", Some('y'), Some("mps2")));
+        assert_eq!(parse("formation_error_m", true), cn(None, "formation_error", None, Some("m")));
         assert_eq!(parse("u_x", true), cn(None, "u", Some('x'), None));
         assert_eq!(parse("x_m", true), cn(None, "x", None, Some("m")));
         assert_eq!(parse("mystery", true), cn(None, "mystery", None, None));
@@ -1383,10 +1181,7 @@ mod tests {
             t: vec![0.0],
             columns: ["r_x_m", "v_x_mps", "v_y_mps"]
                 .iter()
-                .map(|n| Column {
-                    name: n.to_string(),
-                    values: vec![3.0],
-                })
+                .map(|n| Column { name: n.to_string(), values: vec![3.0] })
                 .collect(),
         };
         let qs = classify_columns(&table, Some(2));

@@ -37,9 +37,13 @@ pub fn create(out: Option<&Path>, scenario_name: &str) -> Result<RunDirs, String
     let root = match out {
         Some(dir) => {
             if dir.exists() {
-                let empty = std::fs::read_dir(dir).map_err(|e| format!("--out {}: {e}", dir.display()))?.next().is_none();
+                let empty =
+                    std::fs::read_dir(dir).map_err(|e| format!("--out {}: {e}", dir.display()))?.next().is_none();
                 if !empty {
-                    return Err(format!("--out {}: directory exists and is not empty (refusing to mix runs)", dir.display()));
+                    return Err(format!(
+                        "--out {}: directory exists and is not empty (refusing to mix runs)",
+                        dir.display()
+                    ));
                 }
             } else {
                 std::fs::create_dir_all(dir).map_err(|e| format!("--out {}: cannot create: {e}", dir.display()))?;

@@ -155,11 +155,8 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -
             }
         }
     }
-    let outcome = if failure.is_none() {
-        supervise(s, dirs, &services, &mut kids, progress, started)
-    } else {
-        (failure, None)
-    };
+    let outcome =
+        if failure.is_none() { supervise(s, dirs, &services, &mut kids, progress, started) } else { (failure, None) };
     let (failure, signal) = outcome;
     let any_alive = kids.iter().any(|k| k.exit.is_none());
     if any_alive {
@@ -222,7 +219,12 @@ fn supervise(
         });
         if let Some(idx) = mismatch {
             let name = kids[idx].proc_.name();
-            return (Some(format!("{name} was built from other sources than the orchestrator (handshake build id differs): rebuild the workspace")), None);
+            return (
+                Some(format!(
+                    "{name} was built from other sources than the orchestrator (handshake build id differs): rebuild the workspace"
+                )),
+                None,
+            );
         }
         if !start_granted && kids.iter().all(|k| k.ready) {
             if let Err(e) = services.grant_start() {
@@ -283,10 +285,10 @@ fn supervise(
                 None => format!(" at or after step {plant_step} (t = {:.3} s)", plant_step as f64 * s.scenario.dt_s),
             };
             msg.push_str(&where_);
-            if st.signal().is_none() {
-                if let Some(line) = last_log_line(&dirs.logs().join(format!("{name}.log"))) {
-                    msg.push_str(&format!("; its log ends: {line}"));
-                }
+            if st.signal().is_none()
+                && let Some(line) = last_log_line(&dirs.logs().join(format!("{name}.log")))
+            {
+                msg.push_str(&format!("; its log ends: {line}"));
             }
             return (Some(msg), None);
         }

@@ -16,8 +16,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use cohort_wire::msg::{
-    Header, Measurement, PLANT_ID, STATUS_DONE, STATUS_PROGRESS, STATUS_READY, STATUS_WAITING, SCHEMA_VERSION,
-    Share, Status,
+    Header, Measurement, PLANT_ID, SCHEMA_VERSION, STATUS_DONE, STATUS_PROGRESS, STATUS_READY, STATUS_WAITING, Share,
+    Status,
 };
 use cohort_wire::transport::{Incoming, Proc, Transport, TransportError, monotonic_ns};
 use cohort_wire::validate::{Expect, RejectCounts, Rejection, validate_measurement, validate_share};
@@ -484,9 +484,7 @@ fn agent_loop<T: Transport>(
             }
             compute_ns += monotonic_ns() - step_start;
             tel.row(k, &row).map_err(io("agent telemetry"))?;
-            timing
-                .row_u64(&[k, inbox.meas_latency_ns, neighbour_wait_ns, compute_ns])
-                .map_err(io("agent timing"))?;
+            timing.row_u64(&[k, inbox.meas_latency_ns, neighbour_wait_ns, compute_ns]).map_err(io("agent timing"))?;
             report.steps_completed = k + 1;
         }
         Ok(())

@@ -65,8 +65,7 @@ pub fn child_main(
         return ExitCode::from(EXIT_BAD_INPUT);
     };
     let dirs = RunDirs::new(&spec.run_dir);
-    let overrides =
-        cohort_scenario::Overrides { step_timeout_s: spec.step_timeout_s, ..Default::default() };
+    let overrides = cohort_scenario::Overrides { step_timeout_s: spec.step_timeout_s, ..Default::default() };
     let scenario = match cohort_scenario::load(&spec.run_dir.join("scenario.toml"), &overrides) {
         Ok(s) => s,
         Err(e) => {
@@ -74,11 +73,11 @@ pub fn child_main(
             return ExitCode::from(EXIT_BAD_INPUT);
         }
     };
-    if let Proc::Agent(id) = me {
-        if id == 0 || id > scenario.n_agents() {
-            log(me, start, format!("--id {id}: out of range, the scenario has agents 1..={}", scenario.n_agents()));
-            return ExitCode::from(EXIT_BAD_INPUT);
-        }
+    if let Proc::Agent(id) = me
+        && (id == 0 || id > scenario.n_agents())
+    {
+        log(me, start, format!("--id {id}: out of range, the scenario has agents 1..={}", scenario.n_agents()));
+        return ExitCode::from(EXIT_BAD_INPUT);
     }
     // Ctrl-C belongs to the orchestrator, which stops its children in order; SIGTERM asks this
     // process to stop at its next wait, flushing its telemetry.

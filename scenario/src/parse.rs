@@ -47,13 +47,17 @@ pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario,
 const TOP_KEYS: &[&str] = &["scenario", "run", "plant", "algorithm", "agents"];
 
 fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
-    let mut table: toml::Table = text
-        .parse()
-        .map_err(|e: toml::de::Error| vec![Problem::new("(file)", None, format!("not valid TOML: {}", one_line(&e.to_string())))])?;
+    let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+        vec![Problem::new("(file)", None, format!("not valid TOML: {}", one_line(&e.to_string())))]
+    })?;
     let mut problems = Vec::new();
     for k in table.keys() {
         if !TOP_KEYS.contains(&k.as_str()) {
-            problems.push(Problem::new(k.clone(), None, format!("unknown key (expected one of: {})", TOP_KEYS.join(", "))));
+            problems.push(Problem::new(
+                k.clone(),
+                None,
+                format!("unknown key (expected one of: {})", TOP_KEYS.join(", ")),
+            ));
         }
     }
     let mut required = |key: &str, problems: &mut Vec<Problem>| {
@@ -65,9 +69,10 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
     };
     let meta = required("scenario", &mut problems).and_then(|v| section::<Meta>(v, "scenario", &mut problems));
     let plant = required("plant", &mut problems).and_then(|v| tagged(v, "plant", PlantConfig::KINDS, &mut problems));
-    let algorithm =
-        required("algorithm", &mut problems).and_then(|v| tagged(v, "algorithm", AlgorithmConfig::KINDS, &mut problems));
-    let agents = required("agents", &mut problems).and_then(|v| section::<Vec<AgentConfig>>(v, "agents", &mut problems));
+    let algorithm = required("algorithm", &mut problems)
+        .and_then(|v| tagged(v, "algorithm", AlgorithmConfig::KINDS, &mut problems));
+    let agents =
+        required("agents", &mut problems).and_then(|v| section::<Vec<AgentConfig>>(v, "agents", &mut problems));
     let run = match table.remove("run") {
         Some(v) => section::<RunSettings>(v, "run", &mut problems),
         None => Some(RunSettings::default()),
@@ -103,7 +108,11 @@ fn tagged(v: toml::Value, path: &str, kinds: &[&str], problems: &mut Vec<Problem
         }
         Some(toml::Value::String(k)) if kinds.contains(&k.as_str()) => Some((k, toml::Value::Table(t))),
         Some(other) => {
-            problems.push(Problem::new(format!("{path}.kind"), Some(short(&other)), format!("unknown kind ({expected})")));
+            problems.push(Problem::new(
+                format!("{path}.kind"),
+                Some(short(&other)),
+                format!("unknown kind ({expected})"),
+            ));
             None
         }
     }
@@ -122,19 +131,19 @@ fn section<T: DeserializeOwned>(v: toml::Value, path: &str, problems: &mut Vec<P
                 reason = head.to_string();
             }
             // serde reports a missing field at the enclosing table: name the key itself.
-            if let Some(rest) = reason.strip_prefix("missing field `") {
-                if let Some(field) = rest.strip_suffix('`') {
+            if let Some(rest) = reason.strip_prefix("missing field `")
+                && let Some(field) = rest.strip_suffix('`')
+            {
+                full = join(&full, field);
+                reason = "required key is missing".into();
+            } else if let Some(rest) = reason.strip_prefix("unknown field `")
+                && let Some((field, tail)) = rest.split_once('`')
+            {
+                if !full.ends_with(field) {
                     full = join(&full, field);
-                    reason = "required key is missing".into();
                 }
-            } else if let Some(rest) = reason.strip_prefix("unknown field `") {
-                if let Some((field, tail)) = rest.split_once('`') {
-                    if !full.ends_with(field) {
-                        full = join(&full, field);
-                    }
-                    let expected = tail.trim_start_matches(',').trim();
-                    reason = if expected.is_empty() { "unknown key".into() } else { format!("unknown key ({expected})") };
-                }
+                let expected = tail.trim_start_matches(',').trim();
+                reason = if expected.is_empty() { "unknown key".into() } else { format!("unknown key ({expected})") };
             }
             problems.push(Problem::new(full, None, reason));
             None

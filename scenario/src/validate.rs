@@ -69,7 +69,11 @@ fn meta(c: &mut Checker, m: &Meta) {
     if dt_ok && m.duration_s.is_finite() && m.duration_s > 0.0 {
         let steps = m.duration_s / m.dt_s;
         if steps < 1.0 - 1e-9 {
-            c.fail("scenario.dt_s", fmt_f64(m.dt_s), format!("longer than scenario.duration_s = {}", fmt_f64(m.duration_s)));
+            c.fail(
+                "scenario.dt_s",
+                fmt_f64(m.dt_s),
+                format!("longer than scenario.duration_s = {}", fmt_f64(m.duration_s)),
+            );
         } else if steps.round() > MAX_STEPS as f64 {
             c.fail("scenario.duration_s", fmt_f64(m.duration_s), format!("more than {MAX_STEPS} steps of dt_s"));
         } else if (steps - steps.round()).abs() > 1e-6 * steps.max(1.0) {

@@ -15,8 +15,14 @@ pub enum Rejection {
 }
 
 impl Rejection {
-    pub const ALL: [Rejection; 6] =
-        [Rejection::Version, Rejection::RunId, Rejection::Sender, Rejection::Step, Rejection::Length, Rejection::NonFinite];
+    pub const ALL: [Rejection; 6] = [
+        Rejection::Version,
+        Rejection::RunId,
+        Rejection::Sender,
+        Rejection::Step,
+        Rejection::Length,
+        Rejection::NonFinite,
+    ];
     pub fn name(self) -> &'static str {
         match self {
             Rejection::Version => "version",

@@ -112,10 +112,10 @@ impl Algorithm for ConsensusFormation {
             self.v_hat_mps[a] = v[a] + dt_s / 6.0 * (k1v[a] + 2.0 * k2v[a] + 2.0 * k3v[a] + k4v[a]);
         }
         for nb in neighbours {
-            if let Some(entry) = self.neighbours.iter_mut().find(|(j, _, _)| *j == nb.id) {
-                if let [x, y, z, ..] = nb.values {
-                    entry.2 = Some([*x, *y, *z]);
-                }
+            if let Some(entry) = self.neighbours.iter_mut().find(|(j, _, _)| *j == nb.id)
+                && let [x, y, z, ..] = nb.values
+            {
+                entry.2 = Some([*x, *y, *z]);
             }
         }
     }
@@ -132,7 +132,13 @@ mod tests {
     use super::*;
 
     fn gains() -> Gains {
-        Gains { formation_radius_m: 10.0, kp_per_s2: 0.5, kd_per_s: 1.5, observer_l1_per_s: 6.0, observer_l2_per_s2: 9.0 }
+        Gains {
+            formation_radius_m: 10.0,
+            kp_per_s2: 0.5,
+            kd_per_s: 1.5,
+            observer_l1_per_s: 6.0,
+            observer_l2_per_s2: 9.0,
+        }
     }
 
     #[test]

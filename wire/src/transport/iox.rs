@@ -55,8 +55,7 @@ impl IoxRun {
     }
     pub fn config(&self) -> Result<Config, TransportError> {
         let mut cfg = Config::default();
-        cfg.global.prefix =
-            FileName::new(self.prefix().as_bytes()).map_err(|e| TransportError::iox("prefix", e))?;
+        cfg.global.prefix = FileName::new(self.prefix().as_bytes()).map_err(|e| TransportError::iox("prefix", e))?;
         let root = format!("{}/", self.root_dir().display());
         cfg.global.set_root_path(&Path::new(root.as_bytes()).map_err(|e| TransportError::iox("root path", e))?);
         Ok(cfg)
@@ -190,7 +189,8 @@ impl IoxServices {
             .history_size(0)
             .create()
             .map_err(|e| TransportError::iox("create status", e))?;
-        let control_pub = control.publisher_builder().create().map_err(|e| TransportError::iox("control publisher", e))?;
+        let control_pub =
+            control.publisher_builder().create().map_err(|e| TransportError::iox("control publisher", e))?;
         let status_sub = status
             .subscriber_builder()
             .buffer_size(STATUS_BUFFER)
@@ -299,7 +299,10 @@ impl IoxTransport {
             Proc::Plant => {
                 for i in 1..=topo.n_agents() {
                     meas_pubs.push(
-                        open_meas(i)?.publisher_builder().create().map_err(|e| TransportError::iox("meas publisher", e))?,
+                        open_meas(i)?
+                            .publisher_builder()
+                            .create()
+                            .map_err(|e| TransportError::iox("meas publisher", e))?,
                     );
                     share_subs.push(share_sub(i)?);
                     notifiers.push(notifier(Proc::Agent(i))?);
@@ -314,7 +317,10 @@ impl IoxTransport {
                         .map_err(|e| TransportError::iox("meas subscriber", e))?,
                 );
                 share_pub = Some(
-                    open_share(id)?.publisher_builder().create().map_err(|e| TransportError::iox("share publisher", e))?,
+                    open_share(id)?
+                        .publisher_builder()
+                        .create()
+                        .map_err(|e| TransportError::iox("share publisher", e))?,
                 );
                 for &j in topo.neighbours_of(id) {
                     share_subs.push(share_sub(j)?);

@@ -1,0 +1,294 @@
+//! Launches of real processes: determinism across transports, concurrent runs, and clean exits
+//! when an agent is SIGKILLed or the orchestrator gets Ctrl-C.
+//!
+//! Heavy tests are serialised by [`HEAVY`] (each launch already puts 7 processes on 2 cores) and
+//! every wait is generous: these must not be flaky on a loaded machine. Run with
+//! `cargo test --workspace --release`.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use cohort::{bin_path, iceoryx2_leftovers, processes_mentioning, repo_root, scratch_dir, telemetry_bits};
+
+static HEAVY: Mutex<()> = Mutex::new(());
+
+fn heavy() -> std::sync::MutexGuard<'static, ()> {
+    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn orchestrator() -> Command {
+    let mut c = Command::new(bin_path("orchestrator"));
+    c.current_dir(repo_root());
+    c
+}
+
+fn ring() -> PathBuf {
+    repo_root().join("topologies/consensus-ring.toml")
+}
+
+fn show(o: &Output) -> String {
+    format!(
+        "exit: {:?}\n--- stdout ---\n{}\n--- stderr ---\n{}",
+        o.status,
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn launch(out: &Path, extra: &[&str]) -> Output {
+    orchestrator()
+        .arg("launch")
+        .arg(ring())
+        .arg("--out")
+        .arg(out)
+        .arg("--no-plots")
+        .args(extra)
+        .output()
+        .expect("running the orchestrator")
+}
+
+fn summary(run_dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(run_dir.join("summary.json")).expect("summary.json");
+    serde_json::from_str(&text).expect("summary.json is JSON")
+}
+
+fn run_id(run_dir: &Path) -> String {
+    summary(run_dir)["run_id"].as_str().expect("run_id").to_string()
+}
+
+/// Assert the telemetry directories hold the same files with the same bytes.
+fn assert_same_telemetry(a: &Path, b: &Path) {
+    let list = |d: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(d.join("telemetry"))
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().to_string())
+            .collect();
+        v.sort();
+        v
+    };
+    let (fa, fb) = (list(a), list(b));
+    assert_eq!(fa, fb, "telemetry files differ");
+    assert_eq!(fa.len(), 7, "plant + 6 agents: {fa:?}");
+    for f in &fa {
+        let x = std::fs::read(a.join("telemetry").join(f)).unwrap();
+        let y = std::fs::read(b.join("telemetry").join(f)).unwrap();
+        assert!(x == y, "telemetry/{f} differs between {} and {}", a.display(), b.display());
+    }
+}
+
+fn assert_clean(run_dir: &Path, id: &str) {
+    let needle = run_dir.display().to_string();
+    // Children are reaped before the orchestrator exits; allow the kernel a moment anyway.
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let left = processes_mentioning(&needle);
+        if left.is_empty() {
+            break;
+        }
+        assert!(Instant::now() < deadline, "processes of the run are still alive: {left:?}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let shm = iceoryx2_leftovers(id);
+    assert!(shm.is_empty(), "iceoryx2 resources of run {id} remain: {shm:?}");
+}
+
+#[test]
+fn multi_process_and_reference_telemetry_are_bit_identical() {
+    let _g = heavy();
+    let dir = scratch_dir("determinism");
+    let (mp, rf) = (dir.join("mp"), dir.join("ref"));
+    let o = launch(&mp, &[]);
+    assert!(o.status.success(), "multi-process launch failed:\n{}", show(&o));
+    let o = launch(&rf, &["--reference"]);
+    assert!(o.status.success(), "reference launch failed:\n{}", show(&o));
+    assert_same_telemetry(&mp, &rf);
+
+    // Beyond bytes: every value parses, and the parsed values agree bit for bit.
+    let (a, b) = (telemetry_bits(&mp), telemetry_bits(&rf));
+    assert_eq!(a.len(), b.len());
+    assert!(a.len() > 7 * 2000 * 10, "too few values: {}", a.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x, y, "value differs (file, line, column, bits)");
+    }
+    // The run did what the scenario is for: the formation converged.
+    let s = summary(&mp);
+    assert_eq!(s["status"], "ok");
+    assert_eq!(s["steps_completed"], 2000);
+    let err = s["metrics"]["formation_error_final_m"].as_f64().unwrap();
+    assert!(err < 0.05, "formation error {err} m after 20 s");
+    assert_eq!(s["messages_rejected"].as_object().unwrap().values().map(|v| v.as_u64().unwrap()).sum::<u64>(), 0);
+    assert_eq!(s["mode"], "multi-process");
+    assert_eq!(summary(&rf)["mode"], "reference");
+    for d in ["timing", "logs", "status"] {
+        assert!(mp.join(d).is_dir() && rf.join(d).is_dir(), "{d}/ missing");
+    }
+    assert!(mp.join("scenario.toml").is_file());
+    assert_clean(&mp, &run_id(&mp));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_different_seed_changes_the_telemetry() {
+    // Guards the determinism test against passing vacuously (e.g. noise not applied).
+    let _g = heavy();
+    let dir = scratch_dir("seed");
+    let o = launch(&dir.join("a"), &["--reference", "--duration", "1"]);
+    assert!(o.status.success(), "{}", show(&o));
+    let o = launch(&dir.join("b"), &["--reference", "--duration", "1", "--seed", "8"]);
+    assert!(o.status.success(), "{}", show(&o));
+    let a = std::fs::read(dir.join("a/telemetry/plant.csv")).unwrap();
+    let b = std::fs::read(dir.join("b/telemetry/plant.csv")).unwrap();
+    assert_ne!(a, b, "seed 7 and seed 8 gave the same plant telemetry");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn two_concurrent_launches_both_succeed_and_match() {
+    let _g = heavy();
+    let dir = scratch_dir("concurrent");
+    let spawn = |out: &Path| -> Child {
+        orchestrator()
+            .arg("launch")
+            .arg(ring())
+            .arg("--out")
+            .arg(out)
+            .arg("--no-plots")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawning the orchestrator")
+    };
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let ca = spawn(&a);
+    let cb = spawn(&b);
+    let oa = ca.wait_with_output().unwrap();
+    let ob = cb.wait_with_output().unwrap();
+    assert!(oa.status.success(), "first run failed:\n{}", show(&oa));
+    assert!(ob.status.success(), "second run failed:\n{}", show(&ob));
+    assert_ne!(run_id(&a), run_id(&b), "the two runs shared a run id");
+    assert_same_telemetry(&a, &b);
+    assert_clean(&a, &run_id(&a));
+    assert_clean(&b, &run_id(&b));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Start a long multi-process run and wait until its plant is stepping.
+fn start_long_run(out: &Path, step_timeout_s: &str) -> Child {
+    let child = orchestrator()
+        .arg("launch")
+        .arg(ring())
+        .arg("--out")
+        .arg(out)
+        .arg("--no-plots")
+        // Long enough that the faults below land mid-run on any machine.
+        .args(["--duration", "3000", "--step-timeout", step_timeout_s])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawning the orchestrator");
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let plant_timing = out.join("timing/plant.csv");
+    // The plant writes its first timing rows once stepping (buffered: wait for some bytes).
+    while std::fs::metadata(&plant_timing).map(|m| m.len()).unwrap_or(0) < 70_000 {
+        assert!(Instant::now() < deadline, "the run did not start stepping within 60 s");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child
+}
+
+fn pid_of(out: &Path, what: &str) -> u32 {
+    let needle = out.display().to_string();
+    let found = processes_mentioning(&needle);
+    found
+        .iter()
+        .find(|(_, cmd)| cmd.contains(what))
+        .unwrap_or_else(|| panic!("no process matching {what:?} among {found:?}"))
+        .0
+}
+
+#[test]
+fn sigkill_of_an_agent_ends_the_run_cleanly_naming_it_and_the_step() {
+    let _g = heavy();
+    let dir = scratch_dir("sigkill");
+    let out = dir.join("run");
+    let step_timeout_s = 10.0;
+    let child = start_long_run(&out, "10");
+    // Every process is visible under its own name, with its id in its arguments.
+    let agent3 = pid_of(&out, "agent --id 3 ");
+    let _plant = pid_of(&out, "plant --run-dir");
+    let killed_at = Instant::now();
+    // SAFETY: kill(2) on a pid read from /proc just now.
+    assert_eq!(unsafe { libc::kill(agent3 as i32, libc::SIGKILL) }, 0);
+    let o = child.wait_with_output().unwrap();
+    let took = killed_at.elapsed().as_secs_f64();
+    // Detection (≤ step timeout) plus the shutdown ladder's grace (stop 3 s + term 2 s) + margin.
+    assert!(took < step_timeout_s + 5.0 + 10.0, "took {took:.1} s to end the run");
+    assert!(!o.status.success(), "the run should fail:\n{}", show(&o));
+    assert_eq!(o.status.code(), Some(1), "{}", show(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("agent-3"), "the message must name the agent:\n{err}");
+    assert!(err.contains("SIGKILL"), "the message must say how it died:\n{err}");
+    assert!(err.contains("step "), "the message must name the step:\n{err}");
+    let s = summary(&out);
+    assert_eq!(s["status"], "failed");
+    assert!(s["error"].as_str().unwrap().contains("agent-3"));
+    // Telemetry written before the failure is kept (flushed), not lost.
+    let plant_rows = std::fs::read_to_string(out.join("telemetry/plant.csv")).unwrap().lines().count();
+    assert!(plant_rows > 100, "plant telemetry lost: {plant_rows} lines");
+    assert_clean(&out, &run_id(&out));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn sigint_to_the_orchestrator_stops_everything_with_130() {
+    let _g = heavy();
+    let dir = scratch_dir("sigint");
+    let out = dir.join("run");
+    let child = start_long_run(&out, "10");
+    // SAFETY: kill(2) on our own child.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let sent = Instant::now();
+    let o = child.wait_with_output().unwrap();
+    assert!(sent.elapsed() < Duration::from_secs(20), "took {:?} to stop", sent.elapsed());
+    assert_eq!(o.status.code(), Some(130), "{}", show(&o));
+    let s = summary(&out);
+    assert_eq!(s["status"], "interrupted");
+    assert_clean(&out, &run_id(&out));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_child_built_from_other_sources_refuses_to_run() {
+    let dir = scratch_dir("buildid");
+    let o = Command::new(bin_path("agent"))
+        .args(["--id", "1", "--run-id", "00ff", "--build-id", "0.0.0-someotherbuild"])
+        .arg("--run-dir")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(3), "{}", show(&o));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("rebuild"), "{}", show(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_missing_child_binary_is_refused_with_a_clear_message() {
+    let dir = scratch_dir("missingbin");
+    let lonely = dir.join("orchestrator");
+    std::fs::copy(bin_path("orchestrator"), &lonely).unwrap();
+    let o = Command::new(&lonely)
+        .current_dir(repo_root())
+        .arg("launch")
+        .arg(ring())
+        .arg("--out")
+        .arg(dir.join("run"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", show(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("binary is missing") && err.contains("plant"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
