@@ -292,3 +292,102 @@ fn a_missing_child_binary_is_refused_with_a_clear_message() {
     assert!(err.contains("binary is missing") && err.contains("plant"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_frozen_agent_ends_the_run_at_the_step_timeout_naming_it() {
+    let _g = heavy();
+    let dir = scratch_dir("freeze");
+    let out = dir.join("run");
+    let step_timeout_s = 2.0;
+    let child = start_long_run(&out, "2");
+    let agent5 = pid_of(&out, "agent --id 5 ");
+    // SAFETY: kill(2) on a pid read from /proc just now.
+    assert_eq!(unsafe { libc::kill(agent5 as i32, libc::SIGSTOP) }, 0);
+    let frozen_at = Instant::now();
+    let o = child.wait_with_output().unwrap();
+    let took = frozen_at.elapsed().as_secs_f64();
+    assert!(took >= step_timeout_s * 0.9, "ended after {took:.2} s, before the step timeout");
+    assert!(took < step_timeout_s + 5.0 + 15.0, "took {took:.1} s");
+    assert_eq!(o.status.code(), Some(1), "{}", show(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    // Whoever timed out first (the plant, or a neighbour of agent 5) names agent 5 and the step.
+    assert!(err.contains("timeout at step"), "{err}");
+    assert!(err.contains("agent 5"), "the silent agent must be named:\n{err}");
+    // The frozen process was stopped by the shutdown ladder (SIGKILL reaches a stopped process).
+    assert_clean(&out, &run_id(&out));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_killed_orchestrator_leaves_no_orphan_and_the_next_launch_sweeps_its_resources() {
+    let _g = heavy();
+    let dir = scratch_dir("orchkill");
+    let out = dir.join("run");
+    let mut child = start_long_run(&out, "10");
+    let plant = processes_mentioning(&out.display().to_string())
+        .into_iter()
+        .find(|(_, c)| c.contains("plant --run-dir"))
+        .expect("plant process");
+    let id = plant.1.split("--run-id ").nth(1).and_then(|r| r.split_whitespace().next()).unwrap().to_string();
+    child.kill().unwrap(); // SIGKILL: no chance to clean up
+    child.wait().unwrap();
+    // PR_SET_PDEATHSIG takes the children down with it.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !processes_mentioning(&out.display().to_string()).is_empty() {
+        assert!(Instant::now() < deadline, "orphans: {:?}", processes_mentioning(&out.display().to_string()));
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(!iceoryx2_leftovers(&id).is_empty(), "expected the killed run's resources to remain for the sweep");
+    let o = launch(&dir.join("next"), &["--duration", "0.1"]);
+    assert!(o.status.success(), "{}", show(&o));
+    assert!(String::from_utf8_lossy(&o.stderr).contains(&id), "the sweep should say what it removed:\n{}", show(&o));
+    assert!(iceoryx2_leftovers(&id).is_empty(), "stale resources remain: {:?}", iceoryx2_leftovers(&id));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn thirty_agents_run_multi_process_past_the_default_service_limits() {
+    // iceoryx2's defaults (8 subscribers, 16 notifiers, 20/36 nodes) break past ~15 agents; the
+    // services are sized from the scenario. A dense graph (each agent hears 6 others) also
+    // exercises wide fan-out.
+    let _g = heavy();
+    let dir = scratch_dir("thirty");
+    let n = 30u32;
+    let mut toml = String::from(
+        "[scenario]\nname = \"ring30\"\nseed = 3\ndt_s = 0.01\nduration_s = 1.0\n\n[run]\nstep_timeout_s = 20.0\n\n\
+         [plant]\nkind = \"double-integrator\"\nposition_noise_std_m = 0.05\n\n\
+         [algorithm]\nkind = \"consensus-formation\"\nformation_radius_m = 30.0\nkp_per_s2 = 0.2\nkd_per_s = 1.0\n\
+         observer_l1_per_s = 6.0\nobserver_l2_per_s2 = 9.0\n",
+    );
+    for i in 1..=n {
+        let nb: Vec<String> = [1, 2, 3]
+            .iter()
+            .flat_map(|d| [(i + d - 1) % n + 1, (i + n - d - 1) % n + 1])
+            .map(|j| j.to_string())
+            .collect();
+        toml.push_str(&format!(
+            "\n[[agents]]\nid = {i}\nneighbours = [{}]\nr0_m = [{}.0, {}.0, 0.0]\nv0_mps = [0.0, 0.0, 0.0]\n",
+            nb.join(", "),
+            i * 3,
+            (i * 7) % 11
+        ));
+    }
+    let file = dir.join("ring30.toml");
+    std::fs::write(&file, toml).unwrap();
+    let run = |out: &Path, extra: &[&str]| {
+        orchestrator().arg("launch").arg(&file).arg("--out").arg(out).arg("--no-plots").args(extra).output().unwrap()
+    };
+    let (mp, rf) = (dir.join("mp"), dir.join("ref"));
+    let o = run(&mp, &[]);
+    assert!(o.status.success(), "{}", show(&o));
+    let o = run(&rf, &["--reference"]);
+    assert!(o.status.success(), "{}", show(&o));
+    for i in 0..=n {
+        let f = if i == 0 { "plant.csv".to_string() } else { format!("agent-{i}.csv") };
+        let a = std::fs::read(mp.join("telemetry").join(&f)).unwrap();
+        let b = std::fs::read(rf.join("telemetry").join(&f)).unwrap();
+        assert!(a == b, "{f} differs");
+    }
+    assert_clean(&mp, &run_id(&mp));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -135,6 +135,13 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -
             return LaunchOutcome { status: "failed", error: Some(e), wall_s: 0.0, exit_code: 1 };
         }
     };
+    for id in IoxRun::sweep_stale() {
+        eprintln!("removed the iceoryx2 resources of run {id:016x}, whose orchestrator is gone");
+    }
+    if let Err(e) = run.claim() {
+        let error = Some(format!("cannot create {}: {e}", run.root_dir().display()));
+        return LaunchOutcome { status: "failed", error, wall_s: 0.0, exit_code: 1 };
+    }
     let services = match IoxServices::create(run, &s.topology()) {
         Ok(sv) => sv,
         Err(e) => {
@@ -193,7 +200,7 @@ fn supervise(
     let mut plant_step = 0u64;
     // Latest "waiting for X at step k" per sender.
     let mut waiting: Vec<Option<(u64, u32)>> = vec![None; s.n_agents() as usize + 1];
-    let mut blame_since: Option<(Instant, usize, String)> = None;
+    let mut failed_since: Option<Instant> = None;
     loop {
         let sig = SIGNALLED.load(Ordering::SeqCst);
         if sig != 0 {
@@ -254,46 +261,72 @@ fn supervise(
             progress.set(s.n_steps());
             return (None, None);
         }
-        if let Some(k) = kids.iter().position(|k| k.exit.is_some_and(|st| !st.success())) {
-            let kid = &kids[k];
-            let st = kid.exit.expect("checked");
-            let name = kid.proc_.name();
-            let pid = kid.child.id();
-            let mut msg = format!("{name} (pid {pid}) {}", describe_exit(st));
-            if st.code() == Some(i32::from(EXIT_STOPPED)) {
-                msg.push_str(" (it was stopped)");
-            }
-            // Give the plant a moment to report which step it is stuck in waiting for this one.
-            let since = match &blame_since {
-                Some((t, idx, _)) if *idx == k => *t,
-                _ => {
-                    blame_since = Some((Instant::now(), k, msg.clone()));
-                    Instant::now()
-                }
-            };
-            let sender = kid.proc_.sender_id();
-            let plant_waiting = waiting[0].filter(|(_, who)| *who == sender && kid.proc_ != Proc::Plant);
-            if plant_waiting.is_none() && since.elapsed() < BLAME_WAIT && st.signal().is_some() {
+        if kids.iter().any(|k| k.exit.is_some_and(|st| !st.success())) {
+            // When one process fails the others usually follow within moments (everyone times
+            // out waiting for the same silent peer). Collect for a short window, then name the
+            // root cause rather than whichever consequence exited first.
+            let since = *failed_since.get_or_insert_with(Instant::now);
+            if since.elapsed() < BLAME_WAIT {
                 std::thread::sleep(TICK);
                 continue;
             }
-            let where_ = match plant_waiting {
-                Some((step, _)) => format!(
-                    " during step {step} (t = {:.3} s): the plant was waiting for its share of that step",
-                    step as f64 * s.scenario.dt_s
-                ),
-                None => format!(" at or after step {plant_step} (t = {:.3} s)", plant_step as f64 * s.scenario.dt_s),
-            };
-            msg.push_str(&where_);
-            if st.signal().is_none()
-                && let Some(line) = last_log_line(&dirs.logs().join(format!("{name}.log")))
-            {
-                msg.push_str(&format!("; its log ends: {line}"));
-            }
-            return (Some(msg), None);
+            return (Some(blame(s, dirs, kids, waiting[0], plant_step)), None);
         }
         std::thread::sleep(TICK);
     }
+}
+
+/// The failure message: a process killed by a signal if there is one, else the agent the plant
+/// was stuck waiting for, else the first failed process; each with the step and its log's last
+/// line, followed by the other failures.
+fn blame(s: &Scenario, dirs: &RunDirs, kids: &[Kid], plant_waiting: Option<(u64, u32)>, plant_step: u64) -> String {
+    let failed: Vec<&Kid> = kids.iter().filter(|k| k.exit.is_some_and(|st| !st.success())).collect();
+    let t = |step: u64| step as f64 * s.scenario.dt_s;
+    let describe = |k: &Kid| {
+        let st = k.exit.expect("failed kids have exited");
+        let mut m = format!("{} (pid {}) {}", k.proc_.name(), k.child.id(), describe_exit(st));
+        if st.code() == Some(i32::from(EXIT_STOPPED)) {
+            m.push_str(" (it was stopped)");
+        }
+        if st.signal().is_none()
+            && let Some(line) = last_log_line(&dirs.logs().join(format!("{}.log", k.proc_.name())))
+        {
+            m.push_str(&format!(" [log: {line}]"));
+        }
+        m
+    };
+    let waited_for = |k: &Kid| plant_waiting.filter(|(_, who)| k.proc_ != Proc::Plant && *who == k.proc_.sender_id());
+    let killed = failed.iter().find(|k| k.exit.is_some_and(|st| st.signal().is_some()));
+    let mut msg = if let Some(k) = killed {
+        let mut m = describe(k);
+        match waited_for(k) {
+            Some((step, _)) => m.push_str(&format!(
+                " during step {step} (t = {:.3} s): the plant was waiting for its share of that step",
+                t(step)
+            )),
+            None => m.push_str(&format!(" at or after step {plant_step} (t = {:.3} s)", t(plant_step))),
+        }
+        m
+    } else if let Some((step, who)) = plant_waiting.filter(|(_, who)| *who != 0) {
+        let state = kids
+            .iter()
+            .find(|k| k.proc_ == Proc::Agent(who))
+            .map_or("", |k| if k.exit.is_none() { " (its process is alive but silent)" } else { "" });
+        format!(
+            "agent {who} went silent{state}: no share of step {step} (t = {:.3} s) reached the plant within \
+             run.step_timeout_s = {} s",
+            t(step),
+            s.run.step_timeout_s
+        )
+    } else {
+        describe(failed[0])
+    };
+    let others: Vec<String> =
+        failed.iter().filter(|k| killed.is_none_or(|kk| kk.proc_ != k.proc_)).map(|k| describe(k)).collect();
+    if !others.is_empty() {
+        msg.push_str(&format!("; then: {}", others.join("; ")));
+    }
+    msg
 }
 
 /// Stop every live child: stop request, then SIGTERM, then SIGKILL (see the module docs).

@@ -495,3 +495,167 @@ fn agent_loop<T: Transport>(
     let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("agent telemetry"));
     result.and(flushed)
 }
+
+#[cfg(test)]
+mod tests {
+    //! The drivers over the in-memory transport with toy models: two runs agree bit for bit with
+    //! each other and with the values the models held in memory, and a silent agent is a timeout
+    //! naming it, never a hang.
+
+    use super::*;
+    use crate::model::{AgentInput, Neighbour};
+    use crate::rng::process_rng;
+    use cohort_wire::transport::Topology;
+    use cohort_wire::transport::memory::MemoryBus;
+    use rand::Rng;
+    use std::sync::Mutex;
+
+    /// 1-D integrators ẋ = u, read with uniform noise.
+    struct ToyPlant {
+        x: Vec<f64>,
+        u: Vec<f64>,
+    }
+    impl PlantModel for ToyPlant {
+        fn columns(&self) -> Vec<String> {
+            (1..=self.x.len()).map(|i| format!("x{i}")).collect()
+        }
+        fn readings(&mut self, agent: u32, rng: &mut ChaCha8Rng, out: &mut Vec<f64>) {
+            out.push(self.x[agent as usize - 1] + rng.random::<f64>() * 1e-3);
+        }
+        fn apply_command(&mut self, agent: u32, command: &[f64]) {
+            self.u[agent as usize - 1] = command[0];
+        }
+        fn advance(&mut self, dt_s: f64) {
+            for (x, u) in self.x.iter_mut().zip(&self.u) {
+                *x += u * dt_s;
+            }
+        }
+        fn row(&self, out: &mut Vec<f64>) {
+            out.extend_from_slice(&self.x);
+        }
+        fn metrics(&self) -> Vec<(String, f64)> {
+            vec![]
+        }
+    }
+
+    /// Average consensus: u = Σ (x̂ⱼ − y). Records every value it shares.
+    struct ToyAgent {
+        y: f64,
+        nbr: Vec<f64>,
+        shared: Arc<Mutex<Vec<f64>>>,
+    }
+    impl Algorithm for ToyAgent {
+        fn columns(&self) -> Vec<String> {
+            vec!["y".into(), "u".into()]
+        }
+        fn share(&mut self, input: &AgentInput<'_>, out: &mut ShareOut) {
+            self.y = input.readings[0];
+            let u: f64 = self.nbr.iter().map(|x| x - self.y).sum::<f64>() * 0.7;
+            out.command.push(u);
+            out.values.push(self.y);
+            self.shared.lock().unwrap().extend([self.y, u]);
+        }
+        fn step(&mut self, _dt_s: f64, neighbours: &[Neighbour<'_>]) {
+            self.nbr = neighbours.iter().map(|n| n.values[0]).collect();
+        }
+        fn row(&self, out: &mut Vec<f64>) {
+            let u: f64 = self.nbr.iter().map(|x| x - self.y).sum::<f64>() * 0.7;
+            out.extend([self.y, u]);
+        }
+    }
+
+    fn params(dir: &std::path::Path, n_steps: u64, timeout: Duration) -> DriveParams {
+        let dirs = RunDirs::new(dir);
+        dirs.create_all().unwrap();
+        DriveParams {
+            run_id: 99,
+            n_steps,
+            dt_s: 0.1,
+            step_timeout: timeout,
+            dirs,
+            terminate: Arc::new(AtomicBool::new(false)),
+            process_start: Instant::now(),
+        }
+    }
+
+    /// Run 4 agents on a ring; returns (plant report, agent reports, in-memory shared values).
+    fn run(dir: &std::path::Path, silent: Option<u32>) -> (ProcessReport, Vec<ProcessReport>, Vec<Vec<f64>>) {
+        let topo = Topology { neighbours: vec![vec![2, 4], vec![1, 3], vec![2, 4], vec![3, 1]] };
+        let bus = MemoryBus::new(topo.clone());
+        let p = params(dir, 50, Duration::from_millis(if silent.is_some() { 300 } else { 20_000 }));
+        let shared: Vec<Arc<Mutex<Vec<f64>>>> = (0..4).map(|_| Arc::new(Mutex::new(Vec::new()))).collect();
+        std::thread::scope(|sc| {
+            let plant = {
+                let (bus, p) = (&bus, &p);
+                sc.spawn(move || {
+                    let mut t = bus.endpoint(Proc::Plant);
+                    let mut m = ToyPlant { x: vec![1.0, -2.0, 3.5, 0.25], u: vec![0.0; 4] };
+                    let mut rng = process_rng(5, Proc::Plant);
+                    let r = run_plant(&mut t, &mut m, &mut rng, 4, p);
+                    bus.request_stop();
+                    r
+                })
+            };
+            let agents: Vec<_> = (1..=4u32)
+                .filter(|&i| Some(i) != silent)
+                .map(|i| {
+                    let (bus, p, topo, sh) = (&bus, &p, &topo, Arc::clone(&shared[i as usize - 1]));
+                    sc.spawn(move || {
+                        let mut t = bus.endpoint(Proc::Agent(i));
+                        let mut a = ToyAgent { y: 0.0, nbr: vec![], shared: sh };
+                        run_agent(&mut t, &mut a, i, topo.neighbours_of(i), p)
+                    })
+                })
+                .collect();
+            let pr = plant.join().unwrap();
+            let ars = agents.into_iter().map(|h| h.join().unwrap()).collect();
+            (pr, ars, shared.iter().map(|s| s.lock().unwrap().clone()).collect())
+        })
+    }
+
+    #[test]
+    fn two_in_memory_runs_agree_bit_for_bit_with_memory_and_with_each_other() {
+        let base = std::env::temp_dir().join(format!("cohort-drive-{}", std::process::id()));
+        let (a, b) = (base.join("a"), base.join("b"));
+        let (pa, ra, sa) = run(&a, None);
+        let (pb, _, sb) = run(&b, None);
+        assert!(pa.error.is_none() && pb.error.is_none(), "{:?} {:?}", pa.error, pb.error);
+        assert!(ra.iter().all(|r| r.error.is_none() && r.steps_completed == 50));
+        // The values each agent held in memory are exactly what its telemetry says.
+        for i in 1..=4usize {
+            let text = std::fs::read_to_string(a.join(format!("telemetry/agent-{i}.csv"))).unwrap();
+            let from_csv: Vec<u64> = text
+                .lines()
+                .skip(1)
+                .flat_map(|l| l.split(',').skip(2).map(|v| v.parse::<f64>().unwrap().to_bits()).collect::<Vec<_>>())
+                .collect();
+            let in_memory: Vec<u64> = sa[i - 1].iter().map(|x| x.to_bits()).collect();
+            assert_eq!(from_csv, in_memory, "agent {i}");
+            assert_eq!(
+                sa[i - 1].iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                sb[i - 1].iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                "agent {i}: runs differ"
+            );
+        }
+        let pa_csv = std::fs::read(a.join("telemetry/plant.csv")).unwrap();
+        let pb_csv = std::fs::read(b.join("telemetry/plant.csv")).unwrap();
+        assert_eq!(pa_csv, pb_csv);
+        // The consensus actually ran (values moved toward each other), so equality is not vacuous.
+        let last = String::from_utf8(pa_csv).unwrap().lines().last().unwrap().to_string();
+        let xs: Vec<f64> = last.split(',').skip(2).map(|v| v.parse().unwrap()).collect();
+        let spread = xs.iter().cloned().fold(f64::MIN, f64::max) - xs.iter().cloned().fold(f64::MAX, f64::min);
+        assert!(spread < 1.0, "spread {spread} (started at 5.5)");
+        let _ = std::fs::remove_dir_all(&base);
+    }
+
+    #[test]
+    fn a_silent_agent_is_a_timeout_naming_it_not_a_hang() {
+        let base = std::env::temp_dir().join(format!("cohort-drive-silent-{}", std::process::id()));
+        let started = Instant::now();
+        let (pr, _, _) = run(&base, Some(3));
+        let err = pr.error.expect("the plant must fail");
+        assert!(err.contains("timeout at step 0") && err.contains("agent 3"), "{err}");
+        assert!(started.elapsed() < Duration::from_secs(30));
+        let _ = std::fs::remove_dir_all(&base);
+    }
+}

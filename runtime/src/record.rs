@@ -111,3 +111,39 @@ impl ProcessReport {
         std::fs::write(path, text)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_numbers_round_trip_bit_for_bit() {
+        let dir = std::env::temp_dir().join(format!("cohort-csv-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("t.csv");
+        let tricky = [
+            0.1 + 0.2,
+            -0.0,
+            f64::MIN_POSITIVE,
+            5e-324, // smallest subnormal
+            f64::MAX,
+            -1.0 / 3.0,
+            6.5003966907049361e-9,
+            42164e3,
+            1e-7,
+            123456789.123456789,
+        ];
+        let cols: Vec<String> =
+            std::iter::once("k".to_string()).chain((0..tricky.len()).map(|i| format!("c{i}"))).collect();
+        let mut w = CsvWriter::create(&path, &cols).unwrap();
+        w.row(7, &tricky).unwrap();
+        w.flush().unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let row = text.lines().nth(1).unwrap();
+        let back: Vec<f64> = row.split(',').skip(1).map(|v| v.parse().unwrap()).collect();
+        for (a, b) in tricky.iter().zip(&back) {
+            assert_eq!(a.to_bits(), b.to_bits(), "{a:?} came back as {b:?}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

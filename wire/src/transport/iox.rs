@@ -34,6 +34,20 @@ type Svc = ipc::Service;
 const SHARE_BUFFER: usize = 4;
 const MEAS_BUFFER: usize = 2;
 const STATUS_BUFFER: usize = 64;
+/// Parent of every run's own iceoryx2 root directory.
+const IOX_ROOT: &str = "/tmp/iceoryx2";
+/// In a run's root directory: the pid of the orchestrator that owns the run.
+const OWNER_FILE: &str = "owner.pid";
+
+/// Whether `pid` is a live orchestrator process (not a zombie, not a recycled pid of another
+/// program).
+fn owner_alive(pid: u32) -> bool {
+    let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else { return false };
+    // Field 3 (after the parenthesised name) is the state; Z = zombie.
+    let state = stat.rsplit_once(") ").and_then(|(_, rest)| rest.chars().next());
+    let comm = stat.split_once(" (").and_then(|(_, r)| r.rsplit_once(')')).map(|(c, _)| c.to_string());
+    state.is_some_and(|c| c != 'Z') && comm.is_some_and(|c| c.starts_with("orchestrator"))
+}
 
 /// The names and locations of one run's iceoryx2 resources.
 #[derive(Debug, Clone)]
@@ -51,7 +65,7 @@ impl IoxRun {
     }
     /// The run's own iceoryx2 root directory (removed whole at the end of the run).
     pub fn root_dir(&self) -> PathBuf {
-        PathBuf::from(format!("/tmp/iceoryx2/cohort_{:016x}", self.run_id))
+        PathBuf::from(format!("{IOX_ROOT}/cohort_{:016x}", self.run_id))
     }
     pub fn config(&self) -> Result<Config, TransportError> {
         let mut cfg = Config::default();
@@ -94,6 +108,54 @@ impl IoxRun {
             let _ = std::fs::remove_dir_all(&root);
         }
         removed
+    }
+
+    /// Mark this run as owned by the calling (orchestrator) process, so a later orchestrator can
+    /// tell that the run's resources are stale if this one dies without cleaning up (SIGKILL).
+    pub fn claim(&self) -> std::io::Result<()> {
+        let root = self.root_dir();
+        std::fs::create_dir_all(&root)?;
+        std::fs::write(root.join(OWNER_FILE), std::process::id().to_string())
+    }
+
+    /// Remove the resources of every run whose owning orchestrator is gone (killed with no chance
+    /// to clean up). Returns the ids of the runs swept.
+    pub fn sweep_stale() -> Vec<u64> {
+        let mut swept = Vec::new();
+        let mut live_roots = std::collections::HashSet::new();
+        if let Ok(rd) = std::fs::read_dir(IOX_ROOT) {
+            for e in rd.flatten() {
+                let name = e.file_name().to_string_lossy().to_string();
+                let Some(id) = name.strip_prefix("cohort_").and_then(|h| u64::from_str_radix(h, 16).ok()) else {
+                    continue;
+                };
+                let owner = std::fs::read_to_string(e.path().join(OWNER_FILE)).ok().and_then(|t| t.trim().parse().ok());
+                if owner.is_some_and(owner_alive) {
+                    live_roots.insert(id);
+                } else if owner.is_some() {
+                    IoxRun::new(id).remove_all_resources();
+                    swept.push(id);
+                } else {
+                    // No owner file yet: a run being set up right now. Leave it alone.
+                    live_roots.insert(id);
+                }
+            }
+        }
+        // Segments whose run has no root directory at all are orphans too.
+        if let Ok(rd) = std::fs::read_dir("/dev/shm") {
+            for e in rd.flatten() {
+                let name = e.file_name().to_string_lossy().to_string();
+                let Some(hex) = name.strip_prefix("cohort_").and_then(|r| r.get(..16)) else { continue };
+                let Ok(id) = u64::from_str_radix(hex, 16) else { continue };
+                if !live_roots.contains(&id) && !IoxRun::new(id).root_dir().exists() {
+                    let _ = std::fs::remove_file(e.path());
+                    if !swept.contains(&id) {
+                        swept.push(id);
+                    }
+                }
+            }
+        }
+        swept
     }
 
     /// Entries of this run currently in /dev/shm and under its root directory.
