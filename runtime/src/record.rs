@@ -128,10 +128,10 @@ mod tests {
             5e-324, // smallest subnormal
             f64::MAX,
             -1.0 / 3.0,
-            6.5003966907049361e-9,
+            6.500_396_690_704_936e-9,
             42164e3,
             1e-7,
-            123456789.123456789,
+            123_456_789.123_456_78,
         ];
         let cols: Vec<String> =
             std::iter::once("k".to_string()).chain((0..tricky.len()).map(|i| format!("c{i}"))).collect();
