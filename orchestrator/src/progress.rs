@@ -5,22 +5,24 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 pub struct Progress {
     bar: ProgressBar,
     dt_s: f64,
+    started: std::time::Instant,
 }
 
 impl Progress {
     pub fn new(n_steps: u64, dt_s: f64, label: &str) -> Self {
         let bar = ProgressBar::with_draw_target(Some(n_steps), ProgressDrawTarget::stderr_with_hz(10));
-        let style = ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} steps  {msg}  {per_sec}  ETA {eta}")
+        let style = ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} steps  {msg}  ETA {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> ");
         bar.set_style(style);
         bar.set_prefix(label.to_string());
-        Self { bar, dt_s }
+        Self { bar, dt_s, started: std::time::Instant::now() }
     }
     pub fn set(&self, step: u64) {
         if step != self.bar.position() {
             self.bar.set_position(step);
-            self.bar.set_message(format!("t = {:.2} s", step as f64 * self.dt_s));
+            let rate = step as f64 / self.started.elapsed().as_secs_f64().max(1e-9);
+            self.bar.set_message(format!("t = {:.2} s  {rate:.0} steps/s", step as f64 * self.dt_s));
         }
     }
     pub fn finish(&self) {

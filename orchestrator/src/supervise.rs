@@ -18,7 +18,7 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-use cohort_runtime::process::EXIT_STOPPED;
+use cohort_runtime::process::{EXIT_BUILD_MISMATCH, EXIT_STOPPED};
 use cohort_runtime::record::RunDirs;
 use cohort_scenario::Scenario;
 use cohort_wire::msg::{PLANT_ID, STATUS_PROGRESS, STATUS_READY, STATUS_WAITING};
@@ -296,7 +296,22 @@ fn blame(s: &Scenario, dirs: &RunDirs, kids: &[Kid], plant_waiting: Option<(u64,
         m
     };
     let waited_for = |k: &Kid| plant_waiting.filter(|(_, who)| k.proc_ != Proc::Plant && *who == k.proc_.sender_id());
+    let refused: Vec<String> = failed
+        .iter()
+        .filter(|k| k.exit.is_some_and(|st| st.code() == Some(i32::from(EXIT_BUILD_MISMATCH))))
+        .map(|k| k.proc_.name())
+        .collect();
+    if !refused.is_empty() {
+        return format!(
+            "{} refused to run: built from other sources than this orchestrator ({}). Rebuild the whole \
+             workspace: cargo build --release",
+            refused.join(", "),
+            cohort_wire::BUILD_ID
+        );
+    }
     let killed = failed.iter().find(|k| k.exit.is_some_and(|st| st.signal().is_some()));
+    let silent_agent = plant_waiting.is_some_and(|(_, who)| who != 0);
+    let primary = killed.copied().or(if silent_agent { None } else { Some(failed[0]) });
     let mut msg = if let Some(k) = killed {
         let mut m = describe(k);
         match waited_for(k) {
@@ -321,10 +336,15 @@ fn blame(s: &Scenario, dirs: &RunDirs, kids: &[Kid], plant_waiting: Option<(u64,
     } else {
         describe(failed[0])
     };
+    // The others, briefly: they usually failed because of the primary.
     let others: Vec<String> =
-        failed.iter().filter(|k| killed.is_none_or(|kk| kk.proc_ != k.proc_)).map(|k| describe(k)).collect();
+        failed.iter().filter(|k| primary.is_none_or(|p| p.proc_ != k.proc_)).map(|k| describe(k)).collect();
+    const SHOWN: usize = 3;
     if !others.is_empty() {
-        msg.push_str(&format!("; then: {}", others.join("; ")));
+        msg.push_str(&format!("; then: {}", others[..others.len().min(SHOWN)].join("; ")));
+        if others.len() > SHOWN {
+            msg.push_str(&format!("; and {} more (see logs/)", others.len() - SHOWN));
+        }
     }
     msg
 }
