@@ -10,8 +10,8 @@ pub fn repo_root() -> PathBuf {
 
 /// Path of a workspace binary (e.g. `"orchestrator"`) built with the same profile as the running
 /// test. A test executable runs from `<target dir>/<profile>/deps/`, and binaries sit one level
-/// up, in `<target dir>/<profile>/`. Run the tests as `cargo test --workspace --release` so
-/// cargo builds them. This function does not check that the binary exists.
+/// up, in `<target dir>/<profile>/`. `cargo test` does not build them: run the tests with
+/// `scripts/test`, which does. This function does not check that the binary exists.
 pub fn bin_path(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("cannot find the running test executable");
     let profile_dir = exe

@@ -6,8 +6,8 @@
 //! - Every other `topologies/*.toml` must pass (exit code 0, `ok: FILE` on stdout).
 //! - No input may make `check` panic.
 //!
-//! Run with `cargo test --workspace --release`, so that cargo builds the orchestrator binary
-//! next to this test (see [`cohort::bin_path`]).
+//! Run with `scripts/test`, which builds the release binaries first and then runs the tests (see
+//! [`cohort::bin_path`]).
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
@@ -57,7 +57,7 @@ fn check(args: &[&str]) -> Run {
     assert!(
         bin.is_file(),
         "orchestrator binary not found at {}\n\
-         run the tests with `cargo test --workspace --release` (or first `cargo build --release -p orchestrator`)",
+         run the tests with scripts/test (it builds the binaries first)",
         bin.display()
     );
     let out: Output = Command::new(&bin)

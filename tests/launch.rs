@@ -19,7 +19,9 @@ fn heavy() -> std::sync::MutexGuard<'static, ()> {
 }
 
 fn orchestrator() -> Command {
-    let mut c = Command::new(bin_path("orchestrator"));
+    let bin = bin_path("orchestrator");
+    assert!(bin.is_file(), "{} not found: run the tests with scripts/test (it builds the binaries)", bin.display());
+    let mut c = Command::new(bin);
     c.current_dir(repo_root());
     c
 }

@@ -1,3 +1,4 @@
 //! Truth models behind the `PlantModel` trait, one file each.
 
 pub mod double_integrator;
+pub mod orbit;
