@@ -80,10 +80,13 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
 
     let plant = plant.and_then(|(kind, body)| match kind.as_str() {
         "double-integrator" => section(body, "plant", &mut problems).map(PlantConfig::DoubleIntegrator),
+        "orbital" => section(body, "plant", &mut problems).map(PlantConfig::Orbital),
         _ => unreachable!("tagged() only returns known kinds"),
     });
     let algorithm = algorithm.and_then(|(kind, body)| match kind.as_str() {
         "consensus-formation" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::ConsensusFormation),
+        "lb-dnn-servicing" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::LbDnnServicing),
+        "coast" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::Coast),
         _ => unreachable!("tagged() only returns known kinds"),
     });
     match (meta, run, plant, algorithm, agents) {

@@ -56,10 +56,77 @@ impl Default for RunSettings {
 pub enum PlantConfig {
     /// Each agent is a 3-D double integrator r̈ = u, r in metres; senses its own position.
     DoubleIntegrator(DoubleIntegratorPlant),
+    /// Servicers and a defunct spacecraft in Earth orbit (seed 000): ECI truth with two-body +
+    /// J2 + drag; agents sense yᵢ = Cᵢ(q₀ − qᵢ) and dᵢⱼ = qⱼ − qᵢ in the LVLH frame of a reference
+    /// point on the defunct's initial osculating Keplerian orbit.
+    Orbital(OrbitalPlant),
 }
 
 impl PlantConfig {
-    pub const KINDS: &'static [&'static str] = &["double-integrator"];
+    pub const KINDS: &'static [&'static str] = &["double-integrator", "orbital"];
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrbitalPlant {
+    /// Standard deviation of the zero-mean Gaussian noise on every component of yᵢ and dᵢⱼ, m.
+    pub noise_std_m: f64,
+    /// RK4 sub-steps per lockstep step.
+    #[serde(default = "one")]
+    pub substeps: u32,
+    #[serde(default = "default_true")]
+    pub j2: bool,
+    #[serde(default = "default_true")]
+    pub drag: bool,
+    /// Drag coefficient C_D of every body.
+    #[serde(default = "default_cd")]
+    pub drag_coeff: f64,
+    /// "step": density evaluated once per RK4 step and held over its stages (Basilisk's
+    /// convention); "stage": at every stage.
+    #[serde(default = "default_density_hold")]
+    pub density_hold: String,
+    pub defunct: DefunctConfig,
+    /// Random initial offsets of the servicers (Sec. 6 of seed 000), drawn from the seed; when
+    /// absent, every agent gives `offset_lvlh_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub random_offsets: Option<RandomOffsets>,
+}
+
+fn one() -> u32 {
+    1
+}
+fn default_true() -> bool {
+    true
+}
+fn default_cd() -> f64 {
+    2.2
+}
+fn default_density_hold() -> String {
+    "step".into()
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DefunctConfig {
+    pub periapsis_alt_m: f64,
+    pub apoapsis_alt_m: f64,
+    pub inclination_rad: f64,
+    #[serde(default)]
+    pub raan_rad: f64,
+    #[serde(default)]
+    pub arg_periapsis_rad: f64,
+    pub mass_kg: f64,
+    pub area_m2: f64,
+}
+
+/// Servicer start: range U(range_m), azimuth γ U(azimuth_rad), elevation φ U(elevation_rad) in
+/// the defunct's LVLH frame: x = σ cos φ cos γ, y = σ cos φ sin γ, z = σ sin φ.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RandomOffsets {
+    pub range_m: [f64; 2],
+    pub azimuth_rad: [f64; 2],
+    pub elevation_rad: [f64; 2],
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -74,10 +141,69 @@ pub struct DoubleIntegratorPlant {
 pub enum AlgorithmConfig {
     /// Formation keeping about the neighbours' published positions (the smoke scenario).
     ConsensusFormation(ConsensusFormation),
+    /// Seed 000: ρ-filter observer (24)–(26), Lb-DNN controller (27), distributed adaptation (28).
+    LbDnnServicing(LbDnnServicing),
+    /// Zero command, nothing shared: lets the plant be checked on its own.
+    Coast(Coast),
 }
 
 impl AlgorithmConfig {
-    pub const KINDS: &'static [&'static str] = &["consensus-formation"];
+    pub const KINDS: &'static [&'static str] = &["consensus-formation", "lb-dnn-servicing", "coast"];
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Coast {}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LbDnnServicing {
+    pub k1: f64,
+    pub k2: f64,
+    pub k3: f64,
+    pub k4: f64,
+    pub k5: f64,
+    /// Forgetting rate of the distributed adaptation.
+    pub k6: f64,
+    /// Learning rate: Γᵢ = gamma · I_p.
+    pub gamma: f64,
+    /// Projection bound: ‖θ̂ᵢ‖ ≤ theta_bar always.
+    pub theta_bar: f64,
+    /// Hidden-layer widths of the Lb-DNN (input 6 = [ηᵢ; ζ̂ᵢ], output 3).
+    #[serde(default = "default_hidden")]
+    pub hidden_layers: Vec<usize>,
+    /// Width of the smooth projection's transition band, as a fraction of theta_bar: the
+    /// projection starts acting at (1 − band)·theta_bar and removes the whole outward component
+    /// at theta_bar.
+    #[serde(default = "default_band")]
+    pub projection_band: f64,
+    /// Observer start: "zero" (η̂ᵢ(0) = 0, the paper's prose) or "measured" (η̂ᵢ(0) = ηᵢ(0)).
+    #[serde(default = "default_observer_init")]
+    pub observer_init: String,
+    /// Optional per-axis thrust-acceleration limit (a variant; the paper has none), m/s².
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thrust_limit_mps2: Option<f64>,
+}
+
+fn default_hidden() -> Vec<usize> {
+    vec![4, 4, 4, 4]
+}
+fn default_band() -> f64 {
+    0.1
+}
+fn default_observer_init() -> String {
+    "zero".into()
+}
+
+impl LbDnnServicing {
+    /// Layer sizes of the network: 6 inputs, the hidden layers, 3 outputs.
+    pub fn layers(&self) -> Vec<usize> {
+        std::iter::once(6).chain(self.hidden_layers.iter().copied()).chain(std::iter::once(3)).collect()
+    }
+    /// Number of weights p (biases included, as in (2)).
+    pub fn n_weights(&self) -> usize {
+        self.layers().windows(2).map(|w| (w[0] + 1) * w[1]).sum()
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -114,6 +240,27 @@ pub struct AgentConfig {
     pub r0_m: Option<[f64; 3]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub v0_mps: Option<[f64; 3]>,
+    /// Orbital plant: start offset from the defunct in its LVLH frame, m (unless random).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_lvlh_m: Option<[f64; 3]>,
+    /// Orbital plant: spacecraft mass, kg, and drag cross-section, m².
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass_kg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub area_m2: Option<f64>,
+    /// Orbital plant: output matrix Cᵢ (1–4 rows of 3) of yᵢ = Cᵢ(q₀ − qᵢ).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output_matrix: Option<Vec<[f64; 3]>>,
+    /// Whether this agent senses the defunct (bᵢ ∈ {0, 1}).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub b: Option<u8>,
+}
+
+impl AgentConfig {
+    /// bᵢ, 1 unless the scenario says 0.
+    pub fn b(&self) -> u8 {
+        self.b.unwrap_or(1)
+    }
 }
 
 impl Scenario {

@@ -1,3 +1,6 @@
 //! One module per paper method, each a pure `Algorithm` (no transport inside).
 
+pub mod coast;
 pub mod consensus_formation;
+pub mod lbdnn_network;
+pub mod lbdnn_servicing;

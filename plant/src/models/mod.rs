@@ -2,3 +2,4 @@
 
 pub mod double_integrator;
 pub mod orbit;
+pub mod servicing;
