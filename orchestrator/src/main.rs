@@ -4,18 +4,21 @@
 //! Exit codes: 0 success; 1 the run failed; 2 invalid input (scenario, arguments, run
 //! directory); 128 + signal when interrupted (130 for Ctrl-C).
 
+mod analysis;
 mod progress;
 mod reference;
 mod report;
 mod rundir;
 mod summary;
 mod supervise;
+mod sweep_report;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
-use cohort_scenario::Overrides;
+use clap::{Args, Parser, Subcommand};
+use cohort_runtime::record::RunDirs;
+use cohort_scenario::{Overrides, Scenario};
 use cohort_wire::transport::iox::IoxRun;
 
 const EXIT_FAILED: u8 = 1;
@@ -60,11 +63,42 @@ enum Cmd {
         #[arg(long)]
         no_plots: bool,
     },
+    /// Run a scenario once per seed (in-process reference runs by default) and write the
+    /// distribution of its summary metrics as Markdown and CSV.
+    Sweep {
+        /// Scenario file (TOML).
+        file: PathBuf,
+        #[command(flatten)]
+        args: SweepArgs,
+    },
     /// Draw PNG plots of a run directory's telemetry into RUN_DIR/plots/.
     Report {
         /// A run directory written by `launch`.
         run_dir: PathBuf,
     },
+}
+
+#[derive(Args)]
+struct SweepArgs {
+    /// Number of seeds.
+    #[arg(long, default_value_t = 10)]
+    seeds: u64,
+    /// First seed; the sweep uses first-seed, first-seed + 1, ...
+    #[arg(long, default_value_t = 1)]
+    first_seed: u64,
+    /// Directory for the runs and the results; default runs/<scenario>-sweep-<UTC time>/.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Override scenario.duration_s, in seconds.
+    #[arg(long)]
+    duration: Option<f64>,
+    /// Run every seed multi-process instead of in-process (the two are bit-identical; the
+    /// in-process reference is faster).
+    #[arg(long)]
+    multi_process: bool,
+    /// Keep each run's telemetry (fig1: ~130 MB per run).
+    #[arg(long)]
+    keep_telemetry: bool,
 }
 
 fn main() -> ExitCode {
@@ -75,6 +109,7 @@ fn main() -> ExitCode {
             let o = Overrides { seed, duration_s: duration, step_timeout_s: step_timeout };
             launch(&file, out.as_deref(), &o, reference, !no_plots)
         }
+        Cmd::Sweep { file, args } => sweep(&file, &args),
         Cmd::Report { run_dir } => match report::report(&run_dir) {
             Ok(files) => {
                 for f in files {
@@ -120,30 +155,76 @@ fn new_run_id() -> u64 {
     (t.as_nanos() as u64) ^ (u64::from(std::process::id()) << 32)
 }
 
+/// One run, start to summary: the run directory must exist with its scenario.toml written.
+fn run_once(
+    s: &Scenario,
+    dirs: &RunDirs,
+    reference: bool,
+    show_progress: bool,
+) -> (supervise::LaunchOutcome, summary::Summary) {
+    let run_id = new_run_id();
+    let mode = if reference { "reference" } else { "multi-process" };
+    let progress = progress::Progress::new(s.n_steps(), s.scenario.dt_s, &s.scenario.name, show_progress);
+    let outcome = if reference {
+        reference::launch(s, dirs, run_id, &progress)
+    } else {
+        supervise::launch(s, dirs, &IoxRun::new(run_id), &progress)
+    };
+    progress.finish();
+    let mut summary = summary::build(
+        s,
+        dirs,
+        summary::Outcome {
+            mode,
+            run_id: format!("{run_id:016x}"),
+            status: outcome.status,
+            error: outcome.error.clone(),
+            wall_s: outcome.wall_s,
+        },
+    );
+    // Derived quantities come from the telemetry alone, so a partial run gets them too.
+    match analysis::analyse(s, dirs) {
+        Ok(extra) => summary.metrics.extend(extra),
+        Err(e) => eprintln!("warning: analysis skipped: {e}"),
+    }
+    if let Err(e) = summary::write(dirs, &summary) {
+        eprintln!("error: cannot write {}: {e}", dirs.root.join("summary.json").display());
+    }
+    (outcome, summary)
+}
+
+fn load_or_exit(file: &Path, o: &Overrides) -> Result<Scenario, ExitCode> {
+    cohort_scenario::load(file, o).map_err(|e| {
+        eprintln!("{e}");
+        ExitCode::from(EXIT_INVALID)
+    })
+}
+
+fn prepare(s: &Scenario, out: Option<&Path>) -> Result<RunDirs, ExitCode> {
+    let dirs = rundir::create(out, &s.scenario.name).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(EXIT_INVALID)
+    })?;
+    std::fs::write(dirs.root.join("scenario.toml"), s.to_toml()).map_err(|e| {
+        eprintln!("error: {}: {e}", dirs.root.join("scenario.toml").display());
+        ExitCode::from(EXIT_FAILED)
+    })?;
+    Ok(dirs)
+}
+
 fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots: bool) -> ExitCode {
-    let s = match cohort_scenario::load(file, o) {
+    let s = match load_or_exit(file, o) {
         Ok(s) => s,
-        Err(e) => {
-            eprintln!("{e}");
-            return ExitCode::from(EXIT_INVALID);
-        }
+        Err(code) => return code,
     };
     if let Err(e) = supervise::install_signal_handlers() {
         eprintln!("error: {e}");
         return ExitCode::from(EXIT_FAILED);
     }
-    let dirs = match rundir::create(out, &s.scenario.name) {
+    let dirs = match prepare(&s, out) {
         Ok(d) => d,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(EXIT_INVALID);
-        }
+        Err(code) => return code,
     };
-    if let Err(e) = std::fs::write(dirs.root.join("scenario.toml"), s.to_toml()) {
-        eprintln!("error: {}: {e}", dirs.root.join("scenario.toml").display());
-        return ExitCode::from(EXIT_FAILED);
-    }
-    let run_id = new_run_id();
     let mode = if reference { "reference" } else { "multi-process" };
     eprintln!(
         "launching {} ({mode}): {} agents, {} steps of {} s, seed {} → {}",
@@ -154,27 +235,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         s.scenario.seed,
         dirs.root.display()
     );
-    let progress = progress::Progress::new(s.n_steps(), s.scenario.dt_s, &s.scenario.name);
-    let outcome = if reference {
-        reference::launch(&s, &dirs, run_id, &progress)
-    } else {
-        supervise::launch(&s, &dirs, &IoxRun::new(run_id), &progress)
-    };
-    progress.finish();
-    let summary = summary::build(
-        &s,
-        &dirs,
-        summary::Outcome {
-            mode,
-            run_id: format!("{run_id:016x}"),
-            status: outcome.status,
-            error: outcome.error.clone(),
-            wall_s: outcome.wall_s,
-        },
-    );
-    if let Err(e) = summary::write(&dirs, &summary) {
-        eprintln!("error: cannot write {}: {e}", dirs.root.join("summary.json").display());
-    }
+    let (outcome, summary) = run_once(&s, &dirs, reference, true);
     if let Some(e) = &outcome.error {
         eprintln!("error: {e}");
         eprintln!("run directory (partial): {}", dirs.root.display());
@@ -197,4 +258,73 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         }
     }
     ExitCode::from(outcome.exit_code)
+}
+
+fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
+    if args.seeds == 0 {
+        eprintln!("error: --seeds 0: at least one seed is needed");
+        return ExitCode::from(EXIT_INVALID);
+    }
+    // Validate once up front, with the first seed, so a bad file fails before any run.
+    let o = |seed| Overrides { seed: Some(seed), duration_s: args.duration, step_timeout_s: None };
+    if let Err(code) = load_or_exit(file, &o(args.first_seed)) {
+        return code;
+    }
+    if let Err(e) = supervise::install_signal_handlers() {
+        eprintln!("error: {e}");
+        return ExitCode::from(EXIT_FAILED);
+    }
+    let name = cohort_scenario::load(file, &o(args.first_seed)).map(|s| s.scenario.name).unwrap_or_default();
+    let root = args.out.clone().unwrap_or_else(|| PathBuf::from(format!("runs/{name}-sweep-{}", rundir::utc_stamp())));
+    if let Err(e) = std::fs::create_dir_all(&root) {
+        eprintln!("error: {}: {e}", root.display());
+        return ExitCode::from(EXIT_INVALID);
+    }
+    let mode = if args.multi_process { "multi-process" } else { "reference" };
+    eprintln!(
+        "sweep of {} over seeds {}..={} ({mode}) → {}",
+        file.display(),
+        args.first_seed,
+        args.first_seed + args.seeds - 1,
+        root.display()
+    );
+    let mut rows = Vec::new();
+    for seed in args.first_seed..args.first_seed + args.seeds {
+        let s = match load_or_exit(file, &o(seed)) {
+            Ok(s) => s,
+            Err(code) => return code,
+        };
+        let dirs = match prepare(&s, Some(&root.join(format!("seed-{seed}")))) {
+            Ok(d) => d,
+            Err(code) => return code,
+        };
+        let (outcome, summary) = run_once(&s, &dirs, !args.multi_process, false);
+        if outcome.status == "interrupted" {
+            eprintln!("interrupted at seed {seed}");
+            return ExitCode::from(outcome.exit_code);
+        }
+        if let Some(e) = &outcome.error {
+            eprintln!("error: seed {seed}: {e}");
+            return ExitCode::from(outcome.exit_code);
+        }
+        eprintln!("seed {seed}: {} steps in {:.2} s", summary.steps_completed, outcome.wall_s);
+        if !args.keep_telemetry {
+            // 10 fig1 runs would otherwise leave ~1.5 GB; summaries stay.
+            for d in ["telemetry", "timing", "derived"] {
+                let _ = std::fs::remove_dir_all(dirs.root.join(d));
+            }
+        }
+        rows.push((seed, summary.metrics));
+    }
+    match sweep_report::write(&root, file, mode, &rows) {
+        Ok(md) => {
+            println!("{md}");
+            println!("sweep results: {} and {}", root.join("sweep.md").display(), root.join("sweep.csv").display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(EXIT_FAILED)
+        }
+    }
 }

@@ -9,8 +9,9 @@ pub struct Progress {
 }
 
 impl Progress {
-    pub fn new(n_steps: u64, dt_s: f64, label: &str) -> Self {
-        let bar = ProgressBar::with_draw_target(Some(n_steps), ProgressDrawTarget::stderr_with_hz(10));
+    pub fn new(n_steps: u64, dt_s: f64, label: &str, visible: bool) -> Self {
+        let target = if visible { ProgressDrawTarget::stderr_with_hz(10) } else { ProgressDrawTarget::hidden() };
+        let bar = ProgressBar::with_draw_target(Some(n_steps), target);
         let style = ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} steps  {msg}  ETA {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> ");

@@ -1,0 +1,137 @@
+//! Scenario-specific analysis after a run, from the telemetry alone (so it is the same for the
+//! multi-process and the reference run). For seed 000 (orbital plant + Lb-DNN servicers) the
+//! velocity-estimation error ζ̃ᵢ = ζᵢ − ζ̂ᵢ needs the plant's truth ζᵢ and the agent's estimate
+//! ζ̂ᵢ, which no single process has: it is joined here, written to `derived/fig1.csv`, and
+//! summarised in `summary.json`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use cohort_runtime::record::{CsvWriter, RunDirs};
+use cohort_scenario::{AlgorithmConfig, PlantConfig, Scenario};
+
+/// Start of the velocity-estimation-error window (Fig. 3: "≈ 5 m/s after ≈ 150 s").
+pub const ZETA_WINDOW_START_S: f64 = 150.0;
+
+/// Selected columns of a telemetry CSV, by name.
+struct Columns {
+    names: Vec<String>,
+    data: Vec<Vec<f64>>,
+}
+
+impl Columns {
+    fn read(path: &Path, wanted: &[String]) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut lines = text.lines();
+        let header: Vec<&str> =
+            lines.next().ok_or_else(|| format!("{}: empty file", path.display()))?.split(',').collect();
+        let idx: Vec<usize> = wanted
+            .iter()
+            .map(|w| header.iter().position(|h| h == w).ok_or_else(|| format!("{}: no column {w:?}", path.display())))
+            .collect::<Result<_, _>>()?;
+        let mut data = vec![Vec::new(); wanted.len()];
+        for (ln, line) in lines.enumerate() {
+            let fields: Vec<&str> = line.split(',').collect();
+            for (c, &i) in idx.iter().enumerate() {
+                let v = fields
+                    .get(i)
+                    .and_then(|f| f.parse::<f64>().ok())
+                    .ok_or_else(|| format!("{}:{}: column {}: not a number", path.display(), ln + 2, wanted[c]))?;
+                data[c].push(v);
+            }
+        }
+        Ok(Self { names: wanted.to_vec(), data })
+    }
+    fn col(&self, name: &str) -> &[f64] {
+        let i = self.names.iter().position(|n| n == name).expect("asked for at read time");
+        &self.data[i]
+    }
+}
+
+/// Run the analysis the scenario calls for; returns extra summary metrics (empty if none).
+pub fn analyse(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, String> {
+    match (&s.plant, &s.algorithm) {
+        (PlantConfig::Orbital(_), AlgorithmConfig::LbDnnServicing(_)) => servicing(s, dirs),
+        _ => Ok(BTreeMap::new()),
+    }
+}
+
+fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, String> {
+    let n = s.n_agents();
+    let axes = ["x", "y", "z"];
+    let mut want_plant = vec!["k".to_string(), "t_s".to_string()];
+    for i in 1..=n {
+        want_plant.push(format!("a{i}_e_norm_m"));
+        for ax in axes {
+            want_plant.push(format!("a{i}_zeta_{ax}_mps"));
+        }
+        for ax in axes {
+            want_plant.push(format!("a{i}_u_{ax}_mps2"));
+        }
+    }
+    let plant = Columns::read(&dirs.telemetry().join("plant.csv"), &want_plant)?;
+    let want_agent: Vec<String> = ["k", "zeta_hat_x_mps", "zeta_hat_y_mps", "zeta_hat_z_mps", "theta_norm"]
+        .iter()
+        .map(|x| x.to_string())
+        .collect();
+    let agents: Vec<Columns> = (1..=n)
+        .map(|i| Columns::read(&dirs.telemetry().join(format!("agent-{i}.csv")), &want_agent))
+        .collect::<Result<_, _>>()?;
+    // A failed run may have stopped the processes at different steps: use the common prefix.
+    let rows = agents.iter().map(|a| a.col("k").len()).chain(std::iter::once(plant.col("k").len())).min().unwrap_or(0);
+    for (i, a) in agents.iter().enumerate() {
+        if a.col("k")[..rows] != plant.col("k")[..rows] {
+            return Err(format!("telemetry/agent-{}.csv: steps do not line up with telemetry/plant.csv", i + 1));
+        }
+    }
+    std::fs::create_dir_all(dirs.root.join("derived")).map_err(|e| format!("derived/: {e}"))?;
+    let mut cols = vec!["k".to_string(), "t_s".to_string()];
+    for i in 1..=n {
+        for c in ["e_norm_m", "zeta_err_norm_mps", "u_norm_mps2", "theta_norm"] {
+            cols.push(format!("a{i}_{c}"));
+        }
+    }
+    let path = dirs.root.join("derived/fig1.csv");
+    let mut out = CsvWriter::create(&path, &cols).map_err(|e| format!("{}: {e}", path.display()))?;
+    let (t, k) = (plant.col("t_s"), plant.col("k"));
+    let end_s = s.scenario.duration_s.round();
+    let mut sq = vec![0.0; n as usize];
+    let mut max = vec![0.0f64; n as usize];
+    let mut samples = 0u64;
+    let mut row = Vec::with_capacity(cols.len());
+    for r in 0..rows {
+        row.clear();
+        row.push(t[r]);
+        let in_window = t[r] + 1e-9 >= ZETA_WINDOW_START_S;
+        if in_window {
+            samples += 1;
+        }
+        for i in 1..=n {
+            let a = &agents[i as usize - 1];
+            let zt: f64 = axes
+                .iter()
+                .map(|ax| {
+                    (plant.col(&format!("a{i}_zeta_{ax}_mps"))[r] - a.col(&format!("zeta_hat_{ax}_mps"))[r]).powi(2)
+                })
+                .sum::<f64>()
+                .sqrt();
+            let un: f64 = axes.iter().map(|ax| plant.col(&format!("a{i}_u_{ax}_mps2"))[r].powi(2)).sum::<f64>().sqrt();
+            row.extend([plant.col(&format!("a{i}_e_norm_m"))[r], zt, un, a.col("theta_norm")[r]]);
+            if in_window {
+                sq[i as usize - 1] += zt * zt;
+                max[i as usize - 1] = max[i as usize - 1].max(zt);
+            }
+        }
+        out.row(k[r] as u64, &row).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    out.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut m = BTreeMap::new();
+    if samples > 0 {
+        for i in 0..n as usize {
+            let w = format!("{ZETA_WINDOW_START_S:.0}_{end_s:.0}");
+            m.insert(format!("servicer_{}.zeta_err_rms_{w}_mps", i + 1), (sq[i] / samples as f64).sqrt());
+            m.insert(format!("servicer_{}.zeta_err_max_{w}_mps", i + 1), max[i]);
+        }
+    }
+    Ok(m)
+}
