@@ -183,7 +183,11 @@ fn connectivity(c: &mut Checker, agents: &[AgentConfig]) {
         c.fail(
             "agents[].neighbours",
             format!("{n_comp} components"),
-            format!("the communication graph is disconnected: {}", groups.join(" and ")),
+            format!(
+                "the communication graph is disconnected (Assumption 2 of seed 000; every method here needs it \
+                 connected): {}",
+                groups.join(" and ")
+            ),
         );
     }
 }
