@@ -5,6 +5,7 @@
 //! directory); 128 + signal when interrupted (130 for Ctrl-C).
 
 mod analysis;
+mod bench;
 mod progress;
 mod reference;
 mod report;
@@ -62,6 +63,24 @@ enum Cmd {
         /// Do not draw the plots after a successful run.
         #[arg(long)]
         no_plots: bool,
+        /// Override run.wait: adaptive, event or poll.
+        #[arg(long)]
+        wait: Option<String>,
+        /// Override run.spin_us (the adaptive spin budget), µs.
+        #[arg(long)]
+        spin_us: Option<f64>,
+        /// Override run.link_delay_steps (0 or 1).
+        #[arg(long)]
+        link_delay: Option<u32>,
+        /// Override run.transport: iceoryx2 or udp.
+        #[arg(long)]
+        transport: Option<String>,
+        /// Pace the plant by the wall clock (sets run.realtime_rate).
+        #[arg(long)]
+        realtime: bool,
+        /// With --realtime: sim seconds per wall second.
+        #[arg(long, default_value_t = 1.0, requires = "realtime")]
+        rate: f64,
     },
     /// Run a scenario once per seed (in-process reference runs by default) and write the
     /// distribution of its summary metrics as Markdown and CSV.
@@ -70,6 +89,19 @@ enum Cmd {
         file: PathBuf,
         #[command(flatten)]
         args: SweepArgs,
+    },
+    /// Measure what the multi-process runtime costs (see bench/results.md); run from the
+    /// repository root.
+    Bench {
+        /// A short smoke version (fewer cases, fewer steps, one repetition).
+        #[arg(long)]
+        quick: bool,
+        /// Interleaved repetitions of every case.
+        #[arg(long)]
+        reps: Option<u32>,
+        /// Where results.md and results.json go.
+        #[arg(long, default_value = "bench")]
+        out: PathBuf,
     },
     /// Draw PNG plots of a run directory's telemetry into RUN_DIR/plots/.
     Report {
@@ -105,11 +137,55 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Cmd::Check { files } => check(&files),
-        Cmd::Launch { file, out, seed, duration, step_timeout, reference, no_plots } => {
-            let o = Overrides { seed, duration_s: duration, step_timeout_s: step_timeout };
+        Cmd::Launch {
+            file,
+            out,
+            seed,
+            duration,
+            step_timeout,
+            reference,
+            no_plots,
+            wait,
+            spin_us,
+            link_delay,
+            transport,
+            realtime,
+            rate,
+        } => {
+            let o = Overrides {
+                seed,
+                duration_s: duration,
+                step_timeout_s: step_timeout,
+                wait,
+                spin_us,
+                link_delay_steps: link_delay,
+                transport,
+                realtime_rate: realtime.then_some(rate),
+            };
             launch(&file, out.as_deref(), &o, reference, !no_plots)
         }
         Cmd::Sweep { file, args } => sweep(&file, &args),
+        Cmd::Bench { quick, reps, out } => {
+            if let Err(e) = supervise::install_signal_handlers() {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_FAILED);
+            }
+            match bench::run(quick, reps.unwrap_or(if quick { 1 } else { 3 }), &out) {
+                Ok(md) => {
+                    println!("{md}");
+                    println!(
+                        "written: {} and {}",
+                        out.join("results.md").display(),
+                        out.join("results.json").display()
+                    );
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(EXIT_FAILED)
+                }
+            }
+        }
         Cmd::Report { run_dir } => match report::report(&run_dir) {
             Ok(files) => {
                 for f in files {
@@ -175,6 +251,7 @@ fn run_once(
         s,
         dirs,
         summary::Outcome {
+            startup_s: outcome.startup_s,
             mode,
             run_id: format!("{run_id:016x}"),
             status: outcome.status,
@@ -266,7 +343,7 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
         return ExitCode::from(EXIT_INVALID);
     }
     // Validate once up front, with the first seed, so a bad file fails before any run.
-    let o = |seed| Overrides { seed: Some(seed), duration_s: args.duration, step_timeout_s: None };
+    let o = |seed| Overrides { seed: Some(seed), duration_s: args.duration, ..Default::default() };
     if let Err(code) = load_or_exit(file, &o(args.first_seed)) {
         return code;
     }

@@ -61,6 +61,10 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run_id: u64, progress: &Progress) ->
         dirs: dirs.clone(),
         terminate: Arc::clone(&terminate),
         process_start: started,
+        // Threads of one process: spinning is as good (or bad) as between processes.
+        spin: cohort_runtime::drive::spin_budget(&s.run, s.n_agents() as usize + 1),
+        link_delay_steps: s.run.link_delay_steps,
+        realtime_rate: s.run.realtime_rate,
     };
     let procs: Vec<Proc> = std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)).collect();
     let mut signal = 0usize;
@@ -97,6 +101,7 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run_id: u64, progress: &Progress) ->
             status: "interrupted",
             error: Some(format!("interrupted by signal {signal}")),
             wall_s,
+            startup_s: None,
             exit_code: 128 + signal as u8,
         };
     }
@@ -107,12 +112,16 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run_id: u64, progress: &Progress) ->
         .find(|(_, e)| !e.starts_with("stopped"))
         .or_else(|| reports.iter().filter_map(|r| r.error.as_ref().map(|e| (r, e))).next());
     match failure {
-        Some((r, e)) => {
-            LaunchOutcome { status: "failed", error: Some(format!("{}: {e}", r.process)), wall_s, exit_code: 1 }
-        }
+        Some((r, e)) => LaunchOutcome {
+            status: "failed",
+            error: Some(format!("{}: {e}", r.process)),
+            wall_s,
+            startup_s: None,
+            exit_code: 1,
+        },
         None => {
             progress.set(s.n_steps());
-            LaunchOutcome { status: "ok", error: None, wall_s, exit_code: 0 }
+            LaunchOutcome { status: "ok", error: None, wall_s, startup_s: None, exit_code: 0 }
         }
     }
 }

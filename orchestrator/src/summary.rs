@@ -44,6 +44,8 @@ pub struct Summary {
     pub wall_s: f64,
     /// Steps per second of the plant's step loop.
     pub steps_per_s: f64,
+    /// Multi-process: from the first spawn to every process ready, s.
+    pub startup_s: Option<f64>,
     pub metrics: BTreeMap<String, f64>,
     pub messages_received: u64,
     pub messages_rejected: BTreeMap<String, u64>,
@@ -63,6 +65,7 @@ fn timing_column(path: &Path, column: &str) -> Vec<u64> {
 }
 
 pub struct Outcome {
+    pub startup_s: Option<f64>,
     pub mode: &'static str,
     pub run_id: String,
     pub status: &'static str,
@@ -123,6 +126,7 @@ pub fn build(s: &Scenario, dirs: &RunDirs, outcome: Outcome) -> Summary {
         sim_time_s: steps_completed as f64 * s.scenario.dt_s,
         wall_s: outcome.wall_s,
         steps_per_s: if loop_wall > 0.0 { steps_completed as f64 / loop_wall } else { 0.0 },
+        startup_s: outcome.startup_s,
         metrics: plant.map(|p| p.metrics.clone()).unwrap_or_default(),
         messages_received: processes.iter().map(|p| p.messages_received).sum(),
         messages_rejected: rejected,

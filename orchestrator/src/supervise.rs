@@ -43,6 +43,8 @@ pub struct LaunchOutcome {
     pub status: &'static str,
     pub error: Option<String>,
     pub wall_s: f64,
+    /// From the first spawn to the start signal (every process ready), s.
+    pub startup_s: Option<f64>,
     /// Exit code for the orchestrator.
     pub exit_code: u8,
 }
@@ -132,7 +134,7 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -
     let bins = match (sibling_binary("plant"), sibling_binary("agent")) {
         (Ok(p), Ok(a)) => (p, a),
         (Err(e), _) | (_, Err(e)) => {
-            return LaunchOutcome { status: "failed", error: Some(e), wall_s: 0.0, exit_code: 1 };
+            return LaunchOutcome { status: "failed", error: Some(e), wall_s: 0.0, startup_s: None, exit_code: 1 };
         }
     };
     for id in IoxRun::sweep_stale() {
@@ -140,14 +142,14 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -
     }
     if let Err(e) = run.claim() {
         let error = Some(format!("cannot create {}: {e}", run.root_dir().display()));
-        return LaunchOutcome { status: "failed", error, wall_s: 0.0, exit_code: 1 };
+        return LaunchOutcome { status: "failed", error, wall_s: 0.0, startup_s: None, exit_code: 1 };
     }
     let services = match IoxServices::create(run, &s.topology()) {
         Ok(sv) => sv,
         Err(e) => {
             run.remove_all_resources();
             let error = Some(format!("cannot create the run's iceoryx2 services: {e}"));
-            return LaunchOutcome { status: "failed", error, wall_s: 0.0, exit_code: 1 };
+            return LaunchOutcome { status: "failed", error, wall_s: 0.0, startup_s: None, exit_code: 1 };
         }
     };
     let mut kids: Vec<Kid> = Vec::new();
@@ -162,8 +164,12 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -
             }
         }
     }
-    let outcome =
-        if failure.is_none() { supervise(s, dirs, &services, &mut kids, progress, started) } else { (failure, None) };
+    let mut startup_s = None;
+    let outcome = if failure.is_none() {
+        supervise(s, dirs, &services, &mut kids, progress, started, &mut startup_s)
+    } else {
+        (failure, None)
+    };
     let (failure, signal) = outcome;
     let any_alive = kids.iter().any(|k| k.exit.is_none());
     if any_alive {
@@ -177,10 +183,11 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -
             status: "interrupted",
             error: Some(format!("interrupted by signal {sig}; every child was stopped")),
             wall_s,
+            startup_s,
             exit_code: 128 + sig as u8,
         },
-        (None, Some(e)) => LaunchOutcome { status: "failed", error: Some(e), wall_s, exit_code: 1 },
-        (None, None) => LaunchOutcome { status: "ok", error: None, wall_s, exit_code: 0 },
+        (None, Some(e)) => LaunchOutcome { status: "failed", error: Some(e), wall_s, startup_s, exit_code: 1 },
+        (None, None) => LaunchOutcome { status: "ok", error: None, wall_s, startup_s, exit_code: 0 },
     }
 }
 
@@ -193,6 +200,7 @@ fn supervise(
     kids: &mut [Kid],
     progress: &Progress,
     started: Instant,
+    startup_s: &mut Option<f64>,
 ) -> (Option<String>, Option<usize>) {
     let startup_limit = Duration::from_secs_f64(s.run.startup_timeout_s);
     let my_hash = cohort_wire::build_id_hash();
@@ -238,6 +246,7 @@ fn supervise(
                 return (Some(format!("cannot send the start signal: {e}")), None);
             }
             start_granted = true;
+            *startup_s = Some(started.elapsed().as_secs_f64());
         }
         if !start_granted && started.elapsed() > startup_limit {
             let slow: Vec<String> = kids.iter().filter(|k| !k.ready).map(|k| k.proc_.name()).collect();

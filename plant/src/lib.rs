@@ -29,6 +29,7 @@ pub fn build(s: &Scenario) -> Box<dyn PlantModel> {
             Box::new(models::double_integrator::DoubleIntegrator::new(r0, v0, p.position_noise_std_m, slots))
         }
         PlantConfig::Orbital(p) => Box::new(build_servicing(s, p)),
+        PlantConfig::Null(p) => Box::new(models::null::NullPlant { readings: p.readings }),
     }
 }
 

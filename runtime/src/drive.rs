@@ -62,7 +62,42 @@ pub struct DriveParams {
     pub terminate: Arc<AtomicBool>,
     /// When the process started (for the start-up time in its report).
     pub process_start: Instant,
+    /// How long a wait spins (draining and yielding the CPU) before it blocks on the event; see
+    /// [`spin_budget`].
+    pub spin: Duration,
+    /// 1: agents advance with their neighbours' shares of the previous step (`run.link_delay_steps`).
+    pub link_delay_steps: u32,
+    /// `run.realtime_rate`: the plant paces steps by the wall clock.
+    pub realtime_rate: Option<f64>,
 }
+
+/// Spin budget for `run.wait`: "event" never spins; "poll" never blocks (spins until the step
+/// timeout); "adaptive" spins for `run.spin_us` if given, else for a budget that shrinks with the
+/// number of processes per core: spinning pays while most processes can hold a core, and only
+/// steals time from the ones doing work once they must share.
+pub fn spin_budget(run: &cohort_scenario::RunSettings, n_procs: usize) -> Duration {
+    match run.wait.as_str() {
+        "event" => Duration::ZERO,
+        "poll" => Duration::from_secs_f64(run.step_timeout_s),
+        _ => match run.spin_us {
+            Some(us) => Duration::from_secs_f64(us * 1e-6),
+            None => {
+                let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+                adaptive_spin(n_procs, cores)
+            }
+        },
+    }
+}
+
+/// The adaptive budget (measured in `orchestrator bench`; see the README's Performance section).
+pub fn adaptive_spin(n_procs: usize, cores: usize) -> Duration {
+    const BASE_US: f64 = ADAPTIVE_BASE_US;
+    let per_core = n_procs as f64 / cores.max(1) as f64;
+    Duration::from_secs_f64(BASE_US * 1e-6 / per_core.max(1.0))
+}
+
+/// Spin budget, µs, when there is at most one process per core.
+pub const ADAPTIVE_BASE_US: f64 = 200.0;
 
 impl DriveParams {
     fn t_s(&self, k: u64) -> f64 {
@@ -80,19 +115,20 @@ trait Inbox {
     fn missing(&self) -> (u32, String);
 }
 
-struct Waiter<'a, T: Transport> {
+struct Waiter<'a, T: Transport + ?Sized> {
     t: &'a mut T,
     p: &'a DriveParams,
     me: u32,
     timeouts: u64,
 }
 
-impl<T: Transport> Waiter<'_, T> {
+impl<T: Transport + ?Sized> Waiter<'_, T> {
     /// Drain into `inbox`, check it, wait briefly; repeat until it is complete or the step
     /// timeout passes.
     fn until(&mut self, step: u64, what: &'static str, inbox: &mut impl Inbox) -> Result<(), RunError> {
         let started = Instant::now();
         let mut reported = false;
+        let mut spins = 0u32;
         loop {
             self.t.drain(&mut |inc| inbox.take(inc))?;
             if inbox.complete() {
@@ -104,19 +140,28 @@ impl<T: Transport> Waiter<'_, T> {
                 let (_, from) = inbox.missing();
                 return Err(RunError::Timeout { step, from, what, after_s: waited.as_secs_f64() });
             }
-            if self.t.stop_requested() {
-                return Err(RunError::Stopped { step, why: "orchestrator" });
+            let spinning = waited < self.p.spin;
+            spins = spins.wrapping_add(1);
+            // While spinning, look at the control service only now and then: it is not free.
+            if !spinning || spins % 1024 == 0 {
+                if self.t.stop_requested() {
+                    return Err(RunError::Stopped { step, why: "orchestrator" });
+                }
+                if self.p.terminate.load(Ordering::Relaxed) {
+                    return Err(RunError::Stopped { step, why: "SIGTERM" });
+                }
+                if !reported && waited >= REPORT_WAITING_AFTER {
+                    reported = true;
+                    let (id, _) = inbox.missing();
+                    let s = status(self.p, self.me, STATUS_WAITING, step, id);
+                    self.t.report(&s);
+                }
             }
-            if self.p.terminate.load(Ordering::Relaxed) {
-                return Err(RunError::Stopped { step, why: "SIGTERM" });
+            if spinning {
+                std::thread::yield_now();
+            } else {
+                self.t.wait(POLL.min(self.p.step_timeout - waited))?;
             }
-            if !reported && waited >= REPORT_WAITING_AFTER {
-                reported = true;
-                let (id, _) = inbox.missing();
-                let s = status(self.p, self.me, STATUS_WAITING, step, id);
-                self.t.report(&s);
-            }
-            self.t.wait(POLL.min(self.p.step_timeout - waited))?;
         }
     }
 }
@@ -135,7 +180,7 @@ fn status(p: &DriveParams, me: u32, kind: u32, step: u64, waiting_for: u32) -> S
 }
 
 /// Tell the orchestrator this process's ports exist.
-pub fn report_ready<T: Transport>(t: &mut T, p: &DriveParams, me: Proc) {
+pub fn report_ready<T: Transport + ?Sized>(t: &mut T, p: &DriveParams, me: Proc) {
     t.report(&status(p, me.sender_id(), STATUS_READY, 0, 0));
 }
 
@@ -149,6 +194,8 @@ fn new_report(me: Proc, p: &DriveParams) -> ProcessReport {
         messages_rejected: Default::default(),
         timeouts: 0,
         startup_s: p.process_start.elapsed().as_secs_f64(),
+        cpu_s: 0.0,
+        max_rss_kb: 0,
         metrics: Default::default(),
         error: None,
     }
@@ -156,7 +203,7 @@ fn new_report(me: Proc, p: &DriveParams) -> ProcessReport {
 
 /// Run the plant's side of every step. Returns its report (also on error, with `error` set);
 /// telemetry written so far is flushed either way.
-pub fn run_plant<T: Transport>(
+pub fn run_plant<T: Transport + ?Sized>(
     t: &mut T,
     model: &mut dyn PlantModel,
     rng: &mut ChaCha8Rng,
@@ -165,6 +212,7 @@ pub fn run_plant<T: Transport>(
 ) -> ProcessReport {
     let mut report = new_report(Proc::Plant, p);
     let result = plant_loop(t, model, rng, n_agents, p, &mut report);
+    (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
     report.metrics = model.metrics().into_iter().collect();
     if let Err(e) = result {
         report.error = Some(e.to_string());
@@ -227,7 +275,7 @@ impl Inbox for PlantInbox {
     }
 }
 
-fn plant_loop<T: Transport>(
+fn plant_loop<T: Transport + ?Sized>(
     t: &mut T,
     model: &mut dyn PlantModel,
     rng: &mut ChaCha8Rng,
@@ -270,20 +318,29 @@ fn plant_loop<T: Transport>(
         received: 0,
         rejects: RejectCounts::default(),
     };
-    let mut readings = Vec::with_capacity(64);
     let mut row = Vec::with_capacity(columns.len());
     let mut waiter = Waiter { t, p, me: PLANT_ID, timeouts: 0 };
     let mut last_progress = Instant::now();
+    // Measurements of step k go out as soon as the truth reaches tₖ; the telemetry row of step
+    // k-1 is formatted afterwards, while the agents compute, so it stays off the critical path.
+    let send_measurements = |t: &mut T, model: &mut dyn PlantModel, rng: &mut ChaCha8Rng, k: u64| {
+        let mut readings = Vec::with_capacity(64);
+        for i in 1..=n_agents {
+            readings.clear();
+            model.readings(i, rng, &mut readings);
+            let m = Measurement::new(Header::new(p.run_id, PLANT_ID, k, p.t_s(k)), &readings);
+            t.send_measurement(i, &m)?;
+        }
+        Ok::<(), RunError>(())
+    };
+    let paced_from = Instant::now();
     let result = (|| {
+        let mut round_start = monotonic_ns();
+        if p.n_steps > 0 {
+            send_measurements(waiter.t, model, rng, 0)?;
+        }
         for k in 0..p.n_steps {
             let t_s = p.t_s(k);
-            let round_start = monotonic_ns();
-            for i in 1..=n_agents {
-                readings.clear();
-                model.readings(i, rng, &mut readings);
-                let m = Measurement::new(Header::new(p.run_id, PLANT_ID, k, t_s), &readings);
-                waiter.t.send_measurement(i, &m)?;
-            }
             inbox.reset(k);
             waiter.until(k, "share", &mut inbox)?;
             for (i, u) in inbox.commands.iter().enumerate() {
@@ -292,9 +349,22 @@ fn plant_loop<T: Transport>(
             row.clear();
             row.push(t_s);
             model.row(&mut row);
-            tel.row(k, &row).map_err(io("plant telemetry"))?;
-            timing.row_u64(&[k, monotonic_ns() - round_start, inbox.latency_max_ns]).map_err(io("plant timing"))?;
+            let round_ns = monotonic_ns() - round_start;
             model.advance(p.dt_s);
+            if let Some(rate) = p.realtime_rate {
+                // Real-time pacing: step k+1 starts no earlier than (k+1)·dt/rate after step 0.
+                let due = paced_from + Duration::from_secs_f64((k + 1) as f64 * p.dt_s / rate);
+                let now = Instant::now();
+                if due > now {
+                    std::thread::sleep(due - now);
+                }
+            }
+            round_start = monotonic_ns();
+            if k + 1 < p.n_steps {
+                send_measurements(waiter.t, model, rng, k + 1)?;
+            }
+            tel.row(k, &row).map_err(io("plant telemetry"))?;
+            timing.row_u64(&[k, round_ns, inbox.latency_max_ns]).map_err(io("plant timing"))?;
             report.steps_completed = k + 1;
             if last_progress.elapsed() >= PROGRESS_EVERY {
                 last_progress = Instant::now();
@@ -313,7 +383,7 @@ fn plant_loop<T: Transport>(
 }
 
 /// Run agent `id`'s side of every step.
-pub fn run_agent<T: Transport>(
+pub fn run_agent<T: Transport + ?Sized>(
     t: &mut T,
     algo: &mut dyn Algorithm,
     id: u32,
@@ -325,6 +395,7 @@ pub fn run_agent<T: Transport>(
     let started = Instant::now();
     let result = agent_loop(t, algo, id, neighbours, p, &mut report);
     report.wall_s = started.elapsed().as_secs_f64();
+    (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
     if let Err(e) = result {
         report.error = Some(e.to_string());
     } else {
@@ -345,8 +416,12 @@ struct AgentInbox<'a> {
     run_id: u64,
     k: u64,
     neighbours: &'a [u32],
-    /// Waiting for the measurement (true) or for the neighbours' shares (false).
+    /// Waiting for the measurement of step k (true), or past it (false).
     want_measurement: bool,
+    /// The neighbours' step whose shares complete this wait, if any.
+    need_shares: Option<u64>,
+    /// `run.link_delay_steps`.
+    delay: u64,
     meas: Option<Box<Measurement>>,
     meas_latency_ns: u64,
     slots: Vec<Slots>,
@@ -378,7 +453,14 @@ impl Inbox for AgentInbox<'_> {
                     self.rejects.add(Rejection::Sender);
                     return;
                 };
-                let e = Expect { run_id: self.run_id, sender: from, step_min: self.k, step_max: self.k + 1 };
+                // A neighbour may be one step ahead; with a link delay, last step's share is
+                // still wanted too.
+                let e = Expect {
+                    run_id: self.run_id,
+                    sender: from,
+                    step_min: self.k.saturating_sub(self.delay),
+                    step_max: self.k + 1,
+                };
                 match validate_share(share, &e) {
                     Ok(()) => {
                         let s = &mut self.slots[slot];
@@ -395,24 +477,20 @@ impl Inbox for AgentInbox<'_> {
         }
     }
     fn complete(&self) -> bool {
-        if self.want_measurement {
-            self.meas.is_some()
-        } else {
-            let par = (self.k % 2) as usize;
-            self.slots.iter().all(|s| s.step[par] == Some(self.k))
-        }
+        let have = |u: u64| self.slots.iter().all(|s| s.step[(u % 2) as usize] == Some(u));
+        (!self.want_measurement || self.meas.is_some()) && self.need_shares.is_none_or(have)
     }
     fn missing(&self) -> (u32, String) {
-        if self.want_measurement {
+        if self.want_measurement && self.meas.is_none() {
             return (PLANT_ID, "the plant".into());
         }
-        let par = (self.k % 2) as usize;
-        let j = self.slots.iter().position(|s| s.step[par] != Some(self.k)).map_or(0, |i| self.neighbours[i]);
+        let u = self.need_shares.unwrap_or(self.k);
+        let j = self.slots.iter().position(|s| s.step[(u % 2) as usize] != Some(u)).map_or(0, |i| self.neighbours[i]);
         (j, format!("neighbour agent {j}"))
     }
 }
 
-fn agent_loop<T: Transport>(
+fn agent_loop<T: Transport + ?Sized>(
     t: &mut T,
     algo: &mut dyn Algorithm,
     id: u32,
@@ -437,6 +515,8 @@ fn agent_loop<T: Transport>(
         k: 0,
         neighbours,
         want_measurement: true,
+        need_shares: None,
+        delay: u64::from(p.link_delay_steps),
         meas: None,
         meas_latency_ns: 0,
         slots: vec![Slots::default(); neighbours.len()],
@@ -451,6 +531,10 @@ fn agent_loop<T: Transport>(
             let t_s = p.t_s(k);
             inbox.k = k;
             inbox.want_measurement = true;
+            // With a link delay the neighbours' shares of step k-1 were sent before the plant
+            // could send measurement k: one wait, one wakeup.
+            let used = k.checked_sub(inbox.delay);
+            inbox.need_shares = if inbox.delay > 0 { used } else { None };
             waiter.until(k, "measurement", &mut inbox)?;
 
             let compute_start = monotonic_ns();
@@ -460,30 +544,40 @@ fn agent_loop<T: Transport>(
             algo.share(&AgentInput { k, t_s, readings: m.readings() }, &mut out);
             let share = Share::new(Header::new(p.run_id, id, k, t_s), &out.command, &out.values);
             waiter.t.send_share(&share)?;
+            let mut compute_ns = monotonic_ns() - compute_start;
+            // Formatting the row overlaps the wait for the neighbours' shares.
             row.clear();
             row.push(t_s);
             algo.row(&mut row);
-            let mut compute_ns = monotonic_ns() - compute_start;
+            tel.row(k, &row).map_err(io("agent telemetry"))?;
 
             let wait_start = monotonic_ns();
-            inbox.want_measurement = false;
-            waiter.until(k, "share", &mut inbox)?;
+            if inbox.delay == 0 {
+                inbox.want_measurement = false;
+                inbox.need_shares = Some(k);
+                waiter.until(k, "share", &mut inbox)?;
+            }
             let neighbour_wait_ns = monotonic_ns() - wait_start;
 
             let step_start = monotonic_ns();
-            let par = (k % 2) as usize;
-            let nb: Vec<Neighbour<'_>> = neighbours
-                .iter()
-                .zip(&inbox.slots)
-                .map(|(&j, s)| Neighbour { id: j, values: &s.values[par] })
-                .collect();
-            algo.step(p.dt_s, &nb);
-            drop(nb);
-            for s in &mut inbox.slots {
-                s.step[par] = None;
+            match used {
+                Some(u) => {
+                    let par = (u % 2) as usize;
+                    let nb: Vec<Neighbour<'_>> = neighbours
+                        .iter()
+                        .zip(&inbox.slots)
+                        .map(|(&j, s)| Neighbour { id: j, values: &s.values[par] })
+                        .collect();
+                    algo.step(p.dt_s, &nb);
+                    drop(nb);
+                    for s in &mut inbox.slots {
+                        s.step[par] = None;
+                    }
+                }
+                // Link delay, step 0: nothing has been heard yet.
+                None => algo.step(p.dt_s, &[]),
             }
             compute_ns += monotonic_ns() - step_start;
-            tel.row(k, &row).map_err(io("agent telemetry"))?;
             timing.row_u64(&[k, inbox.meas_latency_ns, neighbour_wait_ns, compute_ns]).map_err(io("agent timing"))?;
             report.steps_completed = k + 1;
         }
@@ -575,6 +669,9 @@ mod tests {
             dirs,
             terminate: Arc::new(AtomicBool::new(false)),
             process_start: Instant::now(),
+            spin: Duration::ZERO,
+            link_delay_steps: 0,
+            realtime_rate: None,
         }
     }
 

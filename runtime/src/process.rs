@@ -15,8 +15,9 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use cohort_scenario::Scenario;
-use cohort_wire::transport::Proc;
 use cohort_wire::transport::iox::{IoxRun, IoxTransport};
+use cohort_wire::transport::udp::UdpTransport;
+use cohort_wire::transport::{Proc, Transport};
 
 use crate::drive::{DriveParams, report_ready};
 use crate::record::{ProcessReport, RunDirs};
@@ -44,7 +45,7 @@ fn log(me: Proc, start: Instant, msg: impl std::fmt::Display) {
 /// Run one child process to its end. `run` builds the model and calls the driver.
 pub fn child_main(
     spec: ChildSpec,
-    run: impl FnOnce(&Scenario, &mut IoxTransport, &DriveParams) -> ProcessReport,
+    run: impl FnOnce(&Scenario, &mut dyn Transport, &DriveParams) -> ProcessReport,
 ) -> ExitCode {
     let start = Instant::now();
     let me = spec.me;
@@ -90,7 +91,14 @@ pub fn child_main(
     }
     let topo = scenario.topology();
     let iox_run = IoxRun::new(run_id);
-    let mut transport = match IoxTransport::open(&iox_run, &topo, me) {
+    let opened: Result<Box<dyn Transport>, _> = match scenario.run.transport.as_str() {
+        "udp" => {
+            let timeout = Duration::from_secs_f64(scenario.run.startup_timeout_s);
+            UdpTransport::open(&iox_run, &topo, me, &spec.run_dir.join("udp"), timeout).map(|t| Box::new(t) as _)
+        }
+        _ => IoxTransport::open(&iox_run, &topo, me).map(|t| Box::new(t) as _),
+    };
+    let mut transport = match opened {
         Ok(t) => t,
         Err(e) => {
             log(me, start, format!("cannot open the run's services: {e}"));
@@ -105,10 +113,13 @@ pub fn child_main(
         dirs: dirs.clone(),
         terminate,
         process_start: start,
+        spin: crate::drive::spin_budget(&scenario.run, scenario.n_agents() as usize + 1),
+        link_delay_steps: scenario.run.link_delay_steps,
+        realtime_rate: scenario.run.realtime_rate,
     };
-    report_ready(&mut transport, &params, me);
+    report_ready(transport.as_mut(), &params, me);
     log(me, start, format!("ready ({} steps of {} s)", params.n_steps, params.dt_s));
-    let report = run(&scenario, &mut transport, &params);
+    let report = run(&scenario, transport.as_mut(), &params);
     drop(transport); // release the ports before exiting
     if let Err(e) = report.write(&dirs) {
         log(me, start, format!("cannot write status/{}.json: {e}", me.name()));

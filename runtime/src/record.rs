@@ -98,6 +98,12 @@ pub struct ProcessReport {
     pub timeouts: u64,
     /// Wall time from process start to its first step (start-up cost).
     pub startup_s: f64,
+    /// CPU time (user + system) of this process (of this thread, in the reference run), s.
+    #[serde(default)]
+    pub cpu_s: f64,
+    /// Peak resident set size of the process, kB (the whole process in the reference run).
+    #[serde(default)]
+    pub max_rss_kb: u64,
     /// Headline metrics (plant only).
     pub metrics: std::collections::BTreeMap<String, f64>,
     /// Why the process ended early, if it did.
@@ -146,4 +152,13 @@ mod tests {
         }
         let _ = std::fs::remove_dir_all(&dir);
     }
+}
+
+/// (CPU seconds, peak RSS kB) of the calling thread (`RUSAGE_THREAD`) and its process.
+pub fn cpu_and_rss() -> (f64, u64) {
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: getrusage fills the struct we own.
+    unsafe { libc::getrusage(libc::RUSAGE_THREAD, &mut ru) };
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    (secs(ru.ru_utime) + secs(ru.ru_stime), ru.ru_maxrss as u64)
 }

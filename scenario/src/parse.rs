@@ -16,6 +16,11 @@ pub struct Overrides {
     pub seed: Option<u64>,
     pub duration_s: Option<f64>,
     pub step_timeout_s: Option<f64>,
+    pub wait: Option<String>,
+    pub spin_us: Option<f64>,
+    pub link_delay_steps: Option<u32>,
+    pub transport: Option<String>,
+    pub realtime_rate: Option<f64>,
 }
 
 /// Read, parse and validate a scenario file.
@@ -39,6 +44,21 @@ pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario,
     }
     if let Some(t) = overrides.step_timeout_s {
         s.run.step_timeout_s = t;
+    }
+    if let Some(w) = &overrides.wait {
+        s.run.wait = w.clone();
+    }
+    if let Some(us) = overrides.spin_us {
+        s.run.spin_us = Some(us);
+    }
+    if let Some(d) = overrides.link_delay_steps {
+        s.run.link_delay_steps = d;
+    }
+    if let Some(t) = &overrides.transport {
+        s.run.transport = t.clone();
+    }
+    if let Some(r) = overrides.realtime_rate {
+        s.run.realtime_rate = Some(r);
     }
     let problems = validate(&s);
     if problems.is_empty() { Ok(s) } else { Err(err(problems)) }
@@ -81,12 +101,14 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
     let plant = plant.and_then(|(kind, body)| match kind.as_str() {
         "double-integrator" => section(body, "plant", &mut problems).map(PlantConfig::DoubleIntegrator),
         "orbital" => section(body, "plant", &mut problems).map(PlantConfig::Orbital),
+        "null" => section(body, "plant", &mut problems).map(PlantConfig::Null),
         _ => unreachable!("tagged() only returns known kinds"),
     });
     let algorithm = algorithm.and_then(|(kind, body)| match kind.as_str() {
         "consensus-formation" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::ConsensusFormation),
         "lb-dnn-servicing" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::LbDnnServicing),
         "coast" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::Coast),
+        "null" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::Null),
         _ => unreachable!("tagged() only returns known kinds"),
     });
     match (meta, run, plant, algorithm, agents) {

@@ -36,6 +36,36 @@ pub struct RunSettings {
     /// Time allowed from spawning the processes to all of them being ready.
     #[serde(default = "default_startup_timeout_s")]
     pub startup_timeout_s: f64,
+    /// How a process waits for its next message: "adaptive" (spin with `sched_yield` for a
+    /// budget sized from processes per core, then block on the event), "event" (block at once),
+    /// or "poll" (spin with `sched_yield`, never block). Never changes results, only speed and CPU.
+    #[serde(default = "default_wait")]
+    pub wait: String,
+    /// Overrides the adaptive spin budget, µs (for measurements).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spin_us: Option<f64>,
+    /// 0: agents advance with their neighbours' shares of the same step (two wakeups per agent
+    /// per step). 1: a one-step link delay — agents use their neighbours' shares of step k−1 at
+    /// step k, which arrive with the measurement (one wakeup). A modelling choice: it changes the
+    /// results (deterministically).
+    #[serde(default)]
+    pub link_delay_steps: u32,
+    /// Data path between processes: "iceoryx2" (zero-copy shared memory) or "udp" (loopback
+    /// datagrams, the comparison baseline). Run control always uses iceoryx2.
+    #[serde(default = "default_transport")]
+    pub transport: String,
+    /// Wall-clock pacing: the plant starts step k no earlier than k·dt_s/rate after step 0
+    /// (1.0 = real time). Lockstep still waits for every share; absent = as fast as possible.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub realtime_rate: Option<f64>,
+}
+
+fn default_transport() -> String {
+    "iceoryx2".into()
+}
+
+fn default_wait() -> String {
+    "adaptive".into()
 }
 
 fn default_step_timeout_s() -> f64 {
@@ -47,7 +77,15 @@ fn default_startup_timeout_s() -> f64 {
 
 impl Default for RunSettings {
     fn default() -> Self {
-        Self { step_timeout_s: default_step_timeout_s(), startup_timeout_s: default_startup_timeout_s() }
+        Self {
+            step_timeout_s: default_step_timeout_s(),
+            startup_timeout_s: default_startup_timeout_s(),
+            wait: default_wait(),
+            spin_us: None,
+            link_delay_steps: 0,
+            transport: default_transport(),
+            realtime_rate: None,
+        }
     }
 }
 
@@ -60,10 +98,20 @@ pub enum PlantConfig {
     /// J2 + drag; agents sense yᵢ = Cᵢ(q₀ − qᵢ) and dᵢⱼ = qⱼ − qᵢ in the LVLH frame of a reference
     /// point on the defunct's initial osculating Keplerian orbit.
     Orbital(OrbitalPlant),
+    /// No dynamics: every agent gets `readings` zeros each step. With the `null` algorithm it
+    /// measures what the messaging alone costs (`orchestrator bench`).
+    Null(NullPlant),
 }
 
 impl PlantConfig {
-    pub const KINDS: &'static [&'static str] = &["double-integrator", "orbital"];
+    pub const KINDS: &'static [&'static str] = &["double-integrator", "orbital", "null"];
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NullPlant {
+    /// Readings per measurement.
+    pub readings: usize,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -145,10 +193,19 @@ pub enum AlgorithmConfig {
     LbDnnServicing(LbDnnServicing),
     /// Zero command, nothing shared: lets the plant be checked on its own.
     Coast(Coast),
+    /// Zero command and `share_values` zeros shared, no computation (`orchestrator bench`).
+    Null(NullAlgorithm),
 }
 
 impl AlgorithmConfig {
-    pub const KINDS: &'static [&'static str] = &["consensus-formation", "lb-dnn-servicing", "coast"];
+    pub const KINDS: &'static [&'static str] = &["consensus-formation", "lb-dnn-servicing", "coast", "null"];
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NullAlgorithm {
+    /// Values per share.
+    pub share_values: usize,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -87,6 +87,24 @@ fn meta(c: &mut Checker, m: &Meta) {
 }
 
 fn run(c: &mut Checker, r: &RunSettings) {
+    if !["adaptive", "event", "poll"].contains(&r.wait.as_str()) {
+        c.fail("run.wait", format!("{:?}", r.wait), "must be \"adaptive\", \"event\" or \"poll\"");
+    }
+    if let Some(us) = r.spin_us
+        && c.finite("run.spin_us", us)
+        && !(0.0..=1e6).contains(&us)
+    {
+        c.fail("run.spin_us", fmt_f64(us), "must be in [0, 1e6] µs");
+    }
+    if r.transport != "iceoryx2" && r.transport != "udp" {
+        c.fail("run.transport", format!("{:?}", r.transport), "must be \"iceoryx2\" or \"udp\"");
+    }
+    if let Some(rate) = r.realtime_rate {
+        c.positive("run.realtime_rate", rate);
+    }
+    if r.link_delay_steps > 1 {
+        c.fail("run.link_delay_steps", r.link_delay_steps, "must be 0 or 1");
+    }
     for (path, x) in [("run.step_timeout_s", r.step_timeout_s), ("run.startup_timeout_s", r.startup_timeout_s)] {
         c.positive(path, x);
         if x.is_finite() && x > 3600.0 {
@@ -218,6 +236,7 @@ fn plant(c: &mut Checker, s: &Scenario) {
             }
         }
         PlantConfig::Orbital(p) => orbital(c, s, p),
+        PlantConfig::Null(_) => {}
     }
 }
 
@@ -382,7 +401,7 @@ fn algorithm(c: &mut Checker, s: &Scenario) {
                 c.fail("algorithm.kind", "\"lb-dnn-servicing\"", "needs plant.kind = \"orbital\"");
             }
         }
-        AlgorithmConfig::Coast(_) => {}
+        AlgorithmConfig::Coast(_) | AlgorithmConfig::Null(_) => {}
     }
 }
 
@@ -394,6 +413,7 @@ pub fn message_sizes(s: &Scenario) -> MessageSizes {
         .map(|a| match &s.plant {
             PlantConfig::DoubleIntegrator(_) => 3,
             PlantConfig::Orbital(_) => a.output_matrix.as_ref().map_or(0, |m| m.len()) + 3 * a.neighbours.len(),
+            PlantConfig::Null(p) => p.readings,
         })
         .max()
         .unwrap_or(0);
@@ -401,6 +421,7 @@ pub fn message_sizes(s: &Scenario) -> MessageSizes {
         AlgorithmConfig::ConsensusFormation(_) => 6,
         AlgorithmConfig::LbDnnServicing(a) => 3 + a.n_weights(),
         AlgorithmConfig::Coast(_) => 0,
+        AlgorithmConfig::Null(a) => a.share_values,
     };
     MessageSizes { readings, command: 3, share_values }
 }

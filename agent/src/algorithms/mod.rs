@@ -4,3 +4,4 @@ pub mod coast;
 pub mod consensus_formation;
 pub mod lbdnn_network;
 pub mod lbdnn_servicing;
+pub mod null;

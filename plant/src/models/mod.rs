@@ -1,5 +1,6 @@
 //! Truth models behind the `PlantModel` trait, one file each.
 
 pub mod double_integrator;
+pub mod null;
 pub mod orbit;
 pub mod servicing;

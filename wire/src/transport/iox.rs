@@ -298,6 +298,75 @@ impl IoxServices {
     }
 }
 
+/// A process's run-control ports: the orchestrator's start/stop requests in, status out. Used
+/// by every transport (the UDP baseline carries only the data path over sockets).
+pub struct IoxControl {
+    control_sub: Subscriber<Svc, RunControl, ()>,
+    status_pub: Publisher<Svc, Status, ()>,
+    run_id: u64,
+    stop: bool,
+    started: bool,
+    // Dropped last.
+    _node: Node<Svc>,
+}
+
+impl IoxControl {
+    pub fn open(run: &IoxRun, me: Proc) -> Result<Self, TransportError> {
+        let node = run.node(&format!("{}-control", me.name()))?;
+        Self::with_node(run, node)
+    }
+
+    fn with_node(run: &IoxRun, node: Node<Svc>) -> Result<Self, TransportError> {
+        let control_sub = node
+            .service_builder(&run.service("control")?)
+            .publish_subscribe::<RunControl>()
+            .open()
+            .map_err(|e| TransportError::iox("open control", e))?
+            .subscriber_builder()
+            .create()
+            .map_err(|e| TransportError::iox("control subscriber", e))?;
+        let status_pub = node
+            .service_builder(&run.service("status")?)
+            .publish_subscribe::<Status>()
+            .open()
+            .map_err(|e| TransportError::iox("open status", e))?
+            .publisher_builder()
+            .create()
+            .map_err(|e| TransportError::iox("status publisher", e))?;
+        Ok(Self { control_sub, status_pub, run_id: run.run_id, stop: false, started: false, _node: node })
+    }
+
+    fn poll(&mut self) {
+        while let Ok(Some(s)) = self.control_sub.receive() {
+            let c = s.payload();
+            if c.version == SCHEMA_VERSION && c.run_id == self.run_id {
+                match c.command {
+                    CONTROL_STOP => self.stop = true,
+                    CONTROL_START => self.started = true,
+                    _ => {}
+                }
+            }
+        }
+    }
+
+    /// Best effort: a full status queue must never stall a step.
+    pub fn report(&mut self, s: &Status) {
+        let _ = self.status_pub.send_copy(*s);
+    }
+    pub fn stop_requested(&mut self) -> bool {
+        if !self.stop {
+            self.poll();
+        }
+        self.stop
+    }
+    pub fn start_granted(&mut self) -> bool {
+        if !self.started {
+            self.poll();
+        }
+        self.started
+    }
+}
+
 /// One plant or agent process's endpoint.
 pub struct IoxTransport {
     me: Proc,
@@ -309,12 +378,7 @@ pub struct IoxTransport {
     /// Plant: notifier of agent i at index i-1. Agent: plant first, then its readers.
     notifiers: Vec<Notifier<Svc>>,
     listener: Listener<Svc>,
-    control_sub: Subscriber<Svc, RunControl, ()>,
-    status_pub: Publisher<Svc, Status, ()>,
-    run_id: u64,
-    stop: bool,
-    started: bool,
-    _node: Node<Svc>,
+    control: IoxControl,
 }
 
 impl IoxTransport {
@@ -394,50 +458,10 @@ impl IoxTransport {
             }
         }
         let listener = open_wake(me)?.listener_builder().create().map_err(|e| TransportError::iox("listener", e))?;
-        let control_sub = node
-            .service_builder(&run.service("control")?)
-            .publish_subscribe::<RunControl>()
-            .open()
-            .map_err(|e| TransportError::iox("open control", e))?
-            .subscriber_builder()
-            .create()
-            .map_err(|e| TransportError::iox("control subscriber", e))?;
-        let status_pub = node
-            .service_builder(&run.service("status")?)
-            .publish_subscribe::<Status>()
-            .open()
-            .map_err(|e| TransportError::iox("open status", e))?
-            .publisher_builder()
-            .create()
-            .map_err(|e| TransportError::iox("status publisher", e))?;
-        Ok(Self {
-            me,
-            meas_pubs,
-            meas_sub,
-            share_pub,
-            share_subs,
-            notifiers,
-            listener,
-            control_sub,
-            status_pub,
-            run_id: run.run_id,
-            stop: false,
-            started: false,
-            _node: node,
-        })
-    }
-
-    fn poll_control(&mut self) {
-        while let Ok(Some(s)) = self.control_sub.receive() {
-            let c = s.payload();
-            if c.version == SCHEMA_VERSION && c.run_id == self.run_id {
-                match c.command {
-                    CONTROL_STOP => self.stop = true,
-                    CONTROL_START => self.started = true,
-                    _ => {}
-                }
-            }
-        }
+        // Ports hold their own references to the node's shared state; the node moves into the
+        // control part, which is dropped after the data ports (field order).
+        let control = IoxControl::with_node(run, node)?;
+        Ok(Self { me, meas_pubs, meas_sub, share_pub, share_subs, notifiers, listener, control })
     }
 
     fn notify(n: &Notifier<Svc>) -> Result<(), TransportError> {
@@ -491,21 +515,14 @@ impl Transport for IoxTransport {
     }
 
     fn report(&mut self, s: &Status) {
-        // Best effort: a full status queue must never stall a step.
-        let _ = self.status_pub.send_copy(*s);
+        self.control.report(s);
     }
 
     fn stop_requested(&mut self) -> bool {
-        if !self.stop {
-            self.poll_control();
-        }
-        self.stop
+        self.control.stop_requested()
     }
 
     fn start_granted(&mut self) -> bool {
-        if !self.started {
-            self.poll_control();
-        }
-        self.started
+        self.control.start_granted()
     }
 }

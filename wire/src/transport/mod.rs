@@ -6,6 +6,7 @@
 
 pub mod iox;
 pub mod memory;
+pub mod udp;
 
 use std::time::Duration;
 

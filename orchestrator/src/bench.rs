@@ -1,0 +1,451 @@
+//! `orchestrator bench`: what the multi-process run costs, measured in one invocation with
+//! interleaved repetitions (the machine is shared and noisy: medians, min–max, and ratios taken
+//! within the same invocation). Writes `bench/results.json` and `bench/results.md`.
+//!
+//! Cases: fig1 (360 s) multi-process vs in-process reference; the consensus ring at
+//! N = 6, 20, 50, 100 agent processes with each waiting strategy (event, poll+yield, adaptive),
+//! with a one-step link delay, and as a null round (same processes and message sizes, no
+//! computation); the UDP-loopback transport at N = 6 and 50; N = 100 over 10 000 steps (the
+//! no-stall target); and agents idling behind a plant paced at 10 Hz (their CPU share).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use cohort_scenario::{
+    AgentConfig, AlgorithmConfig, ConsensusFormation, DoubleIntegratorPlant, Meta, NullAlgorithm, NullPlant, Overrides,
+    PlantConfig, RunSettings, Scenario,
+};
+use serde::Serialize;
+
+use crate::summary::Summary;
+
+/// One benchmark case: a scenario and how to run it.
+#[derive(Clone)]
+struct Case {
+    /// Stable key, e.g. `ring/N=20/poll`.
+    key: String,
+    group: &'static str,
+    n: u32,
+    variant: String,
+    scenario: Scenario,
+    reference: bool,
+}
+
+/// What one run of a case measured.
+#[derive(Debug, Clone, Serialize)]
+struct Sample {
+    wall_s: f64,
+    steps: u64,
+    steps_per_s: f64,
+    round_p50_us: f64,
+    round_p99_us: f64,
+    round_max_ms: f64,
+    startup_s: Option<f64>,
+    /// Median over agent processes; and the plant's.
+    agent_cpu_s_per_1000_steps: f64,
+    plant_cpu_s_per_1000_steps: f64,
+    agent_cpu_share: f64,
+    agent_rss_mb: f64,
+    plant_rss_mb: f64,
+    /// Share of the plant's round spent in the agents' own computation (median over agents of
+    /// compute / round), from timing/.
+    compute_share: Option<f64>,
+}
+
+#[derive(Debug, Serialize)]
+struct Aggregate {
+    key: String,
+    group: String,
+    n: u32,
+    variant: String,
+    samples: Vec<Sample>,
+    steps_per_s_median: f64,
+    steps_per_s_min: f64,
+    steps_per_s_max: f64,
+    wall_s_median: f64,
+}
+
+fn median(xs: &mut [f64]) -> f64 {
+    if xs.is_empty() {
+        return f64::NAN;
+    }
+    xs.sort_by(f64::total_cmp);
+    let n = xs.len();
+    if n % 2 == 1 { xs[n / 2] } else { 0.5 * (xs[n / 2 - 1] + xs[n / 2]) }
+}
+
+/// The consensus ring with `n` agents (each hears i−1 and i+1), `steps` steps of 10 ms.
+fn ring(n: u32, steps: u64) -> Scenario {
+    let radius = 2.0 * f64::from(n);
+    let agents = (1..=n)
+        .map(|i| {
+            let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
+            AgentConfig {
+                id: i,
+                neighbours: vec![(i + n - 2) % n + 1, i % n + 1],
+                // Start scattered about the slots so there is work to do.
+                r0_m: Some([1.3 * radius * a.cos() + f64::from(i % 3), 0.7 * radius * a.sin(), f64::from(i % 5) - 2.0]),
+                v0_mps: Some([0.0; 3]),
+                offset_lvlh_m: None,
+                mass_kg: None,
+                area_m2: None,
+                output_matrix: None,
+                b: None,
+            }
+        })
+        .collect();
+    Scenario {
+        scenario: Meta {
+            name: format!("bench-ring{n}"),
+            description: String::new(),
+            seed: 7,
+            dt_s: 0.01,
+            duration_s: steps as f64 * 0.01,
+        },
+        run: RunSettings { step_timeout_s: 60.0, startup_timeout_s: 300.0, ..RunSettings::default() },
+        plant: PlantConfig::DoubleIntegrator(DoubleIntegratorPlant { position_noise_std_m: 0.05 }),
+        algorithm: AlgorithmConfig::ConsensusFormation(ConsensusFormation {
+            formation_radius_m: radius,
+            kp_per_s2: 0.5,
+            kd_per_s: 1.5,
+            observer_l1_per_s: 6.0,
+            observer_l2_per_s2: 9.0,
+        }),
+        agents,
+    }
+}
+
+/// The same processes and message sizes as [`ring`], computing nothing.
+fn null_ring(n: u32, steps: u64) -> Scenario {
+    let mut s = ring(n, steps);
+    s.scenario.name = format!("bench-null{n}");
+    s.plant = PlantConfig::Null(NullPlant { readings: 3 });
+    s.algorithm = AlgorithmConfig::Null(NullAlgorithm { share_values: 6 });
+    s
+}
+
+fn with_run(mut s: Scenario, f: impl FnOnce(&mut RunSettings)) -> Scenario {
+    f(&mut s.run);
+    s
+}
+
+fn cases(quick: bool, repo: &Path) -> Result<Vec<Case>, String> {
+    let ns: &[u32] = if quick { &[6, 20] } else { &[6, 20, 50, 100] };
+    let steps = if quick { 500 } else { 2000 };
+    let mut out = Vec::new();
+    let mut push = |group: &'static str, n: u32, variant: &str, scenario: Scenario, reference: bool| {
+        out.push(Case {
+            key: format!("{group}/N={n}/{variant}"),
+            group,
+            n,
+            variant: variant.into(),
+            scenario,
+            reference,
+        });
+    };
+    let fig1 = cohort_scenario::load(
+        &repo.join("topologies/fig1.toml"),
+        &Overrides { duration_s: quick.then_some(20.0), ..Default::default() },
+    )
+    .map_err(|e| e.to_string())?;
+    push("fig1", 6, "multi-process", fig1.clone(), false);
+    push("fig1", 6, "reference", fig1, true);
+    for &n in ns {
+        for wait in ["event", "poll", "adaptive"] {
+            push("ring", n, wait, with_run(ring(n, steps), |r| r.wait = wait.into()), false);
+        }
+        push("ring", n, "adaptive+link-delay", with_run(ring(n, steps), |r| r.link_delay_steps = 1), false);
+        push("null", n, "adaptive", null_ring(n, steps), false);
+        if n == 6 || n == 50 || quick {
+            for wait in ["event", "adaptive"] {
+                let s = with_run(ring(n, steps), |r| {
+                    r.wait = wait.into();
+                    r.transport = "udp".into();
+                });
+                push("udp", n, wait, s, false);
+            }
+        }
+    }
+    let (n_long, steps_long) = if quick { (20, 1000) } else { (100, 10_000) };
+    push("long", n_long, "adaptive", ring(n_long, steps_long), false);
+    // Agents behind a plant paced at 10 Hz (dt 0.1 s, real time): how much CPU do they burn?
+    let mut idle = ring(6, if quick { 20 } else { 50 });
+    idle.scenario.dt_s = 0.1;
+    idle.scenario.duration_s *= 10.0;
+    idle.run.realtime_rate = Some(1.0);
+    push("idle", 6, "10Hz", idle, false);
+    Ok(out)
+}
+
+fn timing_column(path: &Path, col: &str) -> Vec<f64> {
+    let Ok(text) = std::fs::read_to_string(path) else { return Vec::new() };
+    let mut lines = text.lines();
+    let Some(i) = lines.next().and_then(|h| h.split(',').position(|c| c == col)) else { return Vec::new() };
+    lines.filter_map(|l| l.split(',').nth(i)?.parse().ok()).collect()
+}
+
+fn sample(s: &Scenario, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
+    let round = summary.latency_ns.get("plant_round");
+    let steps = summary.steps_completed.max(1);
+    let per_k = |cpu: f64| cpu / steps as f64 * 1000.0;
+    let mut agent_cpu: Vec<f64> = Vec::new();
+    let mut agent_rss: Vec<f64> = Vec::new();
+    let mut agent_share: Vec<f64> = Vec::new();
+    let mut plant_cpu = f64::NAN;
+    let mut plant_rss = f64::NAN;
+    for p in &summary.processes {
+        if p.process == "plant" {
+            plant_cpu = per_k(p.cpu_s);
+            plant_rss = p.max_rss_kb as f64 / 1024.0;
+        } else {
+            agent_cpu.push(per_k(p.cpu_s));
+            agent_rss.push(p.max_rss_kb as f64 / 1024.0);
+            if p.wall_s > 0.0 {
+                agent_share.push(p.cpu_s / p.wall_s);
+            }
+        }
+    }
+    // Compute share of the round: agent compute (median agent) over plant round, per step.
+    let rounds = timing_column(&dir.join("timing/plant.csv"), "round_ns");
+    let compute = timing_column(&dir.join("timing/agent-1.csv"), "compute_ns");
+    let compute_share = (!rounds.is_empty() && rounds.len() == compute.len()).then(|| {
+        let mut r: Vec<f64> = compute.iter().zip(&rounds).map(|(c, r)| c / r.max(1.0)).collect();
+        median(&mut r)
+    });
+    let _ = s;
+    Sample {
+        wall_s,
+        steps: summary.steps_completed,
+        steps_per_s: summary.steps_per_s,
+        round_p50_us: round.map_or(f64::NAN, |p| p.p50 as f64 / 1e3),
+        round_p99_us: round.map_or(f64::NAN, |p| p.p99 as f64 / 1e3),
+        round_max_ms: round.map_or(f64::NAN, |p| p.max as f64 / 1e6),
+        startup_s: summary.startup_s,
+        agent_cpu_s_per_1000_steps: median(&mut agent_cpu),
+        plant_cpu_s_per_1000_steps: plant_cpu,
+        agent_cpu_share: median(&mut agent_share),
+        agent_rss_mb: median(&mut agent_rss),
+        plant_rss_mb: plant_rss,
+        compute_share,
+    }
+}
+
+pub fn run(quick: bool, reps: u32, out_dir: &Path) -> Result<String, String> {
+    let repo = std::env::current_dir().map_err(|e| e.to_string())?;
+    let cases = cases(quick, &repo)?;
+    let scratch = std::env::temp_dir().join(format!("cohort-bench-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&scratch);
+    let mut samples: BTreeMap<String, Vec<Sample>> = BTreeMap::new();
+    let started = Instant::now();
+    // Interleaved: every case once per repetition, so slow phases of a shared machine hit all.
+    for rep in 0..reps {
+        for c in &cases {
+            let dir = scratch.join(format!("{}-{rep}", c.key.replace(['/', '='], "_")));
+            let dirs =
+                crate::prepare(&c.scenario, Some(&dir)).map_err(|_| format!("{}: cannot prepare", dir.display()))?;
+            let (outcome, summary) = crate::run_once(&c.scenario, &dirs, c.reference, false);
+            if let Some(e) = outcome.error {
+                let _ = std::fs::remove_dir_all(&scratch);
+                return Err(format!("{} (repetition {}): {e}", c.key, rep + 1));
+            }
+            let smp = sample(&c.scenario, &dir, &summary, outcome.wall_s);
+            eprintln!(
+                "[{:6.1} s] rep {}/{reps} {:32} {:9.0} steps/s  round p50 {:8.1} µs  max {:7.2} ms",
+                started.elapsed().as_secs_f64(),
+                rep + 1,
+                c.key,
+                smp.steps_per_s,
+                smp.round_p50_us,
+                smp.round_max_ms
+            );
+            samples.entry(c.key.clone()).or_default().push(smp);
+            let _ = std::fs::remove_dir_all(&dir);
+        }
+    }
+    let _ = std::fs::remove_dir_all(&scratch);
+    let aggregates: Vec<Aggregate> = cases
+        .iter()
+        .map(|c| {
+            let s = samples.remove(&c.key).unwrap_or_default();
+            let mut sps: Vec<f64> = s.iter().map(|x| x.steps_per_s).collect();
+            let mut wall: Vec<f64> = s.iter().map(|x| x.wall_s).collect();
+            Aggregate {
+                key: c.key.clone(),
+                group: c.group.into(),
+                n: c.n,
+                variant: c.variant.clone(),
+                steps_per_s_median: median(&mut sps.clone()),
+                steps_per_s_min: sps.iter().cloned().fold(f64::INFINITY, f64::min),
+                steps_per_s_max: {
+                    sps.sort_by(f64::total_cmp);
+                    sps.last().copied().unwrap_or(f64::NAN)
+                },
+                wall_s_median: median(&mut wall),
+                samples: s,
+            }
+        })
+        .collect();
+    let md = markdown(&aggregates, quick, reps, started.elapsed().as_secs_f64());
+    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let json = serde_json::json!({
+        "machine": machine(),
+        "quick": quick,
+        "repetitions": reps,
+        "cases": aggregates,
+        "adaptive_spin_us_at_1_process_per_core": cohort_runtime::drive::ADAPTIVE_BASE_US,
+    });
+    let write = |name: &str, text: String| -> Result<PathBuf, String> {
+        let p = out_dir.join(name);
+        std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))?;
+        Ok(p)
+    };
+    write("results.json", serde_json::to_string_pretty(&json).map_err(|e| e.to_string())? + "\n")?;
+    write("results.md", md.clone())?;
+    Ok(md)
+}
+
+fn machine() -> String {
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let kernel = std::fs::read_to_string("/proc/sys/kernel/osrelease").unwrap_or_default().trim().to_string();
+    format!("{cores} cores ({model}), Linux {kernel}")
+}
+
+fn get<'a>(a: &'a [Aggregate], key: &str) -> Option<&'a Aggregate> {
+    a.iter().find(|x| x.key == key)
+}
+
+fn f0(x: f64) -> String {
+    if x.is_finite() { format!("{x:.0}") } else { "–".into() }
+}
+
+fn markdown(a: &[Aggregate], quick: bool, reps: u32, took_s: f64) -> String {
+    use std::fmt::Write as _;
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# Cohort benchmarks\n\nMachine: {}. {} repetition(s), interleaved{}; medians with [min–max]; generated by \
+         `orchestrator bench{}` in {:.0} s.\n",
+        machine(),
+        reps,
+        if quick { ", quick mode" } else { "" },
+        if quick { " --quick" } else { "" },
+        took_s
+    );
+    let med = |key: &str, f: &dyn Fn(&Sample) -> f64| -> f64 {
+        get(a, key).map_or(f64::NAN, |x| median(&mut x.samples.iter().map(f).collect::<Vec<_>>()))
+    };
+    // fig1
+    if let (Some(mp), Some(rf)) = (get(a, "fig1/N=6/multi-process"), get(a, "fig1/N=6/reference")) {
+        let ratios: Vec<f64> = mp.samples.iter().zip(&rf.samples).map(|(m, r)| m.wall_s / r.wall_s).collect();
+        let _ = writeln!(
+            md,
+            "## fig1 (6 servicers, {} steps)\n\n| run | steps/s | wall s |\n|---|---|---|\n| multi-process (iceoryx2, adaptive) | {} [{}–{}] | {:.2} |\n| in-process reference | {} [{}–{}] | {:.2} |\n\nMulti-process wall / reference wall: median {:.2} (per repetition: {}).\n",
+            mp.samples.first().map_or(0, |s| s.steps),
+            f0(mp.steps_per_s_median),
+            f0(mp.steps_per_s_min),
+            f0(mp.steps_per_s_max),
+            mp.wall_s_median,
+            f0(rf.steps_per_s_median),
+            f0(rf.steps_per_s_min),
+            f0(rf.steps_per_s_max),
+            rf.wall_s_median,
+            median(&mut ratios.clone()),
+            ratios.iter().map(|r| format!("{r:.2}")).collect::<Vec<_>>().join(", ")
+        );
+    }
+    // Ring: strategies per N
+    let mut ns: Vec<u32> = a.iter().filter(|x| x.group == "ring").map(|x| x.n).collect();
+    ns.dedup();
+    md.push_str("## Consensus ring: steps/s by waiting strategy (iceoryx2)\n\n");
+    md.push_str("| N agents | event | poll + yield | adaptive | adaptive + 1-step link delay | null round (adaptive) | messaging share |\n|---|---|---|---|---|---|---|\n");
+    for &n in &ns {
+        let cell = |k: &str| {
+            get(a, &format!("{k}")).map_or("–".to_string(), |x| {
+                format!("{} [{}–{}]", f0(x.steps_per_s_median), f0(x.steps_per_s_min), f0(x.steps_per_s_max))
+            })
+        };
+        let real = med(&format!("ring/N={n}/adaptive"), &|s| 1.0 / s.steps_per_s);
+        let null = med(&format!("null/N={n}/adaptive"), &|s| 1.0 / s.steps_per_s);
+        let _ = writeln!(
+            md,
+            "| {n} | {} | {} | {} | {} | {} | {:.0} % |",
+            cell(&format!("ring/N={n}/event")),
+            cell(&format!("ring/N={n}/poll")),
+            cell(&format!("ring/N={n}/adaptive")),
+            cell(&format!("ring/N={n}/adaptive+link-delay")),
+            cell(&format!("null/N={n}/adaptive")),
+            100.0 * (null / real).min(1.0)
+        );
+    }
+    md.push_str("\n\"messaging share\": the null round's step time over the real step time (same processes and message sizes, no computation).\n\n");
+    md.push_str("## Consensus ring, adaptive waiting: per-step cost\n\n| N | round p50 µs | round p99 µs | round max ms | agent CPU s / 1000 steps | plant CPU s / 1000 steps | agent RSS MB | plant RSS MB | start-up s |\n|---|---|---|---|---|---|---|---|---|\n");
+    for &n in &ns {
+        let k = format!("ring/N={n}/adaptive");
+        let _ = writeln!(
+            md,
+            "| {n} | {:.1} | {:.1} | {:.2} | {:.3} | {:.3} | {:.1} | {:.1} | {:.2} |",
+            med(&k, &|s| s.round_p50_us),
+            med(&k, &|s| s.round_p99_us),
+            med(&k, &|s| s.round_max_ms),
+            med(&k, &|s| s.agent_cpu_s_per_1000_steps),
+            med(&k, &|s| s.plant_cpu_s_per_1000_steps),
+            med(&k, &|s| s.agent_rss_mb),
+            med(&k, &|s| s.plant_rss_mb),
+            med(&k, &|s| s.startup_s.unwrap_or(f64::NAN)),
+        );
+    }
+    // UDP
+    let mut udp_ns: Vec<u32> = a.iter().filter(|x| x.group == "udp").map(|x| x.n).collect();
+    udp_ns.dedup();
+    if !udp_ns.is_empty() {
+        md.push_str("\n## iceoryx2 vs UDP loopback (same protocol, same waits)\n\n| N | wait | iceoryx2 steps/s | UDP steps/s | iceoryx2 / UDP |\n|---|---|---|---|---|\n");
+        for &n in &udp_ns {
+            for w in ["event", "adaptive"] {
+                let i = get(a, &format!("ring/N={n}/{w}"));
+                let u = get(a, &format!("udp/N={n}/{w}"));
+                if let (Some(i), Some(u)) = (i, u) {
+                    let ratios: Vec<f64> =
+                        i.samples.iter().zip(&u.samples).map(|(x, y)| x.steps_per_s / y.steps_per_s).collect();
+                    let _ = writeln!(
+                        md,
+                        "| {n} | {w} | {} | {} | {:.2} |",
+                        f0(i.steps_per_s_median),
+                        f0(u.steps_per_s_median),
+                        median(&mut ratios.clone())
+                    );
+                }
+            }
+        }
+    }
+    for x in a.iter().filter(|x| x.group == "long") {
+        let worst = x.samples.iter().map(|s| s.round_max_ms).fold(0.0, f64::max);
+        let _ = writeln!(
+            md,
+            "\n## N = {} agent processes, {} steps (adaptive)\n\n{} steps/s [{}–{}]; slowest step over all repetitions: {:.1} ms.",
+            x.n,
+            x.samples.first().map_or(0, |s| s.steps),
+            f0(x.steps_per_s_median),
+            f0(x.steps_per_s_min),
+            f0(x.steps_per_s_max),
+            worst
+        );
+    }
+    for x in a.iter().filter(|x| x.group == "idle") {
+        let share = median(&mut x.samples.iter().map(|s| s.agent_cpu_share).collect::<Vec<_>>());
+        let _ = writeln!(
+            md,
+            "\n## Agents behind a plant paced at 10 Hz (real time)\n\nMedian agent CPU: {:.3} % of a core.",
+            100.0 * share
+        );
+    }
+    md
+}
