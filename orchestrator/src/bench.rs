@@ -293,7 +293,8 @@ pub fn run(quick: bool, reps: u32, out_dir: &Path) -> Result<String, String> {
         "quick": quick,
         "repetitions": reps,
         "cases": aggregates,
-        "adaptive_spin_us_at_1_process_per_core": cohort_runtime::drive::ADAPTIVE_BASE_US,
+        "adaptive_spin_floor_us": cohort_runtime::drive::ADAPTIVE_FLOOR_US,
+        "adaptive_spin_cap_us": cohort_runtime::drive::ADAPTIVE_CAP_US,
     });
     let write = |name: &str, text: String| -> Result<PathBuf, String> {
         let p = out_dir.join(name);
@@ -369,7 +370,7 @@ fn markdown(a: &[Aggregate], quick: bool, reps: u32, took_s: f64) -> String {
     md.push_str("| N agents | event | poll + yield | adaptive | adaptive + 1-step link delay | null round (adaptive) | messaging share |\n|---|---|---|---|---|---|---|\n");
     for &n in &ns {
         let cell = |k: &str| {
-            get(a, &format!("{k}")).map_or("–".to_string(), |x| {
+            get(a, k).map_or("–".to_string(), |x| {
                 format!("{} [{}–{}]", f0(x.steps_per_s_median), f0(x.steps_per_s_min), f0(x.steps_per_s_max))
             })
         };

@@ -62,7 +62,7 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run_id: u64, progress: &Progress) ->
         terminate: Arc::clone(&terminate),
         process_start: started,
         // Threads of one process: spinning is as good (or bad) as between processes.
-        spin: cohort_runtime::drive::spin_budget(&s.run, s.n_agents() as usize + 1),
+        spin: cohort_runtime::drive::spin_budget(&s.run),
         link_delay_steps: s.run.link_delay_steps,
         realtime_rate: s.run.realtime_rate,
     };

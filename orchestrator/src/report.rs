@@ -24,6 +24,10 @@
 //!
 //! All files are read and checked before any figure is drawn, so a malformed file leaves no
 //! half-written set of plots behind.
+//!
+//! A run directory holding `derived/fig1.csv` (the seed-000 servicing scenario, written by the
+//! orchestrator after the run) also gets the paper's figures, drawn by [`fig1`]; its per-body
+//! plant columns (`b<b>_...`) are then left out of the generic figures.
 
 use std::collections::{HashMap, HashSet};
 use std::error::Error;
@@ -36,6 +40,9 @@ use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::register_font;
+
+#[path = "report_fig1.rs"]
+mod fig1;
 
 /// Most points drawn per series; longer series are reduced to this many.
 pub const MAX_POINTS: usize = 4000;
@@ -77,22 +84,40 @@ pub enum ReportError {
     Font,
     #[error("cannot draw {}: {message}", .path.display())]
     Plot { path: PathBuf, message: String },
+    #[error("{}: {reason}", .path.display())]
+    Fig1Input { path: PathBuf, reason: String },
 }
 
 /// Reads `run_dir/telemetry/*.csv` and writes PNG plots into `run_dir/plots/` (created if
 /// needed; existing files of the same names are overwritten). Returns the paths written, in
-/// drawing order: the figures of `plant.csv` and any other non-agent file first, then those of
-/// the agent files.
+/// drawing order: the paper's figures of a `derived/fig1.csv` run first (see [`fig1`]), then
+/// the figures of `plant.csv` and any other non-agent file, then those of the agent files.
 pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     let telemetry_dir = run_dir.join("telemetry");
     let files = list_telemetry(&telemetry_dir)?;
+    let fig1_path = run_dir.join(fig1::DERIVED_FILE);
+    let is_fig1 = fig1_path.is_file();
 
     // Read everything first: a malformed file fails the report before any figure is drawn.
     let mut figures = Vec::new();
     let mut used_stems = HashSet::new();
     let mut agent_tables = Vec::new();
+    let mut fig1_bodies = None;
     for file in &files {
-        let table = read_table(&file.path)?;
+        let is_fig1_plant = is_fig1 && file.kind == FileKind::Other && file.stem == "plant";
+        let table = if is_fig1_plant {
+            // Only the LVLH positions of the per-body columns are used (by the fig1 figures);
+            // the ECI states are neither parsed nor plotted.
+            let mut table =
+                read_table_with(&file.path, &|name| fig1::body_column(name).is_none() || fig1::is_lvlh_column(name))?;
+            let (bodies, rest): (Vec<Column>, Vec<Column>) =
+                table.columns.into_iter().partition(|c| fig1::body_column(&c.name).is_some());
+            table.columns = rest;
+            fig1_bodies = Some((file.path.clone(), Table { t: table.t.clone(), columns: bodies }));
+            table
+        } else {
+            read_table(&file.path)?
+        };
         match file.kind {
             FileKind::Agent(id) => agent_tables.push((id, table)),
             FileKind::Other => {
@@ -117,6 +142,19 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
             agent_tables.iter().map(|(id, table)| (table, classify_columns(table, Some(*id)))).collect();
         figures.extend(time_figures(&source, &tables, &mut used_stems));
     }
+    if is_fig1 {
+        let derived = read_table(&fig1_path)?;
+        let plant_path = telemetry_dir.join("plant.csv");
+        let (plant_path, bodies) = match &fig1_bodies {
+            Some((path, bodies)) => (path.as_path(), Some(bodies)),
+            None => (plant_path.as_path(), None),
+        };
+        let fig1_figures = fig1::figures(&fig1_path, &derived, plant_path, bodies)?;
+        for figure in &fig1_figures {
+            used_stems.insert(figure.stem().to_string());
+        }
+        figures.splice(0..0, fig1_figures);
+    }
 
     ensure_font()?;
     let plots_dir = run_dir.join("plots");
@@ -131,6 +169,7 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match figure {
             Figure::Time(_, fig) => draw_time_figure(&path, fig),
             Figure::Xy(_, fig) => draw_xy_figure(&path, fig),
+            Figure::Fig1(_, fig) => fig.draw(&path),
         }));
         match outcome {
             Ok(Ok(())) => written.push(path),
@@ -223,6 +262,12 @@ struct Column {
 }
 
 fn read_table(path: &Path) -> Result<Table, ReportError> {
+    read_table_with(path, &|_| true)
+}
+
+/// Like [`read_table`], but keeps (and parses) only the columns after `k` and `t_s` whose name
+/// passes `keep`; the other fields are counted but not checked.
+fn read_table_with(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Table, ReportError> {
     let io_err = |error| ReportError::Io { path: path.to_path_buf(), error };
     let bad_header = |reason: String| ReportError::BadHeader { path: path.to_path_buf(), reason };
     let mut lines = BufReader::new(File::open(path).map_err(io_err)?).lines();
@@ -248,8 +293,17 @@ fn read_table(path: &Path) -> Result<Table, ReportError> {
     }
 
     let mut t = Vec::new();
-    let mut columns: Vec<Column> =
-        names[2..].iter().map(|name| Column { name: (*name).to_string(), values: Vec::new() }).collect();
+    // For each field after `k,t_s`, the index of its column in `columns`, if kept.
+    let mut slots: Vec<Option<usize>> = Vec::with_capacity(names.len() - 2);
+    let mut columns: Vec<Column> = Vec::new();
+    for name in &names[2..] {
+        if keep(name) {
+            slots.push(Some(columns.len()));
+            columns.push(Column { name: (*name).to_string(), values: Vec::new() });
+        } else {
+            slots.push(None);
+        }
+    }
     for (index, line) in lines.enumerate() {
         let line_no = index + 2; // 1-based, after the header
         let line = line.map_err(io_err)?;
@@ -278,9 +332,12 @@ fn read_table(path: &Path) -> Result<Table, ReportError> {
         };
         k.parse::<u64>().map_err(|_| bad_number("k", k))?;
         t.push(t_s.parse::<f64>().map_err(|_| bad_number("t_s", t_s))?);
-        for (column, field) in columns.iter_mut().zip(fields) {
-            let value = field.parse::<f64>().map_err(|_| bad_number(&column.name, field))?;
-            column.values.push(value);
+        for (slot, field) in slots.iter().zip(fields) {
+            if let Some(index) = *slot {
+                let column = &mut columns[index];
+                let value = field.parse::<f64>().map_err(|_| bad_number(&column.name, field))?;
+                column.values.push(value);
+            }
         }
     }
     Ok(Table { t, columns })
@@ -458,12 +515,13 @@ struct XyFigure {
 enum Figure {
     Time(String, TimeFigure),
     Xy(String, XyFigure),
+    Fig1(String, fig1::Fig1Figure),
 }
 
 impl Figure {
     fn stem(&self) -> &str {
         match self {
-            Figure::Time(stem, _) | Figure::Xy(stem, _) => stem,
+            Figure::Time(stem, _) | Figure::Xy(stem, _) | Figure::Fig1(stem, _) => stem,
         }
     }
 }
@@ -1223,6 +1281,227 @@ mod tests {
         assert_eq!(out.first(), Some(&(0.0, 0.0)));
         assert_eq!(out.last(), Some(&(36_000.0, 36_000.0)));
         assert!(downsample_stride(&[], &[], MAX_POINTS).is_empty());
+    }
+
+    /// A run shaped like the seed-000 servicing scenario: `servicers` servicers closing on a
+    /// defunct spacecraft, `rows` rows `dt` seconds apart. `plant.csv` has per-body ECI and LVLH
+    /// columns and per-agent `e_norm`, `zeta`, `u`; `agent-<i>.csv` has `zeta_hat` and
+    /// `theta_norm`; with `derived`, `derived/fig1.csv` is computed from them the way the
+    /// orchestrator does. Returns the path of `derived/fig1.csv`.
+    fn write_fig1_run(run: &TempRun, servicers: u32, rows: usize, dt: f64, derived: bool) -> PathBuf {
+        let mut plant = String::from("k,t_s");
+        for b in 0..=servicers {
+            for q in ["r_eci", "v_eci", "q_lvlh"] {
+                let unit = if q == "v_eci" { "mps" } else { "m" };
+                for a in AXES {
+                    write!(plant, ",b{b}_{q}_{a}_{unit}").unwrap();
+                }
+            }
+        }
+        for i in 1..=servicers {
+            write!(plant, ",a{i}_e_norm_m").unwrap();
+            for q in ["zeta", "u"] {
+                let unit = if q == "zeta" { "mps" } else { "mps2" };
+                for a in AXES {
+                    write!(plant, ",a{i}_{q}_{a}_{unit}").unwrap();
+                }
+            }
+        }
+        plant.push('\n');
+        let mut agents: Vec<String> = (1..=servicers)
+            .map(|_| {
+                "k,t_s,u_x_mps2,u_y_mps2,u_z_mps2,theta_norm,zeta_hat_x_mps,zeta_hat_y_mps,zeta_hat_z_mps\n".into()
+            })
+            .collect();
+        let mut fig1 = String::from("k,t_s");
+        for i in 1..=servicers {
+            write!(fig1, ",a{i}_e_norm_m,a{i}_zeta_err_norm_mps,a{i}_u_norm_mps2,a{i}_theta_norm").unwrap();
+        }
+        fig1.push('\n');
+        let norm = |v: [f64; 3]| v.iter().map(|c| c * c).sum::<f64>().sqrt();
+        for k in 0..rows {
+            let t = k as f64 * dt;
+            write!(plant, "{k},{t:?}").unwrap();
+            write!(fig1, "{k},{t:?}").unwrap();
+            let q0 = [-0.004 * t * t, 0.01 * t, 0.0];
+            let q: Vec<[f64; 3]> = (0..=servicers)
+                .map(|b| {
+                    if b == 0 {
+                        return q0;
+                    }
+                    let phase = f64::from(b) * 2.0;
+                    let size = 3000.0 * (-t / 40.0).exp() + 2.0 + (0.3 * t + phase).sin();
+                    [q0[0] + size * phase.cos(), q0[1] + size * phase.sin(), q0[2] + 0.4 * size]
+                })
+                .collect();
+            for qb in &q {
+                let r = [6.678e6 + qb[0], qb[1], qb[2]];
+                let v = [0.0, 7.7e3, 0.1 * qb[2]];
+                for value in r.iter().chain(&v).chain(qb) {
+                    write!(plant, ",{value:?}").unwrap();
+                }
+            }
+            for i in 1..=servicers {
+                let e = norm([0, 1, 2].map(|a| q[i as usize][a] - q0[a]));
+                let zeta = [10.0 * (0.1 * t).cos(), 3.0, -1.0];
+                let err = 1e4 * (-t / 5.0).exp() + 0.5 * (t * f64::from(i)).sin().abs();
+                let zeta_hat = [zeta[0] - err, zeta[1], zeta[2]];
+                // One exact zero for the log axis to floor.
+                let u = if k == 3 { [0.0; 3] } else { [-0.01 * e, 1e-3, 2e-3 * (t / 7.0).sin()] };
+                let theta = 6.0 + 0.01 * t;
+                write!(plant, ",{e:?}").unwrap();
+                for value in zeta.iter().chain(&u) {
+                    write!(plant, ",{value:?}").unwrap();
+                }
+                let file = &mut agents[i as usize - 1];
+                write!(file, "{k},{t:?}").unwrap();
+                for value in u.iter().chain([&theta]).chain(&zeta_hat) {
+                    write!(file, ",{value:?}").unwrap();
+                }
+                file.push('\n');
+                let zeta_err = norm([0, 1, 2].map(|a| zeta[a] - zeta_hat[a]));
+                // One NaN, a gap in the line.
+                let e_out = if k == 5 && i == 1 { f64::NAN } else { e };
+                write!(fig1, ",{e_out:?},{zeta_err:?},{:?},{theta:?}", norm(u)).unwrap();
+            }
+            plant.push('\n');
+            fig1.push('\n');
+        }
+        run.write("plant.csv", &plant);
+        for (i, contents) in agents.iter().enumerate() {
+            run.write(&format!("agent-{}.csv", i + 1), contents);
+        }
+        let derived_path = run.0.join("derived").join("fig1.csv");
+        if derived {
+            std::fs::create_dir_all(derived_path.parent().unwrap()).unwrap();
+            std::fs::write(&derived_path, fig1).unwrap();
+        }
+        derived_path
+    }
+
+    const FIG1_FIGURES: [&str; 5] = [
+        "fig2_trajectories_3d.png",
+        "fig3_zeta_error.png",
+        "fig4_tracking_error.png",
+        "fig4_tracking_error_late.png",
+        "u_norm.png",
+    ];
+
+    #[test]
+    fn fig1_run_gets_the_paper_figures() {
+        let run = TempRun::new("fig1");
+        write_fig1_run(&run, 2, 73, 5.0, true);
+        let written = report(&run.0).unwrap();
+        let names = file_names(&written);
+        assert_eq!(names[..5], FIG1_FIGURES, "{names:?}");
+        // The generic figures stay, but not the per-body ECI/LVLH ones.
+        assert_eq!(
+            names[5..],
+            [
+                "plant_e_norm.png",
+                "plant_zeta.png",
+                "plant_u.png",
+                "agents_u.png",
+                "agents_theta_norm.png",
+                "agents_zeta_hat.png"
+            ]
+        );
+        written.iter().for_each(|p| assert_png(p));
+        keep_for_inspection("fig1", &written);
+    }
+
+    #[test]
+    fn short_fig1_run_still_gets_every_figure() {
+        // 20 s: shorter than Fig. 2's window and than the late view's 150 s start.
+        let run = TempRun::new("fig1short");
+        write_fig1_run(&run, 2, 5, 5.0, true);
+        let written = report(&run.0).unwrap();
+        assert_eq!(file_names(&written)[..5], FIG1_FIGURES);
+        written.iter().for_each(|p| assert_png(p));
+    }
+
+    #[test]
+    fn without_derived_fig1_csv_only_generic_plots() {
+        let run = TempRun::new("nofig1");
+        write_fig1_run(&run, 2, 20, 5.0, false);
+        let names = file_names(&report(&run.0).unwrap());
+        for fig in FIG1_FIGURES {
+            assert!(!names.iter().any(|n| n == fig), "{fig} in {names:?}");
+        }
+        // Unchanged behaviour: every plant column family gets its generic figure.
+        assert!(names.iter().any(|n| n == "plant_b0_r_eci.png"), "{names:?}");
+        assert!(names.iter().any(|n| n == "plant_b2_q_lvlh.png"), "{names:?}");
+        assert!(names.iter().any(|n| n == "plant_e_norm.png"), "{names:?}");
+    }
+
+    #[test]
+    fn malformed_derived_fig1_csv_names_file_and_line() {
+        let run = TempRun::new("fig1bad");
+        let derived = write_fig1_run(&run, 2, 10, 5.0, true);
+        let good = std::fs::read_to_string(&derived).unwrap();
+        let mut lines: Vec<String> = good.lines().map(str::to_string).collect();
+
+        // A bad number on line 4 (the header is line 1).
+        let mut bad = lines.clone();
+        bad[3] = bad[3].replacen(",", ",x", 2).replacen(",x", ",", 1);
+        std::fs::write(&derived, bad.join("\n")).unwrap();
+        let err = report(&run.0).unwrap_err();
+        assert!(matches!(&err, ReportError::BadNumber { path, line: 4, .. } if *path == derived), "{err:?}");
+        let msg = err.to_string();
+        assert!(msg.contains("derived/fig1.csv:4"), "{msg}");
+        assert!(!run.0.join("plots").exists(), "no plots after a read error");
+
+        // A short row.
+        let mut short = lines.clone();
+        short[6] = short[6].rsplit_once(',').unwrap().0.to_string();
+        std::fs::write(&derived, short.join("\n")).unwrap();
+        let msg = report(&run.0).unwrap_err().to_string();
+        assert!(msg.contains("derived/fig1.csv:7: expected 10 columns"), "{msg}");
+
+        // A missing column.
+        for line in &mut lines {
+            *line = line.rsplitn(3, ',').nth(2).unwrap().to_string();
+        }
+        assert!(lines[0].ends_with("a2_zeta_err_norm_mps"), "{}", lines[0]);
+        std::fs::write(&derived, lines.join("\n")).unwrap();
+        let err = report(&run.0).unwrap_err();
+        assert!(matches!(&err, ReportError::Fig1Input { path, .. } if *path == derived), "{err:?}");
+        let msg = err.to_string();
+        assert!(msg.contains("derived/fig1.csv: missing column `a2_u_norm_mps2`"), "{msg}");
+
+        // No agents at all; an empty file.
+        std::fs::write(&derived, "k,t_s,theta\n0,0.0,1.0\n").unwrap();
+        let msg = report(&run.0).unwrap_err().to_string();
+        assert!(msg.contains("derived/fig1.csv: no `a<i>_e_norm_m` columns"), "{msg}");
+        std::fs::write(&derived, "").unwrap();
+        let msg = report(&run.0).unwrap_err().to_string();
+        assert!(msg.contains("derived/fig1.csv: bad header"), "{msg}");
+        assert!(!run.0.join("plots").exists(), "no plots after a read error");
+    }
+
+    #[test]
+    fn fig1_run_needs_the_lvlh_columns() {
+        let run = TempRun::new("fig1nolvlh");
+        write_fig1_run(&run, 2, 10, 5.0, true);
+        let plant = run.0.join("telemetry").join("plant.csv");
+        std::fs::write(&plant, "k,t_s,a1_e_norm_m\n0,0.0,1.0\n").unwrap();
+        let err = report(&run.0).unwrap_err();
+        assert!(matches!(&err, ReportError::Fig1Input { path, .. } if *path == plant), "{err:?}");
+        assert!(err.to_string().contains("q_lvlh"), "{err}");
+        std::fs::remove_file(&plant).unwrap();
+        let msg = report(&run.0).unwrap_err().to_string();
+        assert!(msg.contains("plant.csv: missing"), "{msg}");
+    }
+
+    #[test]
+    fn column_filter_skips_unparsed_columns() {
+        let run = TempRun::new("filter");
+        let path = run.write("plant.csv", "k,t_s,b0_r_eci_x_m,b0_q_lvlh_x_m,a1_e_norm_m\n0,0.0,junk,1.0,2.0\n");
+        let table = read_table_with(&path, &|name| !name.contains("eci")).unwrap();
+        let names: Vec<&str> = table.columns.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["b0_q_lvlh_x_m", "a1_e_norm_m"]);
+        assert_eq!(table.columns[1].values, [2.0]);
+        assert!(read_table(&path).is_err(), "the full read still checks every field");
     }
 
     #[test]

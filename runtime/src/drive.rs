@@ -62,42 +62,48 @@ pub struct DriveParams {
     pub terminate: Arc<AtomicBool>,
     /// When the process started (for the start-up time in its report).
     pub process_start: Instant,
-    /// How long a wait spins (draining and yielding the CPU) before it blocks on the event; see
-    /// [`spin_budget`].
-    pub spin: Duration,
+    /// How a wait spins before it blocks on the event; see [`spin_budget`].
+    pub spin: SpinPolicy,
     /// 1: agents advance with their neighbours' shares of the previous step (`run.link_delay_steps`).
     pub link_delay_steps: u32,
     /// `run.realtime_rate`: the plant paces steps by the wall clock.
     pub realtime_rate: Option<f64>,
 }
 
-/// Spin budget for `run.wait`: "event" never spins; "poll" never blocks (spins until the step
-/// timeout); "adaptive" spins for `run.spin_us` if given, else for a budget that shrinks with the
-/// number of processes per core: spinning pays while most processes can hold a core, and only
-/// steals time from the ones doing work once they must share.
-pub fn spin_budget(run: &cohort_scenario::RunSettings, n_procs: usize) -> Duration {
+/// How a wait spins (draining and yielding the CPU) before it blocks on the event.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SpinPolicy {
+    /// Spin for a fixed time ("event" = zero, "poll" = the step timeout, or `run.spin_us`).
+    Fixed(Duration),
+    /// Learn from this process's own waits: spin for up to four times the recent typical wait of
+    /// the same kind (measurement or share) (at
+    /// least [`ADAPTIVE_FLOOR_US`], at most [`ADAPTIVE_CAP_US`]); when waits are typically longer
+    /// than the cap (a slow or paced plant), do not spin at all, so an idle process costs nothing.
+    Adaptive,
+}
+
+/// Spin policy for `run.wait`.
+pub fn spin_budget(run: &cohort_scenario::RunSettings) -> SpinPolicy {
     match run.wait.as_str() {
-        "event" => Duration::ZERO,
-        "poll" => Duration::from_secs_f64(run.step_timeout_s),
+        "event" => SpinPolicy::Fixed(Duration::ZERO),
+        "poll" => SpinPolicy::Fixed(Duration::from_secs_f64(run.step_timeout_s)),
         _ => match run.spin_us {
-            Some(us) => Duration::from_secs_f64(us * 1e-6),
-            None => {
-                let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-                adaptive_spin(n_procs, cores)
-            }
+            Some(us) => SpinPolicy::Fixed(Duration::from_secs_f64(us * 1e-6)),
+            None => SpinPolicy::Adaptive,
         },
     }
 }
 
-/// The adaptive budget (measured in `orchestrator bench`; see the README's Performance section).
-pub fn adaptive_spin(n_procs: usize, cores: usize) -> Duration {
-    const BASE_US: f64 = ADAPTIVE_BASE_US;
-    let per_core = n_procs as f64 / cores.max(1) as f64;
-    Duration::from_secs_f64(BASE_US * 1e-6 / per_core.max(1.0))
-}
-
-/// Spin budget, µs, when there is at most one process per core.
-pub const ADAPTIVE_BASE_US: f64 = 200.0;
+/// Adaptive spinning: never less than this, µs.
+pub const ADAPTIVE_FLOOR_US: f64 = 20.0;
+/// Adaptive spinning: never more than this, µs; waits typically longer than it are not spun.
+/// Measured on the 2-core machine (README, Performance): spinning with `sched_yield` for up to
+/// 1 ms beat blocking at every N from 6 to 100 agent processes.
+pub const ADAPTIVE_CAP_US: f64 = 2000.0;
+/// Weight of the newest wait in the running typical wait.
+const ADAPTIVE_EWMA: f64 = 0.1;
+/// Spin for up to this many typical waits.
+const ADAPTIVE_MARGIN: f64 = 4.0;
 
 impl DriveParams {
     fn t_s(&self, k: u64) -> f64 {
@@ -120,18 +126,35 @@ struct Waiter<'a, T: Transport + ?Sized> {
     p: &'a DriveParams,
     me: u32,
     timeouts: u64,
+    /// Running typical wait, µs, per kind of wait (measurement, share): adaptive spinning.
+    typical_wait_us: [f64; 2],
 }
 
 impl<T: Transport + ?Sized> Waiter<'_, T> {
     /// Drain into `inbox`, check it, wait briefly; repeat until it is complete or the step
     /// timeout passes.
+    fn spin_for(&self, kind: usize) -> Duration {
+        let typical = self.typical_wait_us[kind];
+        match self.p.spin {
+            SpinPolicy::Fixed(d) => d,
+            SpinPolicy::Adaptive if typical > ADAPTIVE_CAP_US => Duration::ZERO,
+            SpinPolicy::Adaptive => {
+                Duration::from_secs_f64((ADAPTIVE_MARGIN * typical).clamp(ADAPTIVE_FLOOR_US, ADAPTIVE_CAP_US) * 1e-6)
+            }
+        }
+    }
+
     fn until(&mut self, step: u64, what: &'static str, inbox: &mut impl Inbox) -> Result<(), RunError> {
         let started = Instant::now();
+        let kind = usize::from(what == "share");
+        let spin = self.spin_for(kind);
         let mut reported = false;
         let mut spins = 0u32;
         loop {
             self.t.drain(&mut |inc| inbox.take(inc))?;
             if inbox.complete() {
+                let w = started.elapsed().as_secs_f64() * 1e6;
+                self.typical_wait_us[kind] += ADAPTIVE_EWMA * (w - self.typical_wait_us[kind]);
                 return Ok(());
             }
             let waited = started.elapsed();
@@ -140,10 +163,10 @@ impl<T: Transport + ?Sized> Waiter<'_, T> {
                 let (_, from) = inbox.missing();
                 return Err(RunError::Timeout { step, from, what, after_s: waited.as_secs_f64() });
             }
-            let spinning = waited < self.p.spin;
+            let spinning = waited < spin;
             spins = spins.wrapping_add(1);
             // While spinning, look at the control service only now and then: it is not free.
-            if !spinning || spins % 1024 == 0 {
+            if !spinning || spins.is_multiple_of(1024) {
                 if self.t.stop_requested() {
                     return Err(RunError::Stopped { step, why: "orchestrator" });
                 }
@@ -319,7 +342,7 @@ fn plant_loop<T: Transport + ?Sized>(
         rejects: RejectCounts::default(),
     };
     let mut row = Vec::with_capacity(columns.len());
-    let mut waiter = Waiter { t, p, me: PLANT_ID, timeouts: 0 };
+    let mut waiter = Waiter { t, p, me: PLANT_ID, timeouts: 0, typical_wait_us: [0.0; 2] };
     let mut last_progress = Instant::now();
     // Measurements of step k go out as soon as the truth reaches tₖ; the telemetry row of step
     // k-1 is formatted afterwards, while the agents compute, so it stays off the critical path.
@@ -525,7 +548,7 @@ fn agent_loop<T: Transport + ?Sized>(
     };
     let mut out = ShareOut::default();
     let mut row = Vec::with_capacity(columns.len());
-    let mut waiter = Waiter { t, p, me: id, timeouts: 0 };
+    let mut waiter = Waiter { t, p, me: id, timeouts: 0, typical_wait_us: [0.0; 2] };
     let result = (|| {
         for k in 0..p.n_steps {
             let t_s = p.t_s(k);
@@ -669,7 +692,7 @@ mod tests {
             dirs,
             terminate: Arc::new(AtomicBool::new(false)),
             process_start: Instant::now(),
-            spin: Duration::ZERO,
+            spin: SpinPolicy::Fixed(Duration::ZERO),
             link_delay_steps: 0,
             realtime_rate: None,
         }

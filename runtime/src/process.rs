@@ -113,7 +113,7 @@ pub fn child_main(
         dirs: dirs.clone(),
         terminate,
         process_start: start,
-        spin: crate::drive::spin_budget(&scenario.run, scenario.n_agents() as usize + 1),
+        spin: crate::drive::spin_budget(&scenario.run),
         link_delay_steps: scenario.run.link_delay_steps,
         realtime_rate: scenario.run.realtime_rate,
     };

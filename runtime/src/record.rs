@@ -118,6 +118,15 @@ impl ProcessReport {
     }
 }
 
+/// (CPU seconds, peak RSS kB) of the calling thread (`RUSAGE_THREAD`) and its process.
+pub fn cpu_and_rss() -> (f64, u64) {
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: getrusage fills the struct we own.
+    unsafe { libc::getrusage(libc::RUSAGE_THREAD, &mut ru) };
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    (secs(ru.ru_utime) + secs(ru.ru_stime), ru.ru_maxrss as u64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -152,13 +161,4 @@ mod tests {
         }
         let _ = std::fs::remove_dir_all(&dir);
     }
-}
-
-/// (CPU seconds, peak RSS kB) of the calling thread (`RUSAGE_THREAD`) and its process.
-pub fn cpu_and_rss() -> (f64, u64) {
-    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
-    // SAFETY: getrusage fills the struct we own.
-    unsafe { libc::getrusage(libc::RUSAGE_THREAD, &mut ru) };
-    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    (secs(ru.ru_utime) + secs(ru.ru_stime), ru.ru_maxrss as u64)
 }

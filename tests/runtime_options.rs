@@ -1,0 +1,119 @@
+//! The runtime options that change speed but must never change results (waiting strategy,
+//! transport), the one that changes the model deterministically (a one-step link delay),
+//! real-time pacing, and `orchestrator bench --quick` end to end. Run with `scripts/test`.
+
+use std::path::Path;
+use std::process::{Command, Output};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use cohort::{bin_path, repo_root, scratch_dir};
+
+static HEAVY: Mutex<()> = Mutex::new(());
+
+fn orchestrator(args: &[&str]) -> Output {
+    let bin = bin_path("orchestrator");
+    assert!(bin.is_file(), "{} not found: run the tests with scripts/test", bin.display());
+    Command::new(bin).current_dir(repo_root()).args(args).output().expect("running the orchestrator")
+}
+
+fn launch(out: &Path, extra: &[&str]) -> Output {
+    let out = out.to_str().unwrap();
+    let mut args = vec!["launch", "topologies/consensus-ring.toml", "--no-plots", "--out", out];
+    args.extend_from_slice(extra);
+    let o = orchestrator(&args);
+    assert!(
+        o.status.success(),
+        "launch {extra:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
+fn telemetry(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<_> = std::fs::read_dir(dir.join("telemetry")).unwrap().flatten().map(|e| e.path()).collect();
+    files.sort();
+    files
+        .into_iter()
+        .map(|p| (p.file_name().unwrap().to_string_lossy().to_string(), std::fs::read(&p).unwrap()))
+        .collect()
+}
+
+#[test]
+fn waiting_strategies_and_transports_never_change_the_telemetry() {
+    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch_dir("options");
+    let base = dir.join("reference");
+    launch(&base, &["--reference"]);
+    let want = telemetry(&base);
+    assert_eq!(want.len(), 7);
+    for (name, extra) in [
+        ("event", &["--wait", "event"][..]),
+        ("poll", &["--wait", "poll"][..]),
+        ("adaptive", &["--wait", "adaptive"][..]),
+        ("spin50", &["--spin-us", "50"][..]),
+        ("udp", &["--transport", "udp"][..]),
+        ("udp-event", &["--transport", "udp", "--wait", "event"][..]),
+    ] {
+        let d = dir.join(name);
+        launch(&d, extra);
+        assert!(telemetry(&d) == want, "{name}: telemetry differs from the reference");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_link_delay_is_deterministic_and_really_changes_the_model() {
+    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch_dir("linkdelay");
+    let (mp, rf, none) = (dir.join("mp"), dir.join("ref"), dir.join("none"));
+    launch(&mp, &["--link-delay", "1"]);
+    launch(&rf, &["--link-delay", "1", "--reference"]);
+    launch(&none, &["--reference"]);
+    assert!(telemetry(&mp) == telemetry(&rf), "link delay: multi-process differs from reference");
+    assert!(telemetry(&mp) != telemetry(&none), "a link delay should change what the agents compute");
+    // Still converges: the delay is one 10 ms step.
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(mp.join("summary.json")).unwrap()).unwrap();
+    let err = s["metrics"]["formation_error_final_m"].as_f64().unwrap();
+    assert!(err < 0.05, "formation error {err} m with a one-step link delay");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn realtime_pacing_follows_the_wall_clock() {
+    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch_dir("realtime");
+    let started = Instant::now();
+    // 1 s of sim time at 4× real time: at least 0.25 s of wall time.
+    launch(&dir.join("rt"), &["--duration", "1", "--realtime", "--rate", "4"]);
+    let took = started.elapsed().as_secs_f64();
+    assert!(took >= 0.24, "paced run took only {took:.3} s");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("rt/summary.json")).unwrap()).unwrap();
+    let sps = s["steps_per_s"].as_f64().unwrap();
+    assert!(sps <= 100.0 * 4.0 * 1.05, "{sps} steps/s exceeds the pace (400/s)");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bench_quick_writes_its_results() {
+    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch_dir("bench");
+    let o = orchestrator(&["bench", "--quick", "--out", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}\n{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(dir.join("results.md")).unwrap();
+    for section in ["## fig1", "waiting strategy", "iceoryx2 vs UDP", "paced at 10 Hz"] {
+        assert!(md.contains(section), "results.md lacks {section:?}:\n{md}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+    let cases = json["cases"].as_array().unwrap();
+    assert!(cases.len() >= 10);
+    for c in cases {
+        let sps = c["steps_per_s_median"].as_f64().unwrap_or(0.0);
+        assert!(sps > 0.0, "{}: no steps/s", c["key"]);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
