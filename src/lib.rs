@@ -95,3 +95,22 @@ pub fn telemetry_bits(run_dir: &std::path::Path) -> Vec<(String, usize, usize, u
     }
     out
 }
+
+/// A command running the orchestrator from the repository root (asserting it was built).
+pub fn orchestrator_command() -> std::process::Command {
+    let bin = bin_path("orchestrator");
+    assert!(bin.is_file(), "{} not found: run the tests with scripts/test (it builds the binaries)", bin.display());
+    let mut c = std::process::Command::new(bin);
+    c.current_dir(repo_root());
+    c
+}
+
+/// Exit status, stdout and stderr of a finished command, for assertion messages.
+pub fn describe_output(o: &std::process::Output) -> String {
+    format!(
+        "exit: {:?}\n--- stdout ---\n{}\n--- stderr ---\n{}",
+        o.status,
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}

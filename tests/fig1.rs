@@ -4,32 +4,15 @@
 //! drawn. Heavy: serialised, generous timeouts. Run with `scripts/test`.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::Mutex;
 
-use cohort::{bin_path, repo_root, scratch_dir};
+use cohort::{describe_output, orchestrator_command, scratch_dir};
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
 fn orchestrator(args: &[&str], out: &Path) -> Output {
-    let bin = bin_path("orchestrator");
-    assert!(bin.is_file(), "{} not found: run the tests with scripts/test", bin.display());
-    Command::new(bin)
-        .current_dir(repo_root())
-        .args(args)
-        .arg("--out")
-        .arg(out)
-        .output()
-        .expect("running the orchestrator")
-}
-
-fn show(o: &Output) -> String {
-    format!(
-        "exit: {:?}\n--- stdout ---\n{}\n--- stderr ---\n{}",
-        o.status,
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
+    orchestrator_command().args(args).arg("--out").arg(out).output().expect("running the orchestrator")
 }
 
 #[test]
@@ -38,11 +21,11 @@ fn fig1_runs_multi_process_for_360_s_bit_identical_to_the_reference_with_its_fig
     let dir = scratch_dir("fig1");
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
     let o = orchestrator(&["launch", "topologies/fig1.toml"], &mp);
-    assert!(o.status.success(), "{}", show(&o));
+    assert!(o.status.success(), "{}", describe_output(&o));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("run directory:") && stdout.contains("plots:"), "{stdout}");
     let o = orchestrator(&["launch", "topologies/fig1.toml", "--reference", "--no-plots"], &rf);
-    assert!(o.status.success(), "{}", show(&o));
+    assert!(o.status.success(), "{}", describe_output(&o));
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(mp.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["steps_completed"], 36_000);
@@ -83,7 +66,7 @@ fn over_10_seeds_every_servicer_meets_the_papers_bounds() {
     let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
     let dir = scratch_dir("fig1sweep");
     let o = orchestrator(&["sweep", "topologies/fig1.toml", "--seeds", "10"], &dir);
-    assert!(o.status.success(), "{}", show(&o));
+    assert!(o.status.success(), "{}", describe_output(&o));
     let csv = std::fs::read_to_string(dir.join("sweep.csv")).unwrap();
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();

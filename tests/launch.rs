@@ -10,7 +10,10 @@ use std::process::{Child, Command, Output, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use cohort::{bin_path, iceoryx2_leftovers, processes_mentioning, repo_root, scratch_dir, telemetry_bits};
+use cohort::{
+    bin_path, describe_output, iceoryx2_leftovers, orchestrator_command, processes_mentioning, repo_root, scratch_dir,
+    telemetry_bits,
+};
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
@@ -19,24 +22,11 @@ fn heavy() -> std::sync::MutexGuard<'static, ()> {
 }
 
 fn orchestrator() -> Command {
-    let bin = bin_path("orchestrator");
-    assert!(bin.is_file(), "{} not found: run the tests with scripts/test (it builds the binaries)", bin.display());
-    let mut c = Command::new(bin);
-    c.current_dir(repo_root());
-    c
+    orchestrator_command()
 }
 
 fn ring() -> PathBuf {
     repo_root().join("topologies/consensus-ring.toml")
-}
-
-fn show(o: &Output) -> String {
-    format!(
-        "exit: {:?}\n--- stdout ---\n{}\n--- stderr ---\n{}",
-        o.status,
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 fn launch(out: &Path, extra: &[&str]) -> Output {
@@ -103,9 +93,9 @@ fn multi_process_and_reference_telemetry_are_bit_identical() {
     let dir = scratch_dir("determinism");
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
     let o = launch(&mp, &[]);
-    assert!(o.status.success(), "multi-process launch failed:\n{}", show(&o));
+    assert!(o.status.success(), "multi-process launch failed:\n{}", describe_output(&o));
     let o = launch(&rf, &["--reference"]);
-    assert!(o.status.success(), "reference launch failed:\n{}", show(&o));
+    assert!(o.status.success(), "reference launch failed:\n{}", describe_output(&o));
     assert_same_telemetry(&mp, &rf);
 
     // Beyond bytes: every value parses, and the parsed values agree bit for bit.
@@ -138,9 +128,9 @@ fn a_different_seed_changes_the_telemetry() {
     let _g = heavy();
     let dir = scratch_dir("seed");
     let o = launch(&dir.join("a"), &["--reference", "--duration", "1"]);
-    assert!(o.status.success(), "{}", show(&o));
+    assert!(o.status.success(), "{}", describe_output(&o));
     let o = launch(&dir.join("b"), &["--reference", "--duration", "1", "--seed", "8"]);
-    assert!(o.status.success(), "{}", show(&o));
+    assert!(o.status.success(), "{}", describe_output(&o));
     let a = std::fs::read(dir.join("a/telemetry/plant.csv")).unwrap();
     let b = std::fs::read(dir.join("b/telemetry/plant.csv")).unwrap();
     assert_ne!(a, b, "seed 7 and seed 8 gave the same plant telemetry");
@@ -168,8 +158,8 @@ fn two_concurrent_launches_both_succeed_and_match() {
     let cb = spawn(&b);
     let oa = ca.wait_with_output().unwrap();
     let ob = cb.wait_with_output().unwrap();
-    assert!(oa.status.success(), "first run failed:\n{}", show(&oa));
-    assert!(ob.status.success(), "second run failed:\n{}", show(&ob));
+    assert!(oa.status.success(), "first run failed:\n{}", describe_output(&oa));
+    assert!(ob.status.success(), "second run failed:\n{}", describe_output(&ob));
     assert_ne!(run_id(&a), run_id(&b), "the two runs shared a run id");
     assert_same_telemetry(&a, &b);
     assert_clean(&a, &run_id(&a));
@@ -228,8 +218,8 @@ fn sigkill_of_an_agent_ends_the_run_cleanly_naming_it_and_the_step() {
     let took = killed_at.elapsed().as_secs_f64();
     // Detection (≤ step timeout) plus the shutdown ladder's grace (stop 3 s + term 2 s) + margin.
     assert!(took < step_timeout_s + 5.0 + 10.0, "took {took:.1} s to end the run");
-    assert!(!o.status.success(), "the run should fail:\n{}", show(&o));
-    assert_eq!(o.status.code(), Some(1), "{}", show(&o));
+    assert!(!o.status.success(), "the run should fail:\n{}", describe_output(&o));
+    assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("agent-3"), "the message must name the agent:\n{err}");
     assert!(err.contains("SIGKILL"), "the message must say how it died:\n{err}");
@@ -255,7 +245,7 @@ fn sigint_to_the_orchestrator_stops_everything_with_130() {
     let sent = Instant::now();
     let o = child.wait_with_output().unwrap();
     assert!(sent.elapsed() < Duration::from_secs(20), "took {:?} to stop", sent.elapsed());
-    assert_eq!(o.status.code(), Some(130), "{}", show(&o));
+    assert_eq!(o.status.code(), Some(130), "{}", describe_output(&o));
     let s = summary(&out);
     assert_eq!(s["status"], "interrupted");
     assert_clean(&out, &run_id(&out));
@@ -271,8 +261,8 @@ fn a_child_built_from_other_sources_refuses_to_run() {
         .arg(&dir)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(3), "{}", show(&o));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("rebuild"), "{}", show(&o));
+    assert_eq!(o.status.code(), Some(3), "{}", describe_output(&o));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("rebuild"), "{}", describe_output(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -289,7 +279,7 @@ fn a_missing_child_binary_is_refused_with_a_clear_message() {
         .arg(dir.join("run"))
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(1), "{}", show(&o));
+    assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("binary is missing") && err.contains("plant"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
@@ -310,7 +300,7 @@ fn a_frozen_agent_ends_the_run_at_the_step_timeout_naming_it() {
     let took = frozen_at.elapsed().as_secs_f64();
     assert!(took >= step_timeout_s * 0.9, "ended after {took:.2} s, before the step timeout");
     assert!(took < step_timeout_s + 5.0 + 15.0, "took {took:.1} s");
-    assert_eq!(o.status.code(), Some(1), "{}", show(&o));
+    assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     // Whoever timed out first (the plant, or a neighbour of agent 5) names agent 5 and the step.
     assert!(err.contains("timeout at step"), "{err}");
@@ -341,8 +331,12 @@ fn a_killed_orchestrator_leaves_no_orphan_and_the_next_launch_sweeps_its_resourc
     }
     assert!(!iceoryx2_leftovers(&id).is_empty(), "expected the killed run's resources to remain for the sweep");
     let o = launch(&dir.join("next"), &["--duration", "0.1"]);
-    assert!(o.status.success(), "{}", show(&o));
-    assert!(String::from_utf8_lossy(&o.stderr).contains(&id), "the sweep should say what it removed:\n{}", show(&o));
+    assert!(o.status.success(), "{}", describe_output(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains(&id),
+        "the sweep should say what it removed:\n{}",
+        describe_output(&o)
+    );
     assert!(iceoryx2_leftovers(&id).is_empty(), "stale resources remain: {:?}", iceoryx2_leftovers(&id));
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -381,9 +375,9 @@ fn thirty_agents_run_multi_process_past_the_default_service_limits() {
     };
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
     let o = run(&mp, &[]);
-    assert!(o.status.success(), "{}", show(&o));
+    assert!(o.status.success(), "{}", describe_output(&o));
     let o = run(&rf, &["--reference"]);
-    assert!(o.status.success(), "{}", show(&o));
+    assert!(o.status.success(), "{}", describe_output(&o));
     for i in 0..=n {
         let f = if i == 0 { "plant.csv".to_string() } else { format!("agent-{i}.csv") };
         let a = std::fs::read(mp.join("telemetry").join(&f)).unwrap();

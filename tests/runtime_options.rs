@@ -3,18 +3,16 @@
 //! real-time pacing, and `orchestrator bench --quick` end to end. Run with `scripts/test`.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::Mutex;
 use std::time::Instant;
 
-use cohort::{bin_path, repo_root, scratch_dir};
+use cohort::{orchestrator_command, scratch_dir};
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
 fn orchestrator(args: &[&str]) -> Output {
-    let bin = bin_path("orchestrator");
-    assert!(bin.is_file(), "{} not found: run the tests with scripts/test", bin.display());
-    Command::new(bin).current_dir(repo_root()).args(args).output().expect("running the orchestrator")
+    orchestrator_command().args(args).output().expect("running the orchestrator")
 }
 
 fn launch(out: &Path, extra: &[&str]) -> Output {

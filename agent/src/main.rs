@@ -1,11 +1,10 @@
 //! The `agent` process: one spacecraft's estimator, controller and learner. Launched by the
 //! orchestrator; see `cohort_runtime::process` for exit codes.
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Parser;
-use cohort_runtime::process::{ChildSpec, child_main};
+use cohort_runtime::process::{CommonArgs, child_main};
 use cohort_wire::transport::Proc;
 
 /// Cohort agent process (launched by `orchestrator launch`, not by hand).
@@ -15,31 +14,14 @@ struct Args {
     /// This agent's id (1..=N, as in the scenario).
     #[arg(long)]
     id: u32,
-    /// Run directory (holds the resolved scenario.toml; telemetry goes there).
-    #[arg(long)]
-    run_dir: PathBuf,
-    /// Run id, hexadecimal (names the run's iceoryx2 resources).
-    #[arg(long)]
-    run_id: String,
-    /// Build id of the orchestrator; must equal this binary's.
-    #[arg(long)]
-    build_id: String,
-    /// Override of run.step_timeout_s.
-    #[arg(long)]
-    step_timeout_s: Option<f64>,
+    #[command(flatten)]
+    common: CommonArgs,
 }
 
 fn main() -> ExitCode {
     let a = Args::parse();
     let id = a.id;
-    let spec = ChildSpec {
-        me: Proc::Agent(id),
-        run_dir: a.run_dir,
-        run_id: a.run_id,
-        build_id: a.build_id,
-        step_timeout_s: a.step_timeout_s,
-    };
-    child_main(spec, |scenario, transport, params| {
+    child_main(a.common.into_spec(Proc::Agent(id)), |scenario, transport, params| {
         let mut algo = agent::build(scenario, id);
         let neighbours = scenario.agent(id).neighbours.clone();
         cohort_runtime::drive::run_agent(transport, algo.as_mut(), id, &neighbours, params)

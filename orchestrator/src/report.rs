@@ -839,6 +839,23 @@ fn fill_time_chart<'a, 'b: 'a, Y>(
 where
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
+    draw_time_series(chart, y_desc, series, 2)?;
+    if series.len() > 1 {
+        draw_legend(chart)?;
+    }
+    Ok(())
+}
+
+/// Axes, mesh and every series of a time chart (each with a legend entry; `stroke` in pixels).
+fn draw_time_series<'a, 'b: 'a, Y>(
+    chart: &mut ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, Y>>,
+    y_desc: &str,
+    series: &[Series],
+    stroke: u32,
+) -> DrawResult
+where
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
     chart
         .configure_mesh()
         .x_desc("t [s]")
@@ -849,9 +866,9 @@ where
         .axis_desc_style((FONT_FAMILY, 18))
         .draw()?;
     for s in series {
-        let style = s.color.stroke_width(2);
-        // An empty series carries the legend entry; the runs are drawn unlabelled.
         let color = s.color;
+        let style = color.stroke_width(stroke);
+        // An empty series carries the legend entry; the runs are drawn unlabelled.
         chart
             .draw_series(LineSeries::new(std::iter::empty::<(f64, f64)>(), style))?
             .label(&s.label)
@@ -864,15 +881,23 @@ where
             }
         }
     }
-    if series.len() > 1 {
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT_FAMILY, 16))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
-    }
+    Ok(())
+}
+
+/// The legend box, upper right.
+fn draw_legend<'a, 'b: 'a, Y>(
+    chart: &mut ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, Y>>,
+) -> DrawResult
+where
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((FONT_FAMILY, 16))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
     Ok(())
 }
 

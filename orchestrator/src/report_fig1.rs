@@ -29,7 +29,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::{
     CAPTION_SIZE, DrawResult, FONT_FAMILY, Figure, MARGIN, MAX_POINTS, ReportError, Series, Table, X_LABEL_AREA,
-    Y_LABEL_AREA, downsample_min_max, draw_polyline, finite_bounds, finite_runs, format_tick, series_color,
+    Y_LABEL_AREA, downsample_min_max, draw_legend, draw_time_series, finite_bounds, format_tick, series_color,
 };
 
 /// Where the derived per-agent series live, relative to the run directory.
@@ -435,30 +435,7 @@ fn fill_time<'a, 'b: 'a, Y>(
 where
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
-    chart
-        .configure_mesh()
-        .x_desc("t [s]")
-        .y_desc(y_desc)
-        .x_label_formatter(&format_tick)
-        .y_label_formatter(&format_tick)
-        .label_style((FONT_FAMILY, 16))
-        .axis_desc_style((FONT_FAMILY, 18))
-        .draw()?;
-    for s in &fig.series {
-        let color = s.color;
-        let style = color.stroke_width(fig.stroke);
-        chart
-            .draw_series(LineSeries::new(std::iter::empty::<(f64, f64)>(), style))?
-            .label(&s.label)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3)));
-        for run in finite_runs(&s.points) {
-            if let [p] = run {
-                chart.draw_series(std::iter::once(Circle::new(*p, 2, color.filled())))?;
-            } else {
-                draw_polyline(chart, run, style)?;
-            }
-        }
-    }
+    draw_time_series(chart, y_desc, &fig.series, fig.stroke)?;
     if let Some(r) = fig.reference {
         let (t0, t1) = fig.t_range;
         let (y0, y1) = fig.y_range;
@@ -483,14 +460,7 @@ where
                 });
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FONT_FAMILY, 16))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
-    Ok(())
+    draw_legend(chart)
 }
 
 /// A cube of equal extent on the three axes around every finite point: `(lo, hi)` per LVLH axis.

@@ -28,6 +28,35 @@ pub const EXIT_BAD_INPUT: u8 = 2;
 pub const EXIT_BUILD_MISMATCH: u8 = 3;
 pub const EXIT_STOPPED: u8 = 4;
 
+/// The command-line arguments every child takes (the agent adds `--id`).
+#[derive(clap::Args, Debug)]
+pub struct CommonArgs {
+    /// Run directory (holds the resolved scenario.toml; telemetry goes there).
+    #[arg(long)]
+    pub run_dir: PathBuf,
+    /// Run id, hexadecimal (names the run's iceoryx2 resources).
+    #[arg(long)]
+    pub run_id: String,
+    /// Build id of the orchestrator; must equal this binary's.
+    #[arg(long)]
+    pub build_id: String,
+    /// Override of run.step_timeout_s.
+    #[arg(long)]
+    pub step_timeout_s: Option<f64>,
+}
+
+impl CommonArgs {
+    pub fn into_spec(self, me: Proc) -> ChildSpec {
+        ChildSpec {
+            me,
+            run_dir: self.run_dir,
+            run_id: self.run_id,
+            build_id: self.build_id,
+            step_timeout_s: self.step_timeout_s,
+        }
+    }
+}
+
 /// What the orchestrator passes every child on its command line.
 pub struct ChildSpec {
     pub me: Proc,
