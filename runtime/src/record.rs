@@ -122,13 +122,25 @@ impl ProcessReport {
     }
 }
 
-/// (CPU seconds, peak RSS kB) of the calling thread (`RUSAGE_THREAD`) and its process.
+/// (CPU seconds of the calling thread (`RUSAGE_THREAD`), peak RSS of its process in kB).
+///
+/// The peak comes from `VmHWM` in /proc/self/status, not from `ru_maxrss`: Linux carries
+/// `ru_maxrss` across fork and exec, so every child would report at least its parent's peak (the
+/// orchestrator's, after it has read a large run's telemetry).
 pub fn cpu_and_rss() -> (f64, u64) {
     let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
     // SAFETY: getrusage fills the struct we own.
     unsafe { libc::getrusage(libc::RUSAGE_THREAD, &mut ru) };
     let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    (secs(ru.ru_utime) + secs(ru.ru_stime), ru.ru_maxrss as u64)
+    let hwm_kb = std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1).and_then(|v| v.parse::<u64>().ok()))
+        })
+        .unwrap_or(0);
+    (secs(ru.ru_utime) + secs(ru.ru_stime), hwm_kb)
 }
 
 #[cfg(test)]
