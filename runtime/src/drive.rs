@@ -43,6 +43,10 @@ pub enum RunError {
     Transport(#[from] TransportError),
     #[error("writing {what}: {source}")]
     Io { what: String, source: std::io::Error },
+    /// The algorithm produced a non-finite number (it diverged). Sending it would only have it
+    /// rejected by every reader and the run end later as a silent peer; fail here, naming it.
+    #[error("{who} produced a non-finite {what} at step {step} (t = {t_s} s): it diverged")]
+    Diverged { step: u64, t_s: f64, who: &'static str, what: String },
 }
 
 fn io(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> RunError {
@@ -351,6 +355,10 @@ fn plant_loop<T: Transport + ?Sized>(
         for i in 1..=n_agents {
             readings.clear();
             model.readings(i, rng, &mut readings);
+            if !readings.iter().all(|x| x.is_finite()) {
+                let what = format!("reading for agent {i}");
+                return Err(RunError::Diverged { step: k, t_s: p.t_s(k), who: "the plant model", what });
+            }
             let m = Measurement::new(Header::new(p.run_id, PLANT_ID, k, p.t_s(k)), &readings);
             t.send_measurement(i, &m)?;
         }
@@ -565,6 +573,12 @@ fn agent_loop<T: Transport + ?Sized>(
             out.command.clear();
             out.values.clear();
             algo.share(&AgentInput { k, t_s, readings: m.readings() }, &mut out);
+            if !out.command.iter().all(|x| x.is_finite()) {
+                return Err(RunError::Diverged { step: k, t_s, who: "the algorithm", what: "command".into() });
+            }
+            if !out.values.iter().all(|x| x.is_finite()) {
+                return Err(RunError::Diverged { step: k, t_s, who: "the algorithm", what: "share value".into() });
+            }
             let share = Share::new(Header::new(p.run_id, id, k, t_s), &out.command, &out.values);
             waiter.t.send_share(&share)?;
             let mut compute_ns = monotonic_ns() - compute_start;
