@@ -33,5 +33,6 @@ pub fn build(s: &Scenario, id: u32) -> Box<dyn Algorithm> {
         }
         AlgorithmConfig::Coast(_) => Box::new(algorithms::coast::Coast),
         AlgorithmConfig::Null(a) => Box::new(algorithms::null::Null { share_values: a.share_values }),
+        AlgorithmConfig::DaiAttitude(c) => Box::new(algorithms::dai_attitude::DaiAttitudeAgent::new(c)),
     }
 }

@@ -52,6 +52,7 @@ impl Columns {
 pub fn analyse(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, String> {
     match (&s.plant, &s.algorithm) {
         (PlantConfig::Orbital(_), AlgorithmConfig::LbDnnServicing(_)) => servicing(s, dirs),
+        (PlantConfig::RigidBody(_), AlgorithmConfig::DaiAttitude(_)) => crate::dai_analysis::analyse(s, dirs),
         _ => Ok(BTreeMap::new()),
     }
 }

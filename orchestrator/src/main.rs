@@ -6,6 +6,9 @@
 
 mod analysis;
 mod bench;
+mod continuous;
+mod dai_analysis;
+mod dai_tables;
 mod progress;
 mod reference;
 mod report;
@@ -103,6 +106,23 @@ enum Cmd {
         #[arg(long, default_value = "bench")]
         out: PathBuf,
     },
+    /// Seed 004's tables: the analogues of the paper's Tables 2 and 4 (continuous-time) and the
+    /// sampled-data study (multi-process at 0.01, 0.1, 1, 10, 100 ms), in Markdown and CSV beside the
+    /// published values, with plots; run from the repository root.
+    DaiTables {
+        /// Output directory (tables, plots, and every run's directory under runs/).
+        #[arg(long, default_value = "runs/dai-tables")]
+        out: PathBuf,
+        /// Directory holding dai.toml and dai-sampled.toml.
+        #[arg(long, default_value = "topologies")]
+        topologies: PathBuf,
+        /// Control periods of the sampled-data study, ms (none: skip the study).
+        #[arg(long, value_delimiter = ',', default_values_t = [0.01, 0.1, 1.0, 10.0, 100.0])]
+        periods_ms: Vec<f64>,
+        /// Run the sampled-data study in-process (bit-identical, faster) instead of multi-process.
+        #[arg(long)]
+        in_process: bool,
+    },
     /// Draw PNG plots of a run directory's telemetry into RUN_DIR/plots/.
     Report {
         /// A run directory written by `launch`.
@@ -186,6 +206,33 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Cmd::DaiTables { out, topologies, periods_ms, in_process } => {
+            if let Err(e) = supervise::install_signal_handlers() {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_FAILED);
+            }
+            if let Some(p) = periods_ms.iter().find(|p| !(p.is_finite() && **p > 0.0)) {
+                eprintln!("error: --periods-ms {p}: periods must be positive");
+                return ExitCode::from(EXIT_INVALID);
+            }
+            let o = dai_tables::Options {
+                out,
+                topologies,
+                periods_s: periods_ms.iter().map(|p| p * 1e-3).collect(),
+                sampled_multi_process: !in_process,
+            };
+            match dai_tables::run_all(&o) {
+                Ok(md) => {
+                    println!("{md}");
+                    println!("written: {}", o.out.join("dai-tables.md").display());
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(EXIT_FAILED)
+                }
+            }
+        }
         Cmd::Report { run_dir } => match report::report(&run_dir) {
             Ok(files) => {
                 for f in files {
@@ -239,9 +286,19 @@ fn run_once(
     show_progress: bool,
 ) -> (supervise::LaunchOutcome, summary::Summary) {
     let run_id = new_run_id();
-    let mode = if reference { "reference" } else { "multi-process" };
+    let continuous = s.dai_continuous().is_some();
+    let mode = if continuous {
+        "continuous"
+    } else if reference {
+        "reference"
+    } else {
+        "multi-process"
+    };
     let progress = progress::Progress::new(s.n_steps(), s.scenario.dt_s, &s.scenario.name, show_progress);
-    let outcome = if reference {
+    let outcome = if continuous {
+        // Seed 004's coupled ODE exists only in-process (see continuous.rs).
+        continuous::launch(s, dirs, &progress)
+    } else if reference {
         reference::launch(s, dirs, run_id, &progress)
     } else {
         supervise::launch(s, dirs, &IoxRun::new(run_id), &progress)
@@ -302,7 +359,13 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         Ok(d) => d,
         Err(code) => return code,
     };
-    let mode = if reference { "reference" } else { "multi-process" };
+    let mode = if s.dai_continuous().is_some() {
+        "continuous: plant and learner integrated as one ODE in this process, no processes spawned"
+    } else if reference {
+        "reference"
+    } else {
+        "multi-process"
+    };
     eprintln!(
         "launching {} ({mode}): {} agents, {} steps of {} s, seed {} → {}",
         file.display(),

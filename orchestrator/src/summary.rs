@@ -47,6 +47,9 @@ pub struct Summary {
     /// Multi-process: from the first spawn to every process ready, s.
     pub startup_s: Option<f64>,
     pub metrics: BTreeMap<String, f64>,
+    /// Non-numeric labels of the run (seed 004: the learning law and the coupling).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub labels: BTreeMap<String, String>,
     pub messages_received: u64,
     pub messages_rejected: BTreeMap<String, u64>,
     pub timeouts: u64,
@@ -128,6 +131,7 @@ pub fn build(s: &Scenario, dirs: &RunDirs, outcome: Outcome) -> Summary {
         steps_per_s: if loop_wall > 0.0 { steps_completed as f64 / loop_wall } else { 0.0 },
         startup_s: outcome.startup_s,
         metrics: plant.map(|p| p.metrics.clone()).unwrap_or_default(),
+        labels: crate::dai_analysis::labels(s),
         messages_received: processes.iter().map(|p| p.messages_received).sum(),
         messages_rejected: rejected,
         timeouts: processes.iter().map(|p| p.timeouts).sum(),

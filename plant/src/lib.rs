@@ -30,6 +30,14 @@ pub fn build(s: &Scenario) -> Box<dyn PlantModel> {
         }
         PlantConfig::Orbital(p) => Box::new(build_servicing(s, p)),
         PlantConfig::Null(p) => Box::new(models::null::NullPlant { readings: p.readings }),
+        PlantConfig::RigidBody(p) => Box::new(models::rigid_body::RigidBodyPlant::new(
+            &p.inertia_kg_m2,
+            p.omega0_body_rad_s,
+            p.q0_inertial_body,
+            s.n_agents() as usize,
+            p.substeps(s.scenario.dt_s),
+            p.gyro_noise_std_rad_s,
+        )),
     }
 }
 

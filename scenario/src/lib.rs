@@ -1,6 +1,7 @@
 //! Cohort's scenario files: the schema ([`schema`]), parsing with key paths ([`parse`]) and the
 //! sanity checks that run before any process starts ([`validate`]).
 
+pub mod dai;
 pub mod error;
 pub mod parse;
 pub mod schema;

@@ -102,6 +102,7 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
         "double-integrator" => section(body, "plant", &mut problems).map(PlantConfig::DoubleIntegrator),
         "orbital" => section(body, "plant", &mut problems).map(PlantConfig::Orbital),
         "null" => section(body, "plant", &mut problems).map(PlantConfig::Null),
+        "rigid-body" => section(body, "plant", &mut problems).map(PlantConfig::RigidBody),
         _ => unreachable!("tagged() only returns known kinds"),
     });
     let algorithm = algorithm.and_then(|(kind, body)| match kind.as_str() {
@@ -109,6 +110,7 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
         "lb-dnn-servicing" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::LbDnnServicing),
         "coast" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::Coast),
         "null" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::Null),
+        "dai-attitude" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::DaiAttitude),
         _ => unreachable!("tagged() only returns known kinds"),
     });
     match (meta, run, plant, algorithm, agents) {

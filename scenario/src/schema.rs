@@ -101,10 +101,13 @@ pub enum PlantConfig {
     /// No dynamics: every agent gets `readings` zeros each step. With the `null` algorithm it
     /// measures what the messaging alone costs (`orchestrator bench`).
     Null(NullPlant),
+    /// Seed 004: each agent's spacecraft is a rigid body (Euler's equations with the true inertia
+    /// and attitude quaternion); the agent senses its body rates and commands a body torque.
+    RigidBody(crate::dai::RigidBodyPlant),
 }
 
 impl PlantConfig {
-    pub const KINDS: &'static [&'static str] = &["double-integrator", "orbital", "null"];
+    pub const KINDS: &'static [&'static str] = &["double-integrator", "orbital", "null", "rigid-body"];
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -195,10 +198,14 @@ pub enum AlgorithmConfig {
     Coast(Coast),
     /// Zero command and `share_values` zeros shared, no computation (`orchestrator bench`).
     Null(NullAlgorithm),
+    /// Seed 004: deterministic-AI attitude-rate control, feedforward (2) with the estimated
+    /// inertia and one of the learning laws original (3), general (6) or specific (10), (13).
+    DaiAttitude(crate::dai::DaiAttitude),
 }
 
 impl AlgorithmConfig {
-    pub const KINDS: &'static [&'static str] = &["consensus-formation", "lb-dnn-servicing", "coast", "null"];
+    pub const KINDS: &'static [&'static str] =
+        &["consensus-formation", "lb-dnn-servicing", "coast", "null", "dai-attitude"];
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -237,6 +237,7 @@ fn plant(c: &mut Checker, s: &Scenario) {
         }
         PlantConfig::Orbital(p) => orbital(c, s, p),
         PlantConfig::Null(_) => {}
+        PlantConfig::RigidBody(p) => c.problems.extend(crate::dai::validate_plant(s, p)),
     }
 }
 
@@ -402,6 +403,7 @@ fn algorithm(c: &mut Checker, s: &Scenario) {
             }
         }
         AlgorithmConfig::Coast(_) | AlgorithmConfig::Null(_) => {}
+        AlgorithmConfig::DaiAttitude(a) => c.problems.extend(crate::dai::validate_algorithm(s, a)),
     }
 }
 
@@ -414,6 +416,7 @@ pub fn message_sizes(s: &Scenario) -> MessageSizes {
             PlantConfig::DoubleIntegrator(_) => 3,
             PlantConfig::Orbital(_) => a.output_matrix.as_ref().map_or(0, |m| m.len()) + 3 * a.neighbours.len(),
             PlantConfig::Null(p) => p.readings,
+            PlantConfig::RigidBody(_) => crate::dai::READINGS,
         })
         .max()
         .unwrap_or(0);
@@ -422,6 +425,7 @@ pub fn message_sizes(s: &Scenario) -> MessageSizes {
         AlgorithmConfig::LbDnnServicing(a) => 3 + a.n_weights(),
         AlgorithmConfig::Coast(_) => 0,
         AlgorithmConfig::Null(a) => a.share_values,
+        AlgorithmConfig::DaiAttitude(_) => 0,
     };
     MessageSizes { readings, command: 3, share_values }
 }

@@ -2,6 +2,7 @@
 
 pub mod coast;
 pub mod consensus_formation;
+pub mod dai_attitude;
 pub mod lbdnn_network;
 pub mod lbdnn_servicing;
 pub mod null;

@@ -3,4 +3,5 @@
 pub mod double_integrator;
 pub mod null;
 pub mod orbit;
+pub mod rigid_body;
 pub mod servicing;

@@ -1,0 +1,375 @@
+//! Seed 004 (deterministic-AI attitude-rate learning): the `rigid-body` plant and the
+//! `dai-attitude` algorithm tables, and their validation.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::Problem;
+use crate::schema::{AlgorithmConfig, PlantConfig, Scenario};
+
+/// Readings per measurement of the rigid-body plant: the body rates ω, rad/s.
+pub const READINGS: usize = 3;
+
+/// Each agent's spacecraft: a rigid body, J ω̇ = τ − ω × Jω, q̇ = ½ q ⊗ (0, ω). Every agent's
+/// spacecraft has the same inertia and initial state (the paper has one spacecraft).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigidBodyPlant {
+    /// True inertia about the centre of mass, body frame, kg·m² (symmetric, positive definite;
+    /// the triangle inequality of a real body is not required, since the paper's J violates it).
+    pub inertia_kg_m2: [[f64; 3]; 3],
+    /// Initial body rates, rad/s.
+    pub omega0_body_rad_s: [f64; 3],
+    /// Initial attitude, scalar first, rotating body-frame vectors into the inertial frame.
+    #[serde(default = "identity_quaternion")]
+    pub q0_inertial_body: [f64; 4],
+    /// Longest RK4 sub-step inside one control period, s: a period of dt_s is split into
+    /// ceil(dt_s / max_step_s) equal sub-steps with the torque held (zero-order hold).
+    #[serde(default = "default_plant_max_step_s")]
+    pub max_step_s: f64,
+    /// Standard deviation of the zero-mean Gaussian noise on each rate reading, rad/s.
+    #[serde(default)]
+    pub gyro_noise_std_rad_s: f64,
+}
+
+fn identity_quaternion() -> [f64; 4] {
+    [1.0, 0.0, 0.0, 0.0]
+}
+fn default_plant_max_step_s() -> f64 {
+    1e-4
+}
+
+impl RigidBodyPlant {
+    /// RK4 sub-steps per control period of `dt_s`.
+    pub fn substeps(&self, dt_s: f64) -> u32 {
+        substeps(dt_s, self.max_step_s)
+    }
+}
+
+/// ceil(dt_s / max_step_s), at least 1 (both validated positive and finite).
+pub fn substeps(dt_s: f64, max_step_s: f64) -> u32 {
+    // The 1e-9 keeps 1e-3 / 1e-4 from becoming 11 through rounding.
+    ((dt_s / max_step_s) * (1.0 - 1e-9)).ceil().max(1.0) as u32
+}
+
+/// The learning law (section numbers of seed 004).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Law {
+    /// (3): θ̂̇ = g Φᴴ(τ − Φθ̂) (Sec. 2.2).
+    Original,
+    /// (6): θ̂̇ = (A + B)ᵀ ϕθ̂ (Sec. 2.3), as in the appendix code.
+    General,
+    /// (10) with (13): θ̂̇ = −Kᵀω′ + R Φᴴ ϕθ̂ (Sec. 2.4).
+    Specific,
+}
+
+impl Law {
+    pub const NAMES: &'static [&'static str] = &["original", "general", "specific"];
+    pub fn name(self) -> &'static str {
+        match self {
+            Law::Original => "original",
+            Law::General => "general",
+            Law::Specific => "specific",
+        }
+    }
+}
+
+/// The trajectory generator (14): I_ref ω̇_d + ω_d × I_ref ω_d = τ_test, τ_test switched off at
+/// `torque_off_s`. The controller receives ω_d and ω̇_d; it never sees τ_test.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DaiReference {
+    /// ω_d(0), rad/s.
+    pub omega_d0_rad_s: [f64; 3],
+    /// The generator's inertia, kg·m² (the paper uses the true inertia).
+    pub inertia_kg_m2: [[f64; 3]; 3],
+    /// τ_test, N·m.
+    pub torque_n_m: [f64; 3],
+    /// τ_test = 0 for t > torque_off_s, s.
+    pub torque_off_s: f64,
+}
+
+/// Settings of the coupled continuous integration (`coupling = "continuous"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DaiContinuous {
+    /// "auto" (Radau IIA 5 for the stiff general law, Dormand–Prince 5(4) otherwise),
+    /// "dopri5" or "radau5".
+    #[serde(default = "default_method")]
+    pub method: String,
+    /// Relative and absolute tolerances (the paper's ode45: 1e-10 both).
+    #[serde(default = "default_tol")]
+    pub rtol: f64,
+    #[serde(default = "default_tol")]
+    pub atol: f64,
+}
+
+fn default_method() -> String {
+    "auto".into()
+}
+fn default_tol() -> f64 {
+    1e-10
+}
+
+impl Default for DaiContinuous {
+    fn default() -> Self {
+        Self { method: default_method(), rtol: default_tol(), atol: default_tol() }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DaiAttitude {
+    /// "original", "general" or "specific".
+    pub law: String,
+    /// G = R = r·I₆ (general and specific laws).
+    #[serde(default = "default_r")]
+    pub r: f64,
+    /// g of the original law θ̂̇ = g Φᴴ(τ − Φθ̂): 1 in (3), 1.5 in the appendix code.
+    #[serde(default = "default_original_gain")]
+    pub original_gain: f64,
+    /// Torque of the specific law: "modified" (8), τ = Îω̇_d + ω_d × Îω, which its Lyapunov
+    /// proof (12) needs; or "feedforward" (2), τ = Îω̇_d + ω_d × Îω_d, as the appendix code.
+    /// The other laws always use (2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specific_torque: Option<String>,
+    /// θ̂(0) = [Ixx, Ixy, Ixz, Iyy, Iyz, Izz], kg·m².
+    pub inertia_estimate0_kg_m2: [f64; 6],
+    /// "sampled" (default): plant and agent exchange messages every dt_s (zero-order hold on the
+    /// torque), multi-process under `launch`. "continuous": plant and learner integrated together
+    /// as one ODE in the orchestrator's process (the paper's ode45 set-up); dt_s is then only the
+    /// output grid.
+    #[serde(default = "default_coupling")]
+    pub coupling: String,
+    /// Longest RK4 sub-step of the agent's own states (ω_d, θ̂) inside one control period, s
+    /// (sampled coupling).
+    #[serde(default = "default_agent_max_step_s")]
+    pub max_step_s: f64,
+    pub reference: DaiReference,
+    /// Integrator settings, continuous coupling only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub continuous: Option<DaiContinuous>,
+}
+
+fn default_r() -> f64 {
+    3.0
+}
+fn default_original_gain() -> f64 {
+    1.0
+}
+fn default_coupling() -> String {
+    "sampled".into()
+}
+fn default_agent_max_step_s() -> f64 {
+    1e-4
+}
+
+impl DaiAttitude {
+    /// The law (validated).
+    pub fn law(&self) -> Law {
+        match self.law.as_str() {
+            "original" => Law::Original,
+            "general" => Law::General,
+            _ => Law::Specific,
+        }
+    }
+    pub fn is_continuous(&self) -> bool {
+        self.coupling == "continuous"
+    }
+    /// Whether the specific law uses the modified torque (8) (the default).
+    pub fn modified_torque(&self) -> bool {
+        self.law() == Law::Specific && self.specific_torque.as_deref().unwrap_or("modified") == "modified"
+    }
+    pub fn continuous_settings(&self) -> DaiContinuous {
+        self.continuous.clone().unwrap_or_default()
+    }
+}
+
+impl Scenario {
+    /// The `dai-attitude` algorithm with `coupling = "continuous"`, if this scenario has it.
+    pub fn dai_continuous(&self) -> Option<&DaiAttitude> {
+        match &self.algorithm {
+            AlgorithmConfig::DaiAttitude(a) if a.is_continuous() => Some(a),
+            _ => None,
+        }
+    }
+}
+
+fn fmt_f64(x: f64) -> String {
+    if x.is_nan() { "nan".into() } else { format!("{x:?}") }
+}
+
+struct Check(Vec<Problem>);
+
+impl Check {
+    fn fail(&mut self, path: impl Into<String>, value: impl ToString, reason: impl Into<String>) {
+        self.0.push(Problem::new(path, Some(value.to_string()), reason));
+    }
+    fn finite(&mut self, path: &str, x: f64) -> bool {
+        if x.is_finite() {
+            true
+        } else {
+            self.fail(path, fmt_f64(x), "must be a finite number");
+            false
+        }
+    }
+    fn positive(&mut self, path: &str, x: f64) -> bool {
+        if !self.finite(path, x) {
+            return false;
+        }
+        if x <= 0.0 {
+            self.fail(path, fmt_f64(x), "must be > 0");
+            return false;
+        }
+        true
+    }
+    fn all_finite(&mut self, path: &str, v: &[f64]) -> bool {
+        let mut ok = true;
+        for (k, x) in v.iter().enumerate() {
+            ok &= self.finite(&format!("{path}[{k}]"), *x);
+        }
+        ok
+    }
+    /// An inertia Euler's equations accept: finite, symmetric, positive definite.
+    fn inertia(&mut self, path: &str, m: &[[f64; 3]; 3]) {
+        let mut ok = true;
+        for (i, row) in m.iter().enumerate() {
+            ok &= self.all_finite(&format!("{path}[{i}]"), row);
+        }
+        if !ok {
+            return;
+        }
+        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+            let (a, b) = (m[i][j], m[j][i]);
+            if (a - b).abs() > 1e-12 * a.abs().max(b.abs()).max(1e-300) {
+                self.fail(
+                    format!("{path}[{i}][{j}]"),
+                    fmt_f64(a),
+                    format!("the inertia must be symmetric, but {path}[{j}][{i}] = {}", fmt_f64(b)),
+                );
+                return;
+            }
+        }
+        let j = nalgebra::Matrix3::from_fn(|r, c| m[r][c]);
+        let mut eig: Vec<f64> = j.symmetric_eigenvalues().iter().copied().collect();
+        eig.sort_by(f64::total_cmp);
+        let shown = format!("principal moments {:.6e}, {:.6e}, {:.6e} kg·m²", eig[0], eig[1], eig[2]);
+        // Positive definite is what Euler's equations need. The triangle inequality of a real body
+        // (largest principal moment ≤ sum of the other two) is deliberately not enforced: the
+        // paper's J (principal moments 0.68, 1.11, 2.21 kg·m²) violates it.
+        if eig[0] <= 0.0 {
+            self.fail(path, format!("{m:?}"), format!("must be positive definite ({shown})"));
+        }
+    }
+}
+
+pub fn validate_plant(s: &Scenario, p: &RigidBodyPlant) -> Vec<Problem> {
+    let mut c = Check(Vec::new());
+    c.inertia("plant.inertia_kg_m2", &p.inertia_kg_m2);
+    c.all_finite("plant.omega0_body_rad_s", &p.omega0_body_rad_s);
+    if c.all_finite("plant.q0_inertial_body", &p.q0_inertial_body) {
+        let n = p.q0_inertial_body.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if (n - 1.0).abs() > 1e-9 {
+            c.fail(
+                "plant.q0_inertial_body",
+                format!("{:?}", p.q0_inertial_body),
+                format!("must be a unit quaternion (norm {n})"),
+            );
+        }
+    }
+    if c.positive("plant.max_step_s", p.max_step_s)
+        && s.scenario.dt_s.is_finite()
+        && s.scenario.dt_s > 0.0
+        && p.substeps(s.scenario.dt_s) > 1_000_000
+    {
+        c.fail("plant.max_step_s", fmt_f64(p.max_step_s), "more than 1e6 sub-steps per scenario.dt_s");
+    }
+    if c.finite("plant.gyro_noise_std_rad_s", p.gyro_noise_std_rad_s) && p.gyro_noise_std_rad_s < 0.0 {
+        c.fail("plant.gyro_noise_std_rad_s", fmt_f64(p.gyro_noise_std_rad_s), "must be ≥ 0");
+    }
+    c.0
+}
+
+pub fn validate_algorithm(s: &Scenario, a: &DaiAttitude) -> Vec<Problem> {
+    let mut c = Check(Vec::new());
+    if !Law::NAMES.contains(&a.law.as_str()) {
+        c.fail("algorithm.law", format!("{:?}", a.law), "must be \"original\", \"general\" or \"specific\"");
+    }
+    c.positive("algorithm.r", a.r);
+    c.positive("algorithm.original_gain", a.original_gain);
+    if let Some(t) = &a.specific_torque {
+        if t != "modified" && t != "feedforward" {
+            c.fail("algorithm.specific_torque", format!("{t:?}"), "must be \"modified\" or \"feedforward\"");
+        } else if a.law != "specific" {
+            c.fail(
+                "algorithm.specific_torque",
+                format!("{t:?}"),
+                format!("only the specific law has a choice of torque (algorithm.law = {:?})", a.law),
+            );
+        }
+    }
+    // Any finite estimate: the controller only multiplies by it (and learning may leave the
+    // positive-definite cone anyway).
+    c.all_finite("algorithm.inertia_estimate0_kg_m2", &a.inertia_estimate0_kg_m2);
+    if a.coupling != "sampled" && a.coupling != "continuous" {
+        c.fail("algorithm.coupling", format!("{:?}", a.coupling), "must be \"sampled\" or \"continuous\"");
+    }
+    c.positive("algorithm.max_step_s", a.max_step_s);
+    let r = &a.reference;
+    c.all_finite("algorithm.reference.omega_d0_rad_s", &r.omega_d0_rad_s);
+    c.inertia("algorithm.reference.inertia_kg_m2", &r.inertia_kg_m2);
+    c.all_finite("algorithm.reference.torque_n_m", &r.torque_n_m);
+    c.finite("algorithm.reference.torque_off_s", r.torque_off_s);
+    if !matches!(s.plant, PlantConfig::RigidBody(_)) {
+        c.fail("algorithm.kind", "\"dai-attitude\"", "needs plant.kind = \"rigid-body\"");
+    }
+    match (&a.continuous, a.is_continuous()) {
+        (Some(_), false) => c.0.push(Problem::new(
+            "algorithm.continuous",
+            None,
+            format!("integrator settings need algorithm.coupling = \"continuous\" (it is {:?})", a.coupling),
+        )),
+        (Some(k), true) => {
+            if !["auto", "dopri5", "radau5"].contains(&k.method.as_str()) {
+                c.fail(
+                    "algorithm.continuous.method",
+                    format!("{:?}", k.method),
+                    "must be \"auto\", \"dopri5\" or \"radau5\"",
+                );
+            }
+            for (key, tol) in [("rtol", k.rtol), ("atol", k.atol)] {
+                let path = format!("algorithm.continuous.{key}");
+                if c.positive(&path, tol) && !(1e-14..=1e-2).contains(&tol) {
+                    c.fail(path, fmt_f64(tol), "must be in [1e-14, 1e-2]");
+                }
+            }
+        }
+        _ => {}
+    }
+    if a.is_continuous() {
+        // The coupled ODE has one body, exact rates and no sensor model.
+        if s.agents.len() != 1 {
+            c.fail(
+                "agents",
+                format!("{} entries", s.agents.len()),
+                "algorithm.coupling = \"continuous\" integrates one spacecraft with its learner: exactly one agent",
+            );
+        }
+        if let PlantConfig::RigidBody(p) = &s.plant
+            && p.gyro_noise_std_rad_s != 0.0
+        {
+            c.fail(
+                "plant.gyro_noise_std_rad_s",
+                fmt_f64(p.gyro_noise_std_rad_s),
+                "must be 0 with algorithm.coupling = \"continuous\" (the coupled ODE has no sensor model)",
+            );
+        }
+        if s.run.link_delay_steps != 0 {
+            c.fail(
+                "run.link_delay_steps",
+                s.run.link_delay_steps,
+                "must be 0 with algorithm.coupling = \"continuous\"",
+            );
+        }
+    }
+    c.0
+}
