@@ -14,13 +14,13 @@ use cohort_scenario::{AlgorithmConfig, PlantConfig, Scenario};
 pub const ZETA_WINDOW_START_S: f64 = 150.0;
 
 /// Selected columns of a telemetry CSV, by name.
-struct Columns {
-    names: Vec<String>,
-    data: Vec<Vec<f64>>,
+pub struct Table {
+    pub names: Vec<String>,
+    pub data: Vec<Vec<f64>>,
 }
 
-impl Columns {
-    fn read(path: &Path, wanted: &[String]) -> Result<Self, String> {
+impl Table {
+    pub fn read(path: &Path, wanted: &[String]) -> Result<Self, String> {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let mut lines = text.lines();
         let header: Vec<&str> =
@@ -42,9 +42,12 @@ impl Columns {
         }
         Ok(Self { names: wanted.to_vec(), data })
     }
-    fn col(&self, name: &str) -> &[f64] {
+    pub fn col(&self, name: &str) -> &[f64] {
         let i = self.names.iter().position(|n| n == name).expect("asked for at read time");
         &self.data[i]
+    }
+    pub fn rows(&self) -> usize {
+        self.data.first().map_or(0, Vec::len)
     }
 }
 
@@ -70,13 +73,13 @@ fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, Stri
             want_plant.push(format!("a{i}_u_{ax}_mps2"));
         }
     }
-    let plant = Columns::read(&dirs.telemetry().join("plant.csv"), &want_plant)?;
+    let plant = Table::read(&dirs.telemetry().join("plant.csv"), &want_plant)?;
     let want_agent: Vec<String> = ["k", "zeta_hat_x_mps", "zeta_hat_y_mps", "zeta_hat_z_mps", "theta_norm"]
         .iter()
         .map(|x| x.to_string())
         .collect();
-    let agents: Vec<Columns> = (1..=n)
-        .map(|i| Columns::read(&dirs.telemetry().join(format!("agent-{i}.csv")), &want_agent))
+    let agents: Vec<Table> = (1..=n)
+        .map(|i| Table::read(&dirs.telemetry().join(format!("agent-{i}.csv")), &want_agent))
         .collect::<Result<_, _>>()?;
     // A failed run may have stopped the processes at different steps: use the common prefix.
     let rows = agents.iter().map(|a| a.col("k").len()).chain(std::iter::once(plant.col("k").len())).min().unwrap_or(0);

@@ -21,43 +21,7 @@ use std::collections::BTreeMap;
 use cohort_runtime::record::{CsvWriter, RunDirs};
 use cohort_scenario::{AlgorithmConfig, PlantConfig, Scenario};
 
-/// Selected columns of a CSV.
-pub struct Table {
-    pub names: Vec<String>,
-    pub data: Vec<Vec<f64>>,
-}
-
-impl Table {
-    pub fn read(path: &std::path::Path, wanted: &[String]) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let mut lines = text.lines();
-        let header: Vec<&str> =
-            lines.next().ok_or_else(|| format!("{}: empty file", path.display()))?.split(',').collect();
-        let idx: Vec<usize> = wanted
-            .iter()
-            .map(|w| header.iter().position(|h| h == w).ok_or_else(|| format!("{}: no column {w:?}", path.display())))
-            .collect::<Result<_, _>>()?;
-        let mut data = vec![Vec::new(); wanted.len()];
-        for (ln, line) in lines.enumerate() {
-            let fields: Vec<&str> = line.split(',').collect();
-            for (c, &i) in idx.iter().enumerate() {
-                let v = fields
-                    .get(i)
-                    .and_then(|f| f.parse::<f64>().ok())
-                    .ok_or_else(|| format!("{}:{}: column {}: not a number", path.display(), ln + 2, wanted[c]))?;
-                data[c].push(v);
-            }
-        }
-        Ok(Self { names: wanted.to_vec(), data })
-    }
-    pub fn col(&self, name: &str) -> &[f64] {
-        let i = self.names.iter().position(|n| n == name).expect("asked for at read time");
-        &self.data[i]
-    }
-    pub fn rows(&self) -> usize {
-        self.data.first().map_or(0, Vec::len)
-    }
-}
+pub use crate::analysis::Table;
 
 fn strings(xs: &[&str]) -> Vec<String> {
     xs.iter().map(|x| x.to_string()).collect()
