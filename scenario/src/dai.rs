@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::Problem;
 use crate::schema::{AlgorithmConfig, PlantConfig, Scenario};
+use crate::validate::{Checker, fmt_f64};
 
 /// Readings per measurement of the rigid-body plant: the body rates ω, rad/s.
 pub const READINGS: usize = 3;
@@ -194,41 +195,8 @@ impl Scenario {
     }
 }
 
-fn fmt_f64(x: f64) -> String {
-    if x.is_nan() { "nan".into() } else { format!("{x:?}") }
-}
-
-struct Check(Vec<Problem>);
-
-impl Check {
-    fn fail(&mut self, path: impl Into<String>, value: impl ToString, reason: impl Into<String>) {
-        self.0.push(Problem::new(path, Some(value.to_string()), reason));
-    }
-    fn finite(&mut self, path: &str, x: f64) -> bool {
-        if x.is_finite() {
-            true
-        } else {
-            self.fail(path, fmt_f64(x), "must be a finite number");
-            false
-        }
-    }
-    fn positive(&mut self, path: &str, x: f64) -> bool {
-        if !self.finite(path, x) {
-            return false;
-        }
-        if x <= 0.0 {
-            self.fail(path, fmt_f64(x), "must be > 0");
-            return false;
-        }
-        true
-    }
-    fn all_finite(&mut self, path: &str, v: &[f64]) -> bool {
-        let mut ok = true;
-        for (k, x) in v.iter().enumerate() {
-            ok &= self.finite(&format!("{path}[{k}]"), *x);
-        }
-        ok
-    }
+/// The seed-004 check the shared checker does not have.
+impl Checker {
     /// An inertia Euler's equations accept: finite, symmetric, positive definite.
     fn inertia(&mut self, path: &str, m: &[[f64; 3]; 3]) {
         let mut ok = true;
@@ -263,7 +231,7 @@ impl Check {
 }
 
 pub fn validate_plant(s: &Scenario, p: &RigidBodyPlant) -> Vec<Problem> {
-    let mut c = Check(Vec::new());
+    let mut c = Checker::new();
     c.inertia("plant.inertia_kg_m2", &p.inertia_kg_m2);
     c.all_finite("plant.omega0_body_rad_s", &p.omega0_body_rad_s);
     if c.all_finite("plant.q0_inertial_body", &p.q0_inertial_body) {
@@ -286,11 +254,11 @@ pub fn validate_plant(s: &Scenario, p: &RigidBodyPlant) -> Vec<Problem> {
     if c.finite("plant.gyro_noise_std_rad_s", p.gyro_noise_std_rad_s) && p.gyro_noise_std_rad_s < 0.0 {
         c.fail("plant.gyro_noise_std_rad_s", fmt_f64(p.gyro_noise_std_rad_s), "must be ≥ 0");
     }
-    c.0
+    c.problems
 }
 
 pub fn validate_algorithm(s: &Scenario, a: &DaiAttitude) -> Vec<Problem> {
-    let mut c = Check(Vec::new());
+    let mut c = Checker::new();
     if !Law::NAMES.contains(&a.law.as_str()) {
         c.fail("algorithm.law", format!("{:?}", a.law), "must be \"original\", \"general\" or \"specific\"");
     }
@@ -323,7 +291,7 @@ pub fn validate_algorithm(s: &Scenario, a: &DaiAttitude) -> Vec<Problem> {
         c.fail("algorithm.kind", "\"dai-attitude\"", "needs plant.kind = \"rigid-body\"");
     }
     match (&a.continuous, a.is_continuous()) {
-        (Some(_), false) => c.0.push(Problem::new(
+        (Some(_), false) => c.problems.push(Problem::new(
             "algorithm.continuous",
             None,
             format!("integrator settings need algorithm.coupling = \"continuous\" (it is {:?})", a.coupling),
@@ -371,5 +339,5 @@ pub fn validate_algorithm(s: &Scenario, a: &DaiAttitude) -> Vec<Problem> {
             );
         }
     }
-    c.0
+    c.problems
 }

@@ -9,15 +9,20 @@ use crate::schema::*;
 /// Longest run we accept, in steps (keeps telemetry and counters sane).
 const MAX_STEPS: u64 = 1_000_000_000;
 
-struct Checker {
-    problems: Vec<Problem>,
+/// Collects problems; every check records its own (path, value, reason) and returns whether it
+/// passed, so callers can skip checks that depend on it.
+pub(crate) struct Checker {
+    pub(crate) problems: Vec<Problem>,
 }
 
 impl Checker {
-    fn fail(&mut self, path: impl Into<String>, value: impl ToString, reason: impl Into<String>) {
+    pub(crate) fn new() -> Self {
+        Self { problems: Vec::new() }
+    }
+    pub(crate) fn fail(&mut self, path: impl Into<String>, value: impl ToString, reason: impl Into<String>) {
         self.problems.push(Problem::new(path, Some(value.to_string()), reason));
     }
-    fn finite(&mut self, path: &str, x: f64) -> bool {
+    pub(crate) fn finite(&mut self, path: &str, x: f64) -> bool {
         if x.is_finite() {
             true
         } else {
@@ -25,29 +30,39 @@ impl Checker {
             false
         }
     }
-    fn positive(&mut self, path: &str, x: f64) {
-        if self.finite(path, x) && x <= 0.0 {
-            self.fail(path, fmt_f64(x), "must be > 0");
+    pub(crate) fn positive(&mut self, path: &str, x: f64) -> bool {
+        if !self.finite(path, x) {
+            return false;
         }
+        if x <= 0.0 {
+            self.fail(path, fmt_f64(x), "must be > 0");
+            return false;
+        }
+        true
     }
-    fn non_negative(&mut self, path: &str, x: f64) {
+    pub(crate) fn non_negative(&mut self, path: &str, x: f64) {
         if self.finite(path, x) && x < 0.0 {
             self.fail(path, fmt_f64(x), "must be ≥ 0");
         }
     }
-    fn vec3(&mut self, path: &str, v: &[f64; 3]) {
+    pub(crate) fn all_finite(&mut self, path: &str, v: &[f64]) -> bool {
+        let mut ok = true;
         for (k, x) in v.iter().enumerate() {
-            self.finite(&format!("{path}[{k}]"), *x);
+            ok &= self.finite(&format!("{path}[{k}]"), *x);
         }
+        ok
+    }
+    pub(crate) fn vec3(&mut self, path: &str, v: &[f64; 3]) {
+        self.all_finite(path, v);
     }
 }
 
-fn fmt_f64(x: f64) -> String {
+pub(crate) fn fmt_f64(x: f64) -> String {
     if x.is_nan() { "nan".into() } else { format!("{x:?}") }
 }
 
 pub fn validate(s: &Scenario) -> Vec<Problem> {
-    let mut c = Checker { problems: Vec::new() };
+    let mut c = Checker::new();
     meta(&mut c, &s.scenario);
     run(&mut c, &s.run);
     let ids_ok = agents(&mut c, &s.agents);
