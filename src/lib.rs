@@ -114,3 +114,17 @@ pub fn describe_output(o: &std::process::Output) -> String {
         String::from_utf8_lossy(&o.stderr)
     )
 }
+
+/// `orchestrator launch FILE --out OUT --no-plots EXTRA...` from the repository root (`file` may
+/// be relative to it), waited for.
+pub fn launch_scenario(file: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> std::process::Output {
+    orchestrator_command()
+        .arg("launch")
+        .arg(file)
+        .arg("--out")
+        .arg(out)
+        .arg("--no-plots")
+        .args(extra)
+        .output()
+        .expect("running the orchestrator")
+}

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::sync::Mutex;
 
-use cohort::{describe_output, orchestrator_command, repo_root, scratch_dir};
+use cohort::{describe_output, launch_scenario, repo_root, scratch_dir};
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
@@ -20,15 +20,7 @@ fn topology(name: &str) -> PathBuf {
 }
 
 fn launch(file: &Path, out: &Path, extra: &[&str]) -> Output {
-    orchestrator_command()
-        .arg("launch")
-        .arg(file)
-        .arg("--out")
-        .arg(out)
-        .arg("--no-plots")
-        .args(extra)
-        .output()
-        .expect("running the orchestrator")
+    launch_scenario(file, out, extra)
 }
 
 fn summary(run_dir: &Path) -> serde_json::Value {

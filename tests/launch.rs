@@ -11,8 +11,8 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use cohort::{
-    bin_path, describe_output, iceoryx2_leftovers, orchestrator_command, processes_mentioning, repo_root, scratch_dir,
-    telemetry_bits,
+    bin_path, describe_output, iceoryx2_leftovers, launch_scenario, orchestrator_command, processes_mentioning,
+    repo_root, scratch_dir, telemetry_bits,
 };
 
 static HEAVY: Mutex<()> = Mutex::new(());
@@ -30,15 +30,7 @@ fn ring() -> PathBuf {
 }
 
 fn launch(out: &Path, extra: &[&str]) -> Output {
-    orchestrator()
-        .arg("launch")
-        .arg(ring())
-        .arg("--out")
-        .arg(out)
-        .arg("--no-plots")
-        .args(extra)
-        .output()
-        .expect("running the orchestrator")
+    launch_scenario(&ring(), out, extra)
 }
 
 fn summary(run_dir: &Path) -> serde_json::Value {

@@ -7,7 +7,7 @@ use std::process::Output;
 use std::sync::Mutex;
 use std::time::Instant;
 
-use cohort::{orchestrator_command, scratch_dir};
+use cohort::{launch_scenario, orchestrator_command, scratch_dir};
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
@@ -16,10 +16,7 @@ fn orchestrator(args: &[&str]) -> Output {
 }
 
 fn launch(out: &Path, extra: &[&str]) -> Output {
-    let out = out.to_str().unwrap();
-    let mut args = vec!["launch", "topologies/consensus-ring.toml", "--no-plots", "--out", out];
-    args.extend_from_slice(extra);
-    let o = orchestrator(&args);
+    let o = launch_scenario(Path::new("topologies/consensus-ring.toml"), out, extra);
     assert!(
         o.status.success(),
         "launch {extra:?} failed:\n{}\n{}",

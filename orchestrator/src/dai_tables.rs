@@ -9,16 +9,13 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 use cohort_scenario::{AlgorithmConfig, Overrides, Scenario};
 use plotters::prelude::*;
-use plotters::style::register_font;
 
 use crate::dai_analysis::Table;
 
-static FONT_BYTES: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
-const FONT: &str = "sans-serif";
+use crate::report::{FONT_FAMILY as FONT, series_color};
 
 /// Published values (seed 004; reference.md section 004).
 /// Table 2 (Sec. 3.1): original, general, specific.
@@ -430,26 +427,10 @@ pub fn run_all(o: &Options) -> Result<String, String> {
 }
 
 fn ensure_font() -> Result<(), String> {
-    static OK: OnceLock<bool> = OnceLock::new();
-    if *OK.get_or_init(|| register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok()) {
-        Ok(())
-    } else {
-        Err("cannot register the embedded plot font (assets/DejaVuSans.ttf)".into())
-    }
+    crate::report::ensure_font().map_err(|e| e.to_string())
 }
 
 type Series = (String, Vec<(f64, f64)>, RGBColor, bool);
-
-const COLORS: [RGBColor; 8] = [
-    RGBColor(0, 114, 178),
-    RGBColor(213, 94, 0),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-    RGBColor(230, 159, 0),
-    RGBColor(86, 180, 233),
-    RGBColor(0, 0, 0),
-    RGBColor(120, 120, 120),
-];
 
 fn line_plot(path: &Path, caption: &str, y_label: &str, log_y: bool, series: &[Series]) -> Result<(), String> {
     let pts = series.iter().flat_map(|s| s.1.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
@@ -535,7 +516,12 @@ fn draw_plots(out: &Path, t2: &[Run], t4: &[Run], sampled: &[Run]) -> Result<Vec
     let mut written = Vec::new();
     let mut series = Vec::new();
     for (i, run) in t2.iter().enumerate() {
-        series.push((run.label.clone(), series_of(run, "derived/dai.csv", "a1_e_norm_rad_s")?, COLORS[i], false));
+        series.push((
+            run.label.clone(),
+            series_of(run, "derived/dai.csv", "a1_e_norm_rad_s")?,
+            series_color(None, i),
+            false,
+        ));
     }
     let p = dir.join("tracking_error_laws.png");
     line_plot(&p, "Tracking error ‖ω − ω_d‖, continuous-time, three laws", "‖e‖ (rad/s)", true, &series)?;
@@ -543,7 +529,7 @@ fn draw_plots(out: &Path, t2: &[Run], t4: &[Run], sampled: &[Run]) -> Result<Vec
     let mut series = Vec::new();
     for (i, run) in t4.iter().enumerate() {
         let name = if i == 0 { "original".to_string() } else { format!("specific, r = {}", run.r) };
-        series.push((name, series_of(run, "derived/dai.csv", "a1_e_norm_rad_s")?, COLORS[i], false));
+        series.push((name, series_of(run, "derived/dai.csv", "a1_e_norm_rad_s")?, series_color(None, i), false));
     }
     let p = dir.join("tracking_error_r_sweep.png");
     line_plot(&p, "Tracking error ‖ω − ω_d‖, continuous-time, r sweep (Table 4)", "‖e‖ (rad/s)", true, &series)?;
@@ -551,7 +537,7 @@ fn draw_plots(out: &Path, t2: &[Run], t4: &[Run], sampled: &[Run]) -> Result<Vec
     let mut series = Vec::new();
     for (i, run) in t4.iter().enumerate() {
         let name = if i == 0 { "original".to_string() } else { format!("specific, r = {}", run.r) };
-        series.push((name, series_of(run, "derived/dai.csv", "a1_param_error_ratio")?, COLORS[i], false));
+        series.push((name, series_of(run, "derived/dai.csv", "a1_param_error_ratio")?, series_color(None, i), false));
     }
     let p = dir.join("parameter_error_r_sweep.png");
     line_plot(&p, "Parameter error ‖θ̂ − θ‖/‖θ‖, continuous-time, r sweep", "ratio", false, &series)?;
@@ -568,8 +554,8 @@ fn draw_plots(out: &Path, t2: &[Run], t4: &[Run], sampled: &[Run]) -> Result<Vec
         for (c, e) in elems.iter().enumerate() {
             let data = series_of(run, "telemetry/agent-1.csv", &format!("theta_hat_{e}_kg_m2"))?;
             let (t0, t1) = (data.first().map_or(0.0, |p| p.0), data.last().map_or(0.0, |p| p.0));
-            series.push((format!("I_{e} estimate"), data, COLORS[c], false));
-            series.push((format!("I_{e} true"), vec![(t0, tv[c]), (t1, tv[c])], COLORS[c], true));
+            series.push((format!("I_{e} estimate"), data, series_color(None, c), false));
+            series.push((format!("I_{e} true"), vec![(t0, tv[c]), (t1, tv[c])], series_color(None, c), true));
         }
         let p = dir.join(format!("inertia_estimates_{}.png", run.law));
         line_plot(&p, &format!("Inertia estimates θ̂, {} law, continuous-time", run.law), "kg·m²", false, &series)?;
@@ -583,11 +569,16 @@ fn draw_plots(out: &Path, t2: &[Run], t4: &[Run], sampled: &[Run]) -> Result<Vec
         let mut series = Vec::new();
         for (i, run) in runs.iter().enumerate() {
             let name = format!("{} ms", run.period_s.unwrap_or(f64::NAN) * 1e3);
-            series.push((name, series_of(run, "derived/dai.csv", "a1_e_norm_rad_s")?, COLORS[i], false));
+            series.push((name, series_of(run, "derived/dai.csv", "a1_e_norm_rad_s")?, series_color(None, i), false));
         }
         let cont = t2.iter().find(|r| r.law == law);
         if let Some(c) = cont {
-            series.push(("continuous".into(), series_of(c, "derived/dai.csv", "a1_e_norm_rad_s")?, COLORS[6], true));
+            series.push((
+                "continuous".into(),
+                series_of(c, "derived/dai.csv", "a1_e_norm_rad_s")?,
+                series_color(None, 6),
+                true,
+            ));
         }
         let p = dir.join(format!("sampled_tracking_error_{law}.png"));
         line_plot(

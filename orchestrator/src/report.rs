@@ -55,7 +55,7 @@ const MARGIN: u32 = 20;
 const X_LABEL_AREA: u32 = 60;
 const Y_LABEL_AREA: u32 = 110;
 const CAPTION_SIZE: u32 = 26;
-const FONT_FAMILY: &str = "sans-serif";
+pub(crate) const FONT_FAMILY: &str = "sans-serif";
 /// Embedded because the `ab_glyph` font backend has no system font lookup. The path is relative
 /// to this file: `<workspace>/assets/DejaVuSans.ttf`.
 static FONT_BYTES: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
@@ -635,7 +635,7 @@ fn unique_stem(stem: &str, used: &mut HashSet<String>) -> String {
 }
 
 /// Agent `id` always gets the same colour, so agents match across figures.
-fn series_color(owner: Option<u32>, index: usize) -> RGBColor {
+pub(crate) fn series_color(owner: Option<u32>, index: usize) -> RGBColor {
     const TABLEAU: [RGBColor; 10] = [
         RGBColor(31, 119, 180),
         RGBColor(255, 127, 14),
@@ -751,7 +751,8 @@ fn finite_runs(points: &[(f64, f64)]) -> impl Iterator<Item = &[(f64, f64)]> {
 
 type DrawResult = Result<(), Box<dyn Error + Send + Sync>>;
 
-fn ensure_font() -> Result<(), ReportError> {
+/// Register the embedded font once per process (every figure of the orchestrator uses it).
+pub(crate) fn ensure_font() -> Result<(), ReportError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| register_font(FONT_FAMILY, FontStyle::Normal, FONT_BYTES).is_ok());
     if ok { Ok(()) } else { Err(ReportError::Font) }
@@ -884,13 +885,8 @@ where
     Ok(())
 }
 
-/// The legend box, upper right.
-fn draw_legend<'a, 'b: 'a, Y>(
-    chart: &mut ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, Y>>,
-) -> DrawResult
-where
-    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
-{
+/// The legend box, upper right (any chart: time series, trajectories, 3-D).
+fn draw_legend<'a, 'b: 'a, CT: CoordTranslate>(chart: &mut ChartContext<'a, BitMapBackend<'b>, CT>) -> DrawResult {
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperRight)
@@ -967,13 +963,7 @@ fn draw_xy_figure(path: &Path, fig: &XyFigure) -> DrawResult {
             chart.draw_series(std::iter::once(Cross::new(end, 7, color.stroke_width(3))))?;
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FONT_FAMILY, 16))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
+    draw_legend(&mut chart)?;
     root.present()?;
     Ok(())
 }

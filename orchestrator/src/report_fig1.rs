@@ -575,13 +575,7 @@ fn draw_trajectories(path: &Path, fig: &TrajectoryFigure) -> DrawResult {
         .draw_series(std::iter::empty::<Circle<(f64, f64, f64), i32>>())?
         .label(format!("end (t = {} s)", format_tick(&TRAJECTORY_WINDOW_S)))
         .legend(move |(x, y)| Cross::new((x + 12, y), 6, grey.stroke_width(3)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FONT_FAMILY, 16))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
+    draw_legend(&mut chart)?;
     root.present()?;
     Ok(())
 }
