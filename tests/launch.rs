@@ -160,15 +160,14 @@ fn two_concurrent_launches_both_succeed_and_match() {
 }
 
 /// Start a long multi-process run and wait until its plant is stepping.
-fn start_long_run(out: &Path, step_timeout_s: &str) -> Child {
+fn start_long_run(out: &Path, step_timeout_s: &str, on_loss: &str, duration_s: &str) -> Child {
     let child = orchestrator()
         .arg("launch")
         .arg(ring())
         .arg("--out")
         .arg(out)
         .arg("--no-plots")
-        // Long enough that the faults below land mid-run on any machine.
-        .args(["--duration", "3000", "--step-timeout", step_timeout_s])
+        .args(["--duration", duration_s, "--step-timeout", step_timeout_s, "--on-agent-loss", on_loss])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -194,12 +193,13 @@ fn pid_of(out: &Path, what: &str) -> u32 {
 }
 
 #[test]
-fn sigkill_of_an_agent_ends_the_run_cleanly_naming_it_and_the_step() {
+fn in_abort_mode_sigkill_of_an_agent_ends_the_run_cleanly_naming_it_and_the_step() {
     let _g = heavy();
     let dir = scratch_dir("sigkill");
     let out = dir.join("run");
     let step_timeout_s = 10.0;
-    let child = start_long_run(&out, "10");
+    // Abort mode: an agent's death ends the run. Long enough that the kill lands mid-run.
+    let child = start_long_run(&out, "10", "abort", "3000");
     // Every process is visible under its own name, with its id in its arguments.
     let agent3 = pid_of(&out, "agent --id 3 ");
     let _plant = pid_of(&out, "plant --run-dir");
@@ -231,7 +231,7 @@ fn sigint_to_the_orchestrator_stops_everything_with_130() {
     let _g = heavy();
     let dir = scratch_dir("sigint");
     let out = dir.join("run");
-    let child = start_long_run(&out, "10");
+    let child = start_long_run(&out, "10", "abort", "3000");
     // SAFETY: kill(2) on our own child.
     assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
     let sent = Instant::now();
@@ -278,12 +278,12 @@ fn a_missing_child_binary_is_refused_with_a_clear_message() {
 }
 
 #[test]
-fn a_frozen_agent_ends_the_run_at_the_step_timeout_naming_it() {
+fn in_abort_mode_a_frozen_agent_ends_the_run_at_the_step_timeout_naming_it() {
     let _g = heavy();
     let dir = scratch_dir("freeze");
     let out = dir.join("run");
     let step_timeout_s = 2.0;
-    let child = start_long_run(&out, "2");
+    let child = start_long_run(&out, "2", "abort", "3000");
     let agent5 = pid_of(&out, "agent --id 5 ");
     // SAFETY: kill(2) on a pid read from /proc just now.
     assert_eq!(unsafe { libc::kill(agent5 as i32, libc::SIGSTOP) }, 0);
@@ -307,7 +307,7 @@ fn a_killed_orchestrator_leaves_no_orphan_and_the_next_launch_sweeps_its_resourc
     let _g = heavy();
     let dir = scratch_dir("orchkill");
     let out = dir.join("run");
-    let mut child = start_long_run(&out, "10");
+    let mut child = start_long_run(&out, "10", "degrade", "3000");
     let plant = processes_mentioning(&out.display().to_string())
         .into_iter()
         .find(|(_, c)| c.contains("plant --run-dir"))
@@ -377,5 +377,56 @@ fn thirty_agents_run_multi_process_past_the_default_service_limits() {
         assert!(a == b, "{f} differs");
     }
     assert_clean(&mp, &run_id(&mp));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn in_degrade_mode_an_unplanned_sigkill_is_survived_named_and_fails_the_exit_code() {
+    let _g = heavy();
+    let dir = scratch_dir("degrade-kill");
+    let out = dir.join("run");
+    let child = start_long_run(&out, "10", "degrade", "600");
+    let agent3 = pid_of(&out, "agent --id 3 ");
+    // SAFETY: kill(2) on a pid read from /proc just now.
+    assert_eq!(unsafe { libc::kill(agent3 as i32, libc::SIGKILL) }, 0);
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "an unplanned loss must fail the exit code:\n{}", describe_output(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("agent-3") && err.contains("SIGKILL"), "{err}");
+    assert!(err.contains("went on without it"), "{err}");
+    let s = summary(&out);
+    assert_eq!(s["status"], "degraded");
+    // The run went on to the end: every survivor finished every step.
+    assert_eq!(s["steps_completed"], 60_000);
+    for p in s["processes"].as_array().unwrap() {
+        if p["process"] != "agent-3" {
+            assert_eq!(p["steps_completed"], 60_000, "{p}");
+        }
+    }
+    let tl = s["timeline"].as_array().expect("a timeline");
+    let died = tl.iter().find(|e| e["event"] == "died" && e["agent"] == 3).expect("the death is on the timeline");
+    let dead = tl.iter().find(|e| e["event"] == "dead" && e["agent"] == 3).expect("the roster change too");
+    // The orchestrator reaped it and told the plant: marked dead well within the step timeout.
+    let lag = dead["wall_s"].as_f64().unwrap() - died["wall_s"].as_f64().unwrap();
+    assert!(lag < 10.0, "detected {lag} s after the death");
+    assert_clean(&out, &run_id(&out));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn killing_the_plant_ends_the_run_cleanly_naming_it() {
+    let _g = heavy();
+    let dir = scratch_dir("plant-kill");
+    let out = dir.join("run");
+    let child = start_long_run(&out, "5", "degrade", "3000");
+    let plant = pid_of(&out, "plant --run-dir");
+    // SAFETY: kill(2) on a pid read from /proc just now.
+    assert_eq!(unsafe { libc::kill(plant as i32, libc::SIGKILL) }, 0);
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("plant") && err.contains("SIGKILL"), "the plant (the clock) must be named:\n{err}");
+    assert_eq!(summary(&out)["status"], "failed");
+    assert_clean(&out, &run_id(&out));
     let _ = std::fs::remove_dir_all(&dir);
 }

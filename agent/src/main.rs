@@ -4,7 +4,9 @@
 use std::process::ExitCode;
 
 use clap::Parser;
+use cohort_runtime::checkpoint::{AgentState, Checkpoint, path_for};
 use cohort_runtime::process::{CommonArgs, child_main};
+use cohort_runtime::record::ProcessReport;
 use cohort_wire::transport::Proc;
 
 /// Cohort agent process (launched by `orchestrator launch`, not by hand).
@@ -14,16 +16,62 @@ struct Args {
     /// This agent's id (1..=N, as in the scenario).
     #[arg(long)]
     id: u32,
+    /// Relaunched by a `restart` fault: resume from the agent's latest checkpoint in the run
+    /// directory (refused if it is damaged, of another version, agent or algorithm).
+    #[arg(long)]
+    restore: bool,
     #[command(flatten)]
     common: CommonArgs,
 }
 
 fn main() -> ExitCode {
     let a = Args::parse();
-    let id = a.id;
+    let (id, restore) = (a.id, a.restore);
     child_main(a.common.into_spec(Proc::Agent(id)), |scenario, transport, params| {
         let mut algo = agent::build(scenario, id);
         let neighbours = scenario.agent(id).neighbours.clone();
-        cohort_runtime::drive::run_agent(transport, algo.as_mut(), id, &neighbours, params)
+        let checkpoint = if restore {
+            match load(&params.dirs.root, id, &params.algorithm_kind, algo.as_mut()) {
+                Ok(c) => Some(c),
+                Err(e) => return failed(id, e),
+            }
+        } else {
+            None
+        };
+        cohort_runtime::drive::run_agent(transport, algo.as_mut(), id, &neighbours, params, checkpoint.as_ref())
     })
+}
+
+/// Load and check the latest checkpoint, restore it, and leave evidence of both for the tests
+/// and the curious: the file as read (`agent-<id>.loaded.ckpt`) and the state as restored,
+/// encoded again from the live algorithm (`agent-<id>.restored.ckpt`).
+fn load(
+    run_dir: &std::path::Path,
+    id: u32,
+    kind: &str,
+    algo: &mut dyn cohort_runtime::model::Algorithm,
+) -> Result<Checkpoint, String> {
+    let path = path_for(run_dir, id);
+    let c = Checkpoint::read(&path, id, kind).map_err(|e| format!("cannot restore: {e}"))?;
+    algo.restore_state(&c.state.algorithm)
+        .map_err(|e| format!("cannot restore: checkpoint {}: algorithm state: {e}", path.display()))?;
+    let dir = path.parent().expect("checkpoints live in a directory");
+    let loaded = dir.join(format!("agent-{id}.loaded.ckpt"));
+    std::fs::copy(&path, &loaded).map_err(|e| format!("{}: {e}", loaded.display()))?;
+    let again =
+        Checkpoint { state: AgentState { algorithm: algo.save_state(), held: c.state.held.clone() }, ..c.clone() };
+    again.write(&dir.join(format!("agent-{id}.restored.ckpt"))).map_err(|e| format!("{}: {e}", dir.display()))?;
+    eprintln!("agent-{id}: restored from checkpoint step {} ({})", c.step, path.display());
+    Ok(c)
+}
+
+fn failed(id: u32, e: String) -> ProcessReport {
+    let mut r: ProcessReport = serde_json::from_value(serde_json::json!({
+        "process": Proc::Agent(id).name(), "pid": std::process::id(), "steps_completed": 0, "wall_s": 0.0,
+        "messages_received": 0, "messages_rejected": {}, "timeouts": 0, "startup_s": 0.0, "metrics": {},
+        "error": null
+    }))
+    .expect("a valid report");
+    r.error = Some(e);
+    r
 }

@@ -81,13 +81,11 @@ fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, Stri
     let agents: Vec<Table> = (1..=n)
         .map(|i| Table::read(&dirs.telemetry().join(format!("agent-{i}.csv")), &want_agent))
         .collect::<Result<_, _>>()?;
-    // A failed run may have stopped the processes at different steps: use the common prefix.
-    let rows = agents.iter().map(|a| a.col("k").len()).chain(std::iter::once(plant.col("k").len())).min().unwrap_or(0);
-    for (i, a) in agents.iter().enumerate() {
-        if a.col("k")[..rows] != plant.col("k")[..rows] {
-            return Err(format!("telemetry/agent-{}.csv: steps do not line up with telemetry/plant.csv", i + 1));
-        }
-    }
+    // Rows are joined by step: an agent that was dead for a while (a fault) has no rows then,
+    // and its estimator columns are NaN there (the truth columns come from the plant).
+    let rows = plant.col("k").len();
+    let row_of: Vec<std::collections::HashMap<u64, usize>> =
+        agents.iter().map(|a| a.col("k").iter().enumerate().map(|(r, k)| (*k as u64, r)).collect()).collect();
     std::fs::create_dir_all(dirs.root.join("derived")).map_err(|e| format!("derived/: {e}"))?;
     let mut cols = vec!["k".to_string(), "t_s".to_string()];
     for i in 1..=n {
@@ -101,27 +99,38 @@ fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, Stri
     let end_s = s.scenario.duration_s.round();
     let mut sq = vec![0.0; n as usize];
     let mut max = vec![0.0f64; n as usize];
-    let mut samples = 0u64;
+    let mut samples = vec![0u64; n as usize];
+    // Steady state of the truth error ‖eᵢ‖ (every servicer, dead or alive: the plant has it).
+    let mut e_last = vec![(0.0f64, 0u64); n as usize];
     let mut row = Vec::with_capacity(cols.len());
     for r in 0..rows {
         row.clear();
         row.push(t[r]);
         let in_window = t[r] + 1e-9 >= ZETA_WINDOW_START_S;
-        if in_window {
-            samples += 1;
-        }
+        let last10 = t[r] + 1e-9 >= s.scenario.duration_s - 10.0;
         for i in 1..=n {
             let a = &agents[i as usize - 1];
-            let zt: f64 = axes
-                .iter()
-                .map(|ax| {
-                    (plant.col(&format!("a{i}_zeta_{ax}_mps"))[r] - a.col(&format!("zeta_hat_{ax}_mps"))[r]).powi(2)
-                })
-                .sum::<f64>()
-                .sqrt();
+            let ar = row_of[i as usize - 1].get(&(k[r] as u64)).copied();
+            let zt: f64 = match ar {
+                Some(ar) => axes
+                    .iter()
+                    .map(|ax| {
+                        (plant.col(&format!("a{i}_zeta_{ax}_mps"))[r] - a.col(&format!("zeta_hat_{ax}_mps"))[ar])
+                            .powi(2)
+                    })
+                    .sum::<f64>()
+                    .sqrt(),
+                None => f64::NAN,
+            };
+            let theta = ar.map_or(f64::NAN, |ar| a.col("theta_norm")[ar]);
             let un: f64 = axes.iter().map(|ax| plant.col(&format!("a{i}_u_{ax}_mps2"))[r].powi(2)).sum::<f64>().sqrt();
-            row.extend([plant.col(&format!("a{i}_e_norm_m"))[r], zt, un, a.col("theta_norm")[r]]);
-            if in_window {
+            row.extend([plant.col(&format!("a{i}_e_norm_m"))[r], zt, un, theta]);
+            if last10 {
+                let e = &mut e_last[i as usize - 1];
+                *e = (e.0 + plant.col(&format!("a{i}_e_norm_m"))[r], e.1 + 1);
+            }
+            if in_window && zt.is_finite() {
+                samples[i as usize - 1] += 1;
                 sq[i as usize - 1] += zt * zt;
                 max[i as usize - 1] = max[i as usize - 1].max(zt);
             }
@@ -130,11 +139,14 @@ fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, Stri
     }
     out.flush().map_err(|e| format!("{}: {e}", path.display()))?;
     let mut m = BTreeMap::new();
-    if samples > 0 {
-        for i in 0..n as usize {
+    for i in 0..n as usize {
+        if samples[i] > 0 {
             let w = format!("{ZETA_WINDOW_START_S:.0}_{end_s:.0}");
-            m.insert(format!("servicer_{}.zeta_err_rms_{w}_mps", i + 1), (sq[i] / samples as f64).sqrt());
+            m.insert(format!("servicer_{}.zeta_err_rms_{w}_mps", i + 1), (sq[i] / samples[i] as f64).sqrt());
             m.insert(format!("servicer_{}.zeta_err_max_{w}_mps", i + 1), max[i]);
+        }
+        if e_last[i].1 > 0 {
+            m.insert(format!("servicer_{}.e_norm_last10s_mean_m", i + 1), e_last[i].0 / e_last[i].1 as f64);
         }
     }
     Ok(m)

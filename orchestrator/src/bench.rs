@@ -113,6 +113,7 @@ fn ring(n: u32, steps: u64) -> Scenario {
             observer_l2_per_s2: 9.0,
         }),
         agents,
+        faults: Vec::new(),
     }
 }
 

@@ -260,6 +260,7 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, progress: &Progress) -> LaunchOutcom
         wall_s: started.elapsed().as_secs_f64(),
         startup_s: None,
         exit_code: code,
+        timeline: Vec::new(),
     };
     let (ode, r) = match integrate(s, Some(progress)) {
         Ok(x) => x,
@@ -295,6 +296,7 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, progress: &Progress) -> LaunchOutcom
         max_rss_kb: 0,
         metrics,
         error: error.clone(),
+        faults: Default::default(),
     };
     let mut write_errors = Vec::new();
     for rep in [report("plant", metrics), report("agent-1", BTreeMap::new())] {
@@ -323,18 +325,33 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, progress: &Progress) -> LaunchOutcom
     match (r.interrupted, error, write_errors.is_empty()) {
         (true, e, _) => {
             let sig = SIGNALLED.load(Ordering::SeqCst);
-            LaunchOutcome { status: "interrupted", error: e, wall_s, startup_s: None, exit_code: 128 + sig as u8 }
+            LaunchOutcome {
+                status: "interrupted",
+                error: e,
+                wall_s,
+                startup_s: None,
+                exit_code: 128 + sig as u8,
+                timeline: Vec::new(),
+            }
         }
-        (false, Some(e), _) => {
-            LaunchOutcome { status: "failed", error: Some(e), wall_s, startup_s: None, exit_code: 1 }
-        }
+        (false, Some(e), _) => LaunchOutcome {
+            status: "failed",
+            error: Some(e),
+            wall_s,
+            startup_s: None,
+            exit_code: 1,
+            timeline: Vec::new(),
+        },
         (false, None, false) => LaunchOutcome {
             status: "failed",
             error: Some(write_errors.join("; ")),
             wall_s,
             startup_s: None,
             exit_code: 1,
+            timeline: Vec::new(),
         },
-        (false, None, true) => LaunchOutcome { status: "ok", error: None, wall_s, startup_s: None, exit_code: 0 },
+        (false, None, true) => {
+            LaunchOutcome { status: "ok", error: None, wall_s, startup_s: None, exit_code: 0, timeline: Vec::new() }
+        }
     }
 }

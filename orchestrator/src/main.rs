@@ -84,6 +84,14 @@ enum Cmd {
         /// With --realtime: sim seconds per wall second.
         #[arg(long, default_value_t = 1.0, requires = "realtime")]
         rate: f64,
+        /// What a dead or silent agent does to the run: degrade (go on without it; exit 1 at the
+        /// end if the loss was not planned) or abort (sets run.on_agent_loss).
+        #[arg(long, value_name = "degrade|abort")]
+        on_agent_loss: Option<String>,
+        /// Inject a fault (repeatable): KIND:agent=ID@t=SECONDS[,for=SECONDS][,p=PROB][,steps=N],
+        /// KIND one of kill, freeze, restart, delay, drop, corrupt (see topologies/README.md).
+        #[arg(long, value_name = "SPEC")]
+        fault: Vec<String>,
     },
     /// Run a scenario once per seed (in-process reference runs by default) and write the
     /// distribution of its summary metrics as Markdown and CSV.
@@ -171,7 +179,19 @@ fn main() -> ExitCode {
             transport,
             realtime,
             rate,
+            fault,
+            on_agent_loss,
         } => {
+            let mut faults = Vec::new();
+            for (k, f) in fault.iter().enumerate() {
+                match cohort_scenario::faults::FaultSpec::parse_cli(f) {
+                    Ok(spec) => faults.push(spec),
+                    Err(e) => {
+                        eprintln!("error: --fault (#{}): {e}", k + 1);
+                        return ExitCode::from(EXIT_INVALID);
+                    }
+                }
+            }
             let o = Overrides {
                 seed,
                 duration_s: duration,
@@ -181,6 +201,8 @@ fn main() -> ExitCode {
                 link_delay_steps: link_delay,
                 transport,
                 realtime_rate: realtime.then_some(rate),
+                faults,
+                on_agent_loss,
             };
             launch(&file, out.as_deref(), &o, reference, !no_plots)
         }
@@ -314,6 +336,7 @@ fn run_once(
             status: outcome.status,
             error: outcome.error.clone(),
             wall_s: outcome.wall_s,
+            timeline: outcome.timeline.clone(),
         },
     );
     // Derived quantities come from the telemetry alone, so a partial run gets them too.
@@ -354,6 +377,14 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     if let Err(e) = supervise::install_signal_handlers() {
         eprintln!("error: {e}");
         return ExitCode::from(EXIT_FAILED);
+    }
+    if reference && let Some(f) = s.faults.iter().find(|f| f.is_process_fault()) {
+        eprintln!(
+            "error: --reference runs every process as a thread of this one, so it cannot {} agent {} \
+             (process faults signal processes); drop --reference, or keep only delay, drop and corrupt faults",
+            f.kind, f.agent
+        );
+        return ExitCode::from(EXIT_INVALID);
     }
     let dirs = match prepare(&s, out) {
         Ok(d) => d,

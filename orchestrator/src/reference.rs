@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use cohort_runtime::drive::{DriveParams, report_ready, run_agent, run_plant};
+use cohort_runtime::drive::{DriveParams, run_agent, run_plant};
 use cohort_runtime::record::{ProcessReport, RunDirs};
 use cohort_runtime::rng::process_rng;
 use cohort_scenario::Scenario;
@@ -19,7 +19,6 @@ use crate::supervise::{LaunchOutcome, SIGNALLED};
 
 fn run_one(s: &Scenario, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) -> ProcessReport {
     let mut t = bus.endpoint(p);
-    report_ready(&mut t, params, p);
     let report = match p {
         Proc::Plant => {
             let mut model = plant::build(s);
@@ -28,7 +27,7 @@ fn run_one(s: &Scenario, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) ->
         }
         Proc::Agent(id) => {
             let mut algo = agent::build(s, id);
-            run_agent(&mut t, algo.as_mut(), id, &s.agent(id).neighbours, params)
+            run_agent(&mut t, algo.as_mut(), id, &s.agent(id).neighbours, params, None)
         }
     };
     if report.error.is_some() {
@@ -53,19 +52,8 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run_id: u64, progress: &Progress) ->
     let started = Instant::now();
     let bus = MemoryBus::new(s.topology());
     let terminate = Arc::new(AtomicBool::new(false));
-    let params = DriveParams {
-        run_id,
-        n_steps: s.n_steps(),
-        dt_s: s.scenario.dt_s,
-        step_timeout: Duration::from_secs_f64(s.run.step_timeout_s),
-        dirs: dirs.clone(),
-        terminate: Arc::clone(&terminate),
-        process_start: started,
-        // Threads of one process: spinning is as good (or bad) as between processes.
-        spin: cohort_runtime::drive::spin_budget(&s.run),
-        link_delay_steps: s.run.link_delay_steps,
-        realtime_rate: s.run.realtime_rate,
-    };
+    // Threads of one process: spinning is as good (or bad) as between processes.
+    let params = DriveParams::from_scenario(s, run_id, dirs.clone(), Arc::clone(&terminate), started);
     let procs: Vec<Proc> = std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)).collect();
     let mut signal = 0usize;
     let reports: Vec<ProcessReport> = std::thread::scope(|sc| {
@@ -103,6 +91,7 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run_id: u64, progress: &Progress) ->
             wall_s,
             startup_s: None,
             exit_code: 128 + signal as u8,
+            timeline: Vec::new(),
         };
     }
     // The first genuine failure (others merely stopped because of it).
@@ -118,10 +107,11 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run_id: u64, progress: &Progress) ->
             wall_s,
             startup_s: None,
             exit_code: 1,
+            timeline: Vec::new(),
         },
         None => {
             progress.set(s.n_steps());
-            LaunchOutcome { status: "ok", error: None, wall_s, startup_s: None, exit_code: 0 }
+            LaunchOutcome { status: "ok", error: None, wall_s, startup_s: None, exit_code: 0, timeline: Vec::new() }
         }
     }
 }

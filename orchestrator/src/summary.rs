@@ -56,6 +56,9 @@ pub struct Summary {
     /// Wall-clock latencies from `timing/`, in ns.
     pub latency_ns: BTreeMap<String, Percentiles>,
     pub processes: Vec<ProcessReport>,
+    /// Faults carried out, roster changes and their effect (empty without faults).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub timeline: Vec<crate::supervise::TimelineEvent>,
 }
 
 /// Read one column of a timing CSV as integers (missing or malformed files give nothing: timing
@@ -74,6 +77,7 @@ pub struct Outcome {
     pub status: &'static str,
     pub error: Option<String>,
     pub wall_s: f64,
+    pub timeline: Vec<crate::supervise::TimelineEvent>,
 }
 
 pub fn build(s: &Scenario, dirs: &RunDirs, outcome: Outcome) -> Summary {
@@ -137,6 +141,7 @@ pub fn build(s: &Scenario, dirs: &RunDirs, outcome: Outcome) -> Summary {
         timeouts: processes.iter().map(|p| p.timeouts).sum(),
         latency_ns: latency,
         processes,
+        timeline: outcome.timeline,
     }
 }
 

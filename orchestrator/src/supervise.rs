@@ -21,7 +21,11 @@ use std::time::{Duration, Instant};
 use cohort_runtime::process::{EXIT_BUILD_MISMATCH, EXIT_STOPPED};
 use cohort_runtime::record::RunDirs;
 use cohort_scenario::Scenario;
-use cohort_wire::msg::{PLANT_ID, STATUS_PROGRESS, STATUS_READY, STATUS_WAITING};
+use cohort_scenario::faults::FaultPlan;
+use cohort_wire::msg::{
+    PLANT_ID, Roster, STATUS_ALIVE, STATUS_DEAD, STATUS_HOLDING, STATUS_IDLE, STATUS_PROGRESS, STATUS_READY,
+    STATUS_WAITING,
+};
 use cohort_wire::transport::Proc;
 use cohort_wire::transport::iox::{IoxRun, IoxServices};
 
@@ -47,6 +51,23 @@ pub struct LaunchOutcome {
     pub startup_s: Option<f64>,
     /// Exit code for the orchestrator.
     pub exit_code: u8,
+    /// Faults carried out and roster changes, in order.
+    pub timeline: Vec<TimelineEvent>,
+}
+
+/// One entry of the run's fault timeline (`timeline.json`, folded into `summary.json`).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct TimelineEvent {
+    /// Wall time since the launch, s.
+    pub wall_s: f64,
+    /// The step it applies to (the plant's step when it was seen).
+    pub step: u64,
+    pub t_s: f64,
+    pub agent: u32,
+    /// kill, freeze, thaw, relaunch (process faults carried out); dead, alive (roster changes by
+    /// the plant); died (a process ended outside the plan); restore-failed.
+    pub event: String,
+    pub detail: String,
 }
 
 struct Kid {
@@ -54,6 +75,33 @@ struct Kid {
     child: Child,
     exit: Option<ExitStatus>,
     ready: bool,
+    /// Ended by the fault plan (kill, or the kill half of a restart).
+    planned_exit: bool,
+    /// Stopped by a freeze.
+    frozen: bool,
+    /// The hold step at which it last reported being between steps.
+    idle_at: Option<u64>,
+    /// Reported to the plant as dead after an unplanned exit.
+    reported_dead: bool,
+}
+
+impl Kid {
+    fn new(proc_: Proc, child: Child) -> Self {
+        Self {
+            proc_,
+            child,
+            exit: None,
+            ready: false,
+            planned_exit: false,
+            frozen: false,
+            idle_at: None,
+            reported_dead: false,
+        }
+    }
+    fn signal(&self, sig: i32) {
+        // SAFETY: kill(2) on a pid we spawned and have not reaped.
+        unsafe { libc::kill(self.child.id() as libc::pid_t, sig) };
+    }
 }
 
 fn describe_exit(st: ExitStatus) -> String {
@@ -94,13 +142,30 @@ pub fn sibling_binary(name: &str) -> Result<PathBuf, String> {
     Ok(path)
 }
 
-fn spawn(bin: &Path, p: Proc, dirs: &RunDirs, run: &IoxRun, step_timeout_s: f64) -> Result<Child, String> {
+fn spawn(
+    bin: &Path,
+    p: Proc,
+    dirs: &RunDirs,
+    run: &IoxRun,
+    step_timeout_s: f64,
+    restore: bool,
+) -> Result<Child, String> {
     let log_path = dirs.logs().join(format!("{}.log", p.name()));
-    let log = std::fs::File::create(&log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
+    // A relaunched agent's log goes on after its predecessor's.
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(restore)
+        .write(true)
+        .truncate(!restore)
+        .open(&log_path)
+        .map_err(|e| format!("{}: {e}", log_path.display()))?;
     let log2 = log.try_clone().map_err(|e| format!("{}: {e}", log_path.display()))?;
     let mut cmd = Command::new(bin);
     if let Proc::Agent(id) = p {
         cmd.arg("--id").arg(id.to_string());
+    }
+    if restore {
+        cmd.arg("--restore");
     }
     cmd.arg("--run-dir")
         .arg(&dirs.root)
@@ -131,46 +196,67 @@ fn spawn(bin: &Path, p: Proc, dirs: &RunDirs, run: &IoxRun, step_timeout_s: f64)
 /// Launch and supervise one multi-process run.
 pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> LaunchOutcome {
     let started = Instant::now();
+    let failed = |error: String| LaunchOutcome {
+        status: "failed",
+        error: Some(error),
+        wall_s: 0.0,
+        startup_s: None,
+        exit_code: 1,
+        timeline: Vec::new(),
+    };
     let bins = match (sibling_binary("plant"), sibling_binary("agent")) {
         (Ok(p), Ok(a)) => (p, a),
-        (Err(e), _) | (_, Err(e)) => {
-            return LaunchOutcome { status: "failed", error: Some(e), wall_s: 0.0, startup_s: None, exit_code: 1 };
-        }
+        (Err(e), _) | (_, Err(e)) => return failed(e),
     };
     for id in IoxRun::sweep_stale() {
         eprintln!("removed the iceoryx2 resources of run {id:016x}, whose orchestrator is gone");
     }
     if let Err(e) = run.claim() {
-        let error = Some(format!("cannot create {}: {e}", run.root_dir().display()));
-        return LaunchOutcome { status: "failed", error, wall_s: 0.0, startup_s: None, exit_code: 1 };
+        return failed(format!("cannot create {}: {e}", run.root_dir().display()));
     }
-    let services = match IoxServices::create(run, &s.topology()) {
+    let plan = FaultPlan::from_scenario(s);
+    let spare = plan.faults.iter().filter(|f| f.spec.kind == "restart").count();
+    let services = match IoxServices::create(run, &s.topology(), spare) {
         Ok(sv) => sv,
         Err(e) => {
             run.remove_all_resources();
-            let error = Some(format!("cannot create the run's iceoryx2 services: {e}"));
-            return LaunchOutcome { status: "failed", error, wall_s: 0.0, startup_s: None, exit_code: 1 };
+            return failed(format!("cannot create the run's iceoryx2 services: {e}"));
         }
     };
     let mut kids: Vec<Kid> = Vec::new();
     let mut failure: Option<String> = None;
     for p in std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)) {
         let bin = if p == Proc::Plant { &bins.0 } else { &bins.1 };
-        match spawn(bin, p, dirs, run, s.run.step_timeout_s) {
-            Ok(child) => kids.push(Kid { proc_: p, child, exit: None, ready: false }),
+        match spawn(bin, p, dirs, run, s.run.step_timeout_s, false) {
+            Ok(child) => kids.push(Kid::new(p, child)),
             Err(e) => {
                 failure = Some(e);
                 break;
             }
         }
     }
-    let mut startup_s = None;
-    let outcome = if failure.is_none() {
-        supervise(s, dirs, &services, &mut kids, progress, started, &mut startup_s)
-    } else {
-        (failure, None)
+    let mut sup = Supervisor {
+        s,
+        dirs,
+        run,
+        services: &services,
+        agent_bin: &bins.1,
+        plan,
+        started,
+        timeline: Vec::new(),
+        unplanned: Vec::new(),
     };
+    let mut startup_s = None;
+    let outcome = if failure.is_none() { sup.supervise(&mut kids, progress, &mut startup_s) } else { (failure, None) };
     let (failure, signal) = outcome;
+    // Thaw whoever is still frozen, so that the stop request reaches it.
+    for k in kids.iter_mut().filter(|k| k.frozen && k.exit.is_none()) {
+        k.signal(libc::SIGCONT);
+        k.frozen = false;
+    }
+    let timeline = std::mem::take(&mut sup.timeline);
+    let unplanned = std::mem::take(&mut sup.unplanned);
+    drop(sup);
     let any_alive = kids.iter().any(|k| k.exit.is_none());
     if any_alive {
         shut_down(&services, &mut kids);
@@ -178,6 +264,11 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -
     drop(services);
     run.remove_all_resources();
     let wall_s = started.elapsed().as_secs_f64();
+    if !timeline.is_empty()
+        && let Ok(text) = serde_json::to_string_pretty(&timeline)
+    {
+        let _ = std::fs::write(dirs.root.join("timeline.json"), text);
+    }
     match (signal, failure) {
         (Some(sig), _) => LaunchOutcome {
             status: "interrupted",
@@ -185,103 +276,361 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -
             wall_s,
             startup_s,
             exit_code: 128 + sig as u8,
+            timeline,
         },
-        (None, Some(e)) => LaunchOutcome { status: "failed", error: Some(e), wall_s, startup_s, exit_code: 1 },
-        (None, None) => LaunchOutcome { status: "ok", error: None, wall_s, startup_s, exit_code: 0 },
+        (None, Some(e)) => {
+            LaunchOutcome { status: "failed", error: Some(e), wall_s, startup_s, exit_code: 1, timeline }
+        }
+        (None, None) if !unplanned.is_empty() => LaunchOutcome {
+            status: "degraded",
+            error: Some(format!(
+                "{}; the run went on without it and completed (run.on_agent_loss = \"degrade\")",
+                unplanned.join("; ")
+            )),
+            wall_s,
+            startup_s,
+            exit_code: 1,
+            timeline,
+        },
+        (None, None) => LaunchOutcome { status: "ok", error: None, wall_s, startup_s, exit_code: 0, timeline },
     }
 }
 
-/// Watch until every child has finished, one fails, or a signal arrives. Returns the failure
-/// message and the signal, if any.
-fn supervise(
-    s: &Scenario,
-    dirs: &RunDirs,
-    services: &IoxServices,
-    kids: &mut [Kid],
-    progress: &Progress,
+/// What the supervision loop needs besides the children.
+struct Supervisor<'a> {
+    s: &'a Scenario,
+    dirs: &'a RunDirs,
+    run: &'a IoxRun,
+    services: &'a IoxServices,
+    agent_bin: &'a Path,
+    plan: FaultPlan,
     started: Instant,
-    startup_s: &mut Option<f64>,
-) -> (Option<String>, Option<usize>) {
-    let startup_limit = Duration::from_secs_f64(s.run.startup_timeout_s);
-    let my_hash = cohort_wire::build_id_hash();
-    let mut start_granted = false;
-    let mut plant_step = 0u64;
-    // Latest "waiting for X at step k" per sender.
-    let mut waiting: Vec<Option<(u64, u32)>> = vec![None; s.n_agents() as usize + 1];
-    let mut failed_since: Option<Instant> = None;
-    loop {
-        let sig = SIGNALLED.load(Ordering::SeqCst);
-        if sig != 0 {
-            return (None, Some(sig));
-        }
-        let mut mismatch = None;
-        let _ = services.poll_status(|st| {
-            let idx = st.sender as usize;
-            if idx >= kids.len() {
-                return;
-            }
-            match st.kind {
-                STATUS_READY => {
-                    if st.build_hash != my_hash {
-                        mismatch = Some(idx);
-                    }
-                    kids[idx].ready = true;
-                }
-                STATUS_PROGRESS if st.sender == PLANT_ID => plant_step = st.step,
-                STATUS_WAITING => waiting[idx] = Some((st.step, st.waiting_for)),
-                _ => {}
-            }
+    timeline: Vec<TimelineEvent>,
+    /// Agents lost outside the fault plan (degrade mode), described.
+    unplanned: Vec<String>,
+}
+
+/// A hold of the plant for the process faults due at `step`.
+struct Hold {
+    step: u64,
+    since: Instant,
+    /// The signals have been sent; now waiting for relaunched agents to be ready.
+    acted: bool,
+    relaunching: Vec<u32>,
+    dead: Roster,
+    alive: Roster,
+}
+
+impl Supervisor<'_> {
+    fn event(&mut self, step: u64, agent: u32, event: &str, detail: String) {
+        self.timeline.push(TimelineEvent {
+            wall_s: self.started.elapsed().as_secs_f64(),
+            step,
+            t_s: step as f64 * self.s.scenario.dt_s,
+            agent,
+            event: event.into(),
+            detail,
         });
-        if let Some(idx) = mismatch {
-            let name = kids[idx].proc_.name();
-            return (
-                Some(format!(
-                    "{name} was built from other sources than the orchestrator (handshake build id differs): rebuild the workspace"
-                )),
-                None,
-            );
-        }
-        if !start_granted && kids.iter().all(|k| k.ready) {
-            if let Err(e) = services.grant_start() {
-                return (Some(format!("cannot send the start signal: {e}")), None);
+    }
+
+    /// Whether a process fault of `agent` covers `step` (its loss then is planned).
+    fn planned_loss(&self, agent: u32, step: u64) -> bool {
+        self.plan
+            .faults
+            .iter()
+            .any(|f| f.agent == agent && f.spec.is_process_fault() && f.start <= step && step < f.end)
+    }
+
+    /// Carry out a hold: once every agent a fault starts for is between steps, signal; relaunch;
+    /// once the relaunched are ready, let the plant go on. Returns true when the hold is over.
+    fn advance_hold(&mut self, h: &mut Hold, kids: &mut [Kid]) -> Result<bool, String> {
+        let k = h.step;
+        let starting: Vec<_> =
+            self.plan.faults.iter().filter(|f| f.spec.is_process_fault() && f.start == k).cloned().collect();
+        let ending: Vec<_> =
+            self.plan.faults.iter().filter(|f| f.spec.is_process_fault() && f.end == k).cloned().collect();
+        if !h.acted {
+            let between_steps = |kid: &Kid| kid.exit.is_some() || kid.frozen || kid.idle_at == Some(k);
+            let all_idle = starting.iter().all(|f| between_steps(&kids[f.agent as usize]));
+            // A target that never reports (it is stuck) is signalled anyway after a step timeout.
+            if !all_idle && h.since.elapsed().as_secs_f64() < self.s.run.step_timeout_s {
+                return Ok(false);
             }
-            start_granted = true;
-            *startup_s = Some(started.elapsed().as_secs_f64());
+            for f in &starting {
+                let kid = &mut kids[f.agent as usize];
+                if kid.exit.is_some() {
+                    let detail = format!("{} of agent {} skipped: its process had already ended", f.spec.kind, f.agent);
+                    self.event(k, f.agent, "skipped", detail);
+                    continue;
+                }
+                let pid = kid.child.id();
+                match f.spec.kind.as_str() {
+                    "kill" | "restart" => {
+                        let _ = kid.child.kill();
+                        kid.exit = kid.child.wait().ok();
+                        kid.planned_exit = true;
+                        h.dead.set(f.agent, true);
+                        self.event(k, f.agent, "kill", format!("SIGKILL to pid {pid} (faults[{}])", f.index));
+                    }
+                    "freeze" => {
+                        kid.signal(libc::SIGSTOP);
+                        kid.frozen = true;
+                        self.event(k, f.agent, "freeze", format!("SIGSTOP to pid {pid} (faults[{}])", f.index));
+                    }
+                    _ => unreachable!("process faults are kill, freeze and restart"),
+                }
+            }
+            for f in &ending {
+                let idx = f.agent as usize;
+                match f.spec.kind.as_str() {
+                    "freeze" if kids[idx].frozen => {
+                        kids[idx].signal(libc::SIGCONT);
+                        kids[idx].frozen = false;
+                        h.alive.set(f.agent, true);
+                        let detail = format!("SIGCONT to pid {} (faults[{}])", kids[idx].child.id(), f.index);
+                        self.event(k, f.agent, "thaw", detail);
+                    }
+                    "restart" if kids[idx].exit.is_some() => {
+                        let child = spawn(
+                            self.agent_bin,
+                            Proc::Agent(f.agent),
+                            self.dirs,
+                            self.run,
+                            self.s.run.step_timeout_s,
+                            true,
+                        )?;
+                        let detail =
+                            format!("pid {} resumes from its latest checkpoint (faults[{}])", child.id(), f.index);
+                        kids[idx] = Kid::new(Proc::Agent(f.agent), child);
+                        h.relaunching.push(f.agent);
+                        self.event(k, f.agent, "relaunch", detail);
+                    }
+                    _ => {}
+                }
+            }
+            h.acted = true;
         }
-        if !start_granted && started.elapsed() > startup_limit {
-            let slow: Vec<String> = kids.iter().filter(|k| !k.ready).map(|k| k.proc_.name()).collect();
-            return (
-                Some(format!(
-                    "start-up timeout: {} not ready after {:.0} s (run.startup_timeout_s)",
-                    slow.join(", "),
-                    startup_limit.as_secs_f64()
-                )),
-                None,
-            );
-        }
-        // Reap.
-        for k in kids.iter_mut().filter(|k| k.exit.is_none()) {
-            if let Ok(Some(st)) = k.child.try_wait() {
-                k.exit = Some(st);
+        let mut i = 0;
+        while i < h.relaunching.len() {
+            let a = h.relaunching[i];
+            let kid = &mut kids[a as usize];
+            if kid.ready {
+                h.alive.set(a, true);
+                h.relaunching.swap_remove(i);
+            } else if let Ok(Some(st)) = kid.child.try_wait() {
+                kid.exit = Some(st);
+                kid.planned_exit = true; // it never joined; the plant keeps it dead
+                let why = last_log_line(&self.dirs.logs().join(format!("agent-{a}.log"))).unwrap_or_default();
+                self.event(k, a, "restore-failed", format!("the relaunched agent {}: {why}", describe_exit(st)));
+                self.unplanned.push(format!("the relaunch of agent-{a} at step {k} failed: {why}"));
+                h.relaunching.swap_remove(i);
+            } else {
+                i += 1;
             }
         }
-        progress.set(plant_step);
-        if kids.iter().all(|k| k.exit.is_some_and(|st| st.success())) {
-            progress.set(s.n_steps());
-            return (None, None);
-        }
-        if kids.iter().any(|k| k.exit.is_some_and(|st| !st.success())) {
-            // When one process fails the others usually follow within moments (everyone times
-            // out waiting for the same silent peer). Collect for a short window, then name the
-            // root cause rather than whichever consequence exited first.
-            let since = *failed_since.get_or_insert_with(Instant::now);
-            if since.elapsed() < BLAME_WAIT {
-                std::thread::sleep(TICK);
-                continue;
+        if !h.relaunching.is_empty() {
+            if h.since.elapsed().as_secs_f64() > self.s.run.startup_timeout_s + self.s.run.step_timeout_s {
+                return Err(format!(
+                    "relaunched agent(s) {:?} not ready after {:.0} s (run.startup_timeout_s)",
+                    h.relaunching, self.s.run.startup_timeout_s
+                ));
             }
-            return (Some(blame(s, dirs, kids, waiting[0], plant_step)), None);
+            return Ok(false);
         }
-        std::thread::sleep(TICK);
+        self.services.resume(k, h.dead, h.alive).map_err(|e| format!("cannot resume the plant: {e}"))?;
+        Ok(true)
+    }
+
+    /// Watch until every child has finished, one fails, or a signal arrives. Returns the failure
+    /// message and the signal, if any.
+    fn supervise(
+        &mut self,
+        kids: &mut [Kid],
+        progress: &Progress,
+        startup_s: &mut Option<f64>,
+    ) -> (Option<String>, Option<usize>) {
+        let s = self.s;
+        let degrade = s.run.on_agent_loss == "degrade";
+        let startup_limit = Duration::from_secs_f64(s.run.startup_timeout_s);
+        let my_hash = cohort_wire::build_id_hash();
+        let mut start_granted = false;
+        let mut plant_step = 0u64;
+        // Latest "waiting for X at step k" per sender.
+        let mut waiting: Vec<Option<(u64, u32)>> = vec![None; s.n_agents() as usize + 1];
+        let mut failed_since: Option<Instant> = None;
+        let mut hold: Option<Hold> = None;
+        // The plant's roster, as it reported it.
+        let mut off_roster = vec![false; s.n_agents() as usize + 1];
+        loop {
+            let sig = SIGNALLED.load(Ordering::SeqCst);
+            if sig != 0 {
+                return (None, Some(sig));
+            }
+            let mut mismatch = None;
+            let mut statuses = Vec::new();
+            let _ = self.services.poll_status(|st| statuses.push(*st));
+            for st in statuses {
+                let idx = st.sender as usize;
+                if idx >= kids.len() {
+                    continue;
+                }
+                match st.kind {
+                    STATUS_READY => {
+                        if st.build_hash != my_hash {
+                            mismatch = Some(idx);
+                        }
+                        kids[idx].ready = true;
+                    }
+                    STATUS_PROGRESS if st.sender == PLANT_ID => plant_step = st.step,
+                    STATUS_WAITING => waiting[idx] = Some((st.step, st.waiting_for)),
+                    STATUS_IDLE => kids[idx].idle_at = Some(st.step),
+                    STATUS_HOLDING if st.sender == PLANT_ID => {
+                        plant_step = st.step;
+                        hold = Some(Hold {
+                            step: st.step,
+                            since: Instant::now(),
+                            acted: false,
+                            relaunching: Vec::new(),
+                            dead: Roster::EMPTY,
+                            alive: Roster::EMPTY,
+                        });
+                    }
+                    STATUS_DEAD | STATUS_ALIVE if st.sender == PLANT_ID => {
+                        let a = st.waiting_for;
+                        let dead = st.kind == STATUS_DEAD;
+                        if let Some(slot) = off_roster.get_mut(a as usize) {
+                            *slot = dead;
+                        }
+                        let detail = if dead { self.dead_detail(a, st.step) } else { "back on the roster".to_string() };
+                        self.event(st.step, a, if dead { "dead" } else { "alive" }, detail);
+                        if dead && !self.planned_loss(a, st.step) && !kids[a as usize].reported_dead {
+                            let kid = &kids[a as usize];
+                            let state = if kid.exit.is_none() { " (its process is alive but silent)" } else { "" };
+                            self.unplanned.push(format!(
+                                "agent {a} went silent{state}: no share of step {} (t = {:.3} s) reached the plant \
+                                 within run.step_timeout_s = {} s; it was marked dead",
+                                st.step,
+                                st.step as f64 * s.scenario.dt_s,
+                                s.run.step_timeout_s
+                            ));
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            if let Some(idx) = mismatch {
+                let name = kids[idx].proc_.name();
+                return (
+                    Some(format!(
+                        "{name} was built from other sources than the orchestrator (handshake build id differs): rebuild the workspace"
+                    )),
+                    None,
+                );
+            }
+            if !start_granted && kids.iter().all(|k| k.ready) {
+                if let Err(e) = self.services.grant_start() {
+                    return (Some(format!("cannot send the start signal: {e}")), None);
+                }
+                start_granted = true;
+                *startup_s = Some(self.started.elapsed().as_secs_f64());
+            }
+            if !start_granted && self.started.elapsed() > startup_limit {
+                let slow: Vec<String> = kids.iter().filter(|k| !k.ready).map(|k| k.proc_.name()).collect();
+                return (
+                    Some(format!(
+                        "start-up timeout: {} not ready after {:.0} s (run.startup_timeout_s)",
+                        slow.join(", "),
+                        startup_limit.as_secs_f64()
+                    )),
+                    None,
+                );
+            }
+            // Reap.
+            for k in kids.iter_mut().filter(|k| k.exit.is_none()) {
+                if let Ok(Some(st)) = k.child.try_wait() {
+                    k.exit = Some(st);
+                }
+            }
+            if let Some(h) = &mut hold {
+                match self.advance_hold(h, kids) {
+                    Ok(true) => hold = None,
+                    Ok(false) => {}
+                    Err(e) => return (Some(e), None),
+                }
+            }
+            // Degrade: an agent that ended outside the plan is reported to the plant at once.
+            if degrade {
+                for i in 1..kids.len() {
+                    let k = &kids[i];
+                    let unplanned = k.exit.is_some_and(|st| !st.success()) && !k.planned_exit && !k.reported_dead;
+                    if unplanned && !off_roster[i] && kids[0].exit.is_none() {
+                        let mut r = Roster::EMPTY;
+                        r.set(i as u32, true);
+                        let _ = self.services.report_dead(r);
+                        let msg = format!(
+                            "{} at or after step {plant_step} (t = {:.3} s)",
+                            self.describe_kid(&kids[i]),
+                            plant_step as f64 * s.scenario.dt_s
+                        );
+                        self.event(plant_step, i as u32, "died", msg.clone());
+                        self.unplanned.push(msg);
+                        kids[i].reported_dead = true;
+                    }
+                }
+            }
+            progress.set(plant_step);
+            let plant_ok = kids[0].exit.is_some_and(|st| st.success());
+            // Done when the plant is, and every agent on its roster has finished.
+            let agents_done =
+                kids.iter().enumerate().skip(1).all(|(i, k)| k.exit.is_some_and(|st| st.success()) || off_roster[i]);
+            if plant_ok && agents_done {
+                progress.set(s.n_steps());
+                return (None, None);
+            }
+            let failed_kid = |k: &Kid| k.exit.is_some_and(|st| !st.success()) && !k.planned_exit;
+            let failing =
+                if degrade { kids[0].exit.is_some_and(|st| !st.success()) } else { kids.iter().any(failed_kid) };
+            if failing {
+                // When one process fails the others usually follow within moments (everyone times
+                // out waiting for the same silent peer). Collect for a short window, then name the
+                // root cause rather than whichever consequence exited first.
+                let since = *failed_since.get_or_insert_with(Instant::now);
+                if since.elapsed() < BLAME_WAIT {
+                    std::thread::sleep(TICK);
+                    continue;
+                }
+                return (Some(blame(s, self.dirs, kids, waiting[0], plant_step)), None);
+            }
+            std::thread::sleep(TICK);
+        }
+    }
+
+    fn dead_detail(&self, agent: u32, step: u64) -> String {
+        // How long after the fault that caused it, when one did.
+        let cause = self
+            .timeline
+            .iter()
+            .rev()
+            .find(|e| e.agent == agent && matches!(e.event.as_str(), "kill" | "freeze" | "died"));
+        match cause {
+            Some(c) => format!(
+                "marked dead from step {step}, {:.3} s (wall) after the {} was seen",
+                self.started.elapsed().as_secs_f64() - c.wall_s,
+                c.event
+            ),
+            None => format!("marked dead from step {step}"),
+        }
+    }
+
+    fn describe_kid(&self, k: &Kid) -> String {
+        let st = k.exit.expect("exited");
+        let mut m = format!("{} (pid {}) {}", k.proc_.name(), k.child.id(), describe_exit(st));
+        if st.signal().is_none()
+            && let Some(line) = last_log_line(&self.dirs.logs().join(format!("{}.log", k.proc_.name())))
+        {
+            m.push_str(&format!(" [log: {line}]"));
+        }
+        m
     }
 }
 
@@ -329,6 +678,9 @@ fn blame(s: &Scenario, dirs: &RunDirs, kids: &[Kid], plant_waiting: Option<(u64,
                 t(step)
             )),
             None => m.push_str(&format!(" at or after step {plant_step} (t = {:.3} s)", t(plant_step))),
+        }
+        if k.proc_ == Proc::Plant {
+            m.push_str("; the plant is the run's clock, so the run cannot go on without it");
         }
         m
     } else if let Some((step, who)) = plant_waiting.filter(|(_, who)| *who != 0) {

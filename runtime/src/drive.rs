@@ -15,16 +15,19 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+use cohort_scenario::faults::{Corruption, Fate, FaultPlan};
 use cohort_wire::msg::{
-    Header, Measurement, PLANT_ID, SCHEMA_VERSION, STATUS_DONE, STATUS_PROGRESS, STATUS_READY, STATUS_WAITING, Share,
-    Status,
+    CONTROL_DEAD, CONTROL_RESUME, Header, LINK_DATA, LINK_LOST, Measurement, PLANT_ID, Roster, RunControl,
+    SCHEMA_VERSION, STATUS_ALIVE, STATUS_DEAD, STATUS_DONE, STATUS_HOLDING, STATUS_IDLE, STATUS_PROGRESS, STATUS_READY,
+    STATUS_WAITING, Share, Status,
 };
 use cohort_wire::transport::{Incoming, Proc, Transport, TransportError, monotonic_ns};
 use cohort_wire::validate::{Expect, RejectCounts, Rejection, validate_measurement, validate_share};
 use rand_chacha::ChaCha8Rng;
 
+use crate::checkpoint::{AgentState, Checkpoint};
 use crate::model::{AgentInput, Algorithm, Neighbour, PlantModel, ShareOut};
-use crate::record::{CsvWriter, ProcessReport, RunDirs, reject_map};
+use crate::record::{CsvWriter, ProcessReport, RosterChange, RunDirs, reject_map};
 
 /// Longest single blocking wait before re-polling.
 const POLL: Duration = Duration::from_millis(10);
@@ -66,12 +69,73 @@ pub struct DriveParams {
     pub terminate: Arc<AtomicBool>,
     /// When the process started (for the start-up time in its report).
     pub process_start: Instant,
-    /// How a wait spins before it blocks on the event; see [`spin_budget`].
+    /// How a wait spins (draining and yielding the CPU) before it blocks on the event; see [`spin_budget`].
     pub spin: SpinPolicy,
     /// 1: agents advance with their neighbours' shares of the previous step (`run.link_delay_steps`).
     pub link_delay_steps: u32,
     /// `run.realtime_rate`: the plant paces steps by the wall clock.
     pub realtime_rate: Option<f64>,
+    /// The run's fault plan (empty: none), shared by every process.
+    pub faults: Arc<FaultPlan>,
+    /// `run.on_agent_loss == "degrade"`: a dead or silent agent is dropped from the roster and
+    /// the run goes on; otherwise it ends the run.
+    pub degrade: bool,
+    /// `run.checkpoint_every_steps` (0: none).
+    pub checkpoint_every: u64,
+    /// The agent's algorithm kind (names checkpoints).
+    pub algorithm_kind: String,
+    /// How long a hold for the orchestrator (a process fault) may take, at most.
+    pub hold_timeout: Duration,
+}
+
+impl DriveParams {
+    /// Plain settings for `n_steps` of `dt_s` with no faults (tests, benchmarks).
+    pub fn basic(run_id: u64, n_steps: u64, dt_s: f64, step_timeout: Duration, dirs: RunDirs) -> Self {
+        Self {
+            run_id,
+            n_steps,
+            dt_s,
+            step_timeout,
+            dirs,
+            terminate: Arc::new(AtomicBool::new(false)),
+            process_start: Instant::now(),
+            spin: SpinPolicy::Fixed(Duration::ZERO),
+            link_delay_steps: 0,
+            realtime_rate: None,
+            faults: Arc::new(FaultPlan::default()),
+            degrade: true,
+            checkpoint_every: 0,
+            algorithm_kind: String::new(),
+            hold_timeout: Duration::from_secs(60),
+        }
+    }
+
+    /// The settings a scenario asks for.
+    pub fn from_scenario(
+        s: &cohort_scenario::Scenario,
+        run_id: u64,
+        dirs: RunDirs,
+        terminate: Arc<AtomicBool>,
+        process_start: Instant,
+    ) -> Self {
+        Self {
+            run_id,
+            n_steps: s.n_steps(),
+            dt_s: s.scenario.dt_s,
+            step_timeout: Duration::from_secs_f64(s.run.step_timeout_s),
+            dirs,
+            terminate,
+            process_start,
+            spin: spin_budget(&s.run),
+            link_delay_steps: s.run.link_delay_steps,
+            realtime_rate: s.run.realtime_rate,
+            faults: Arc::new(FaultPlan::from_scenario(s)),
+            degrade: s.run.on_agent_loss == "degrade",
+            checkpoint_every: s.run.checkpoint_every_steps,
+            algorithm_kind: s.algorithm.kind().to_string(),
+            hold_timeout: Duration::from_secs_f64(s.run.startup_timeout_s + 2.0 * s.run.step_timeout_s),
+        }
+    }
 }
 
 /// How a wait spins (draining and yielding the CPU) before it blocks on the event.
@@ -123,6 +187,13 @@ trait Inbox {
     fn complete(&self) -> bool;
     /// (id, description) of the first peer still missing.
     fn missing(&self) -> (u32, String);
+    /// A notice from the orchestrator (the plant's inbox only).
+    fn control(&mut self, _c: &RunControl) {}
+    /// Whether something arrived since the last call that shows the peer is alive though the
+    /// wait is not over (a newer measurement while off the roster): it restarts the silence clock.
+    fn fresh(&mut self) -> bool {
+        false
+    }
 }
 
 struct Waiter<'a, T: Transport + ?Sized> {
@@ -132,11 +203,10 @@ struct Waiter<'a, T: Transport + ?Sized> {
     timeouts: u64,
     /// Running typical wait, µs, per kind of wait (measurement, share): adaptive spinning.
     typical_wait_us: [f64; 2],
+    events: Vec<RunControl>,
 }
 
 impl<T: Transport + ?Sized> Waiter<'_, T> {
-    /// Drain into `inbox`, check it, wait briefly; repeat until it is complete or the step
-    /// timeout passes.
     fn spin_for(&self, kind: usize) -> Duration {
         let typical = self.typical_wait_us[kind];
         match self.p.spin {
@@ -148,8 +218,17 @@ impl<T: Transport + ?Sized> Waiter<'_, T> {
         }
     }
 
-    fn until(&mut self, step: u64, what: &'static str, inbox: &mut impl Inbox) -> Result<(), RunError> {
+    /// Drain into `inbox`, check it, wait briefly; repeat until it is complete or `limit` passes
+    /// with nothing fresh.
+    fn until(
+        &mut self,
+        step: u64,
+        what: &'static str,
+        inbox: &mut impl Inbox,
+        limit: Duration,
+    ) -> Result<(), RunError> {
         let started = Instant::now();
+        let mut silent_since = started;
         let kind = usize::from(what == "share");
         let spin = self.spin_for(kind);
         let mut reported = false;
@@ -161,13 +240,16 @@ impl<T: Transport + ?Sized> Waiter<'_, T> {
                 self.typical_wait_us[kind] += ADAPTIVE_EWMA * (w - self.typical_wait_us[kind]);
                 return Ok(());
             }
-            let waited = started.elapsed();
-            if waited >= self.p.step_timeout {
+            if inbox.fresh() {
+                silent_since = Instant::now();
+            }
+            let waited = silent_since.elapsed();
+            if waited >= limit {
                 self.timeouts += 1;
                 let (_, from) = inbox.missing();
                 return Err(RunError::Timeout { step, from, what, after_s: waited.as_secs_f64() });
             }
-            let spinning = waited < spin;
+            let spinning = started.elapsed() < spin;
             spins = spins.wrapping_add(1);
             // While spinning, look at the control service only now and then: it is not free.
             if !spinning || spins.is_multiple_of(1024) {
@@ -176,6 +258,13 @@ impl<T: Transport + ?Sized> Waiter<'_, T> {
                 }
                 if self.p.terminate.load(Ordering::Relaxed) {
                     return Err(RunError::Stopped { step, why: "SIGTERM" });
+                }
+                self.t.control_events(&mut self.events);
+                for e in self.events.drain(..) {
+                    inbox.control(&e);
+                }
+                if inbox.complete() {
+                    continue;
                 }
                 if !reported && waited >= REPORT_WAITING_AFTER {
                     reported = true;
@@ -187,7 +276,7 @@ impl<T: Transport + ?Sized> Waiter<'_, T> {
             if spinning {
                 std::thread::yield_now();
             } else {
-                self.t.wait(POLL.min(self.p.step_timeout - waited))?;
+                self.t.wait(POLL.min(limit.saturating_sub(waited)).max(Duration::from_micros(100)))?;
             }
         }
     }
@@ -225,6 +314,7 @@ fn new_report(me: Proc, p: &DriveParams) -> ProcessReport {
         max_rss_kb: 0,
         metrics: Default::default(),
         error: None,
+        faults: Default::default(),
     }
 }
 
@@ -238,6 +328,7 @@ pub fn run_plant<T: Transport + ?Sized>(
     p: &DriveParams,
 ) -> ProcessReport {
     let mut report = new_report(Proc::Plant, p);
+    report_ready(t, p, Proc::Plant);
     let result = plant_loop(t, model, rng, n_agents, p, &mut report);
     (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
     report.metrics = model.metrics().into_iter().collect();
@@ -249,25 +340,25 @@ pub fn run_plant<T: Transport + ?Sized>(
     report
 }
 
-/// The plant's inbox for step k: every agent's command.
+/// The plant's inbox for step k: a step token from every live agent (its share of k, or a
+/// `LINK_LOST` token when the link lost or delayed it), and the newest data share due by k (its
+/// own share of k, or one delayed to arrive now).
 struct PlantInbox {
     run_id: u64,
     k: u64,
-    commands: Vec<Vec<f64>>,
-    got: Vec<bool>,
-    n_got: usize,
+    /// Oldest step accepted (k minus the longest link delay, or one more in real time).
+    back: u64,
+    plan: Arc<FaultPlan>,
+    /// Per agent: step k's token still awaited.
+    want: Vec<bool>,
+    /// Per agent: the newest data share taken (step, command).
+    newest: Vec<Option<(u64, Vec<f64>)>>,
+    /// Agents the orchestrator reported dead while the plant waited.
+    died: Roster,
     latency_max_ns: u64,
     received: u64,
+    late: u64,
     rejects: RejectCounts,
-}
-
-impl PlantInbox {
-    fn reset(&mut self, k: u64) {
-        self.k = k;
-        self.got.iter_mut().for_each(|g| *g = false);
-        self.n_got = 0;
-        self.latency_max_ns = 0;
-    }
 }
 
 impl Inbox for PlantInbox {
@@ -277,15 +368,20 @@ impl Inbox for PlantInbox {
             self.rejects.add(Rejection::Sender); // the plant reads no measurements
             return;
         };
-        let e = Expect { run_id: self.run_id, sender: from, step_min: self.k, step_max: self.k };
+        let e =
+            Expect { run_id: self.run_id, sender: from, step_min: self.k.saturating_sub(self.back), step_max: self.k };
         match validate_share(share, &e) {
             Ok(()) => {
                 let idx = (from - 1) as usize;
-                if !self.got[idx] {
-                    self.got[idx] = true;
-                    self.n_got += 1;
-                    self.commands[idx].clear();
-                    self.commands[idx].extend_from_slice(share.command());
+                let step = share.header.step;
+                let on_time = share.link == LINK_LOST || self.plan.fate(from, step) == Fate::Deliver;
+                if step == self.k && on_time {
+                    self.want[idx] = false;
+                } else if on_time && share.link == LINK_DATA {
+                    self.late += 1; // its step closed without it (real time)
+                }
+                if share.link == LINK_DATA && self.newest[idx].as_ref().is_none_or(|(s, _)| *s < step) {
+                    self.newest[idx] = Some((step, share.command().to_vec()));
                     let latency = monotonic_ns().saturating_sub(share.header.sent_wall_ns);
                     self.latency_max_ns = self.latency_max_ns.max(latency);
                 }
@@ -294,11 +390,41 @@ impl Inbox for PlantInbox {
         }
     }
     fn complete(&self) -> bool {
-        self.n_got == self.got.len()
+        self.want.iter().all(|w| !w)
     }
     fn missing(&self) -> (u32, String) {
-        let id = self.got.iter().position(|g| !g).map_or(0, |i| i as u32 + 1);
+        let id = self.want.iter().position(|w| *w).map_or(0, |i| i as u32 + 1);
         (id, format!("agent {id}"))
+    }
+    fn control(&mut self, c: &RunControl) {
+        if c.command == CONTROL_DEAD {
+            let n = self.want.len();
+            for id in c.dead.ids().filter(|&id| id as usize <= n) {
+                self.died.set(id, true);
+                self.want[id as usize - 1] = false;
+            }
+        }
+    }
+}
+
+/// The plant's roster: who is live, and what changed (reported to the orchestrator and kept for
+/// the report).
+struct PlantRoster {
+    live: Roster,
+    lost_at_close: Roster,
+    changes: Vec<RosterChange>,
+    since: Instant,
+}
+
+impl PlantRoster {
+    fn set<T: Transport + ?Sized>(&mut self, t: &mut T, p: &DriveParams, id: u32, live: bool, step: u64, why: &str) {
+        if self.live.contains(id) == live {
+            return;
+        }
+        self.live.set(id, live);
+        let wall_s = self.since.elapsed().as_secs_f64();
+        self.changes.push(RosterChange { step, agent: id, live, reason: why.into(), wall_s });
+        t.report(&status(p, PLANT_ID, if live { STATUS_ALIVE } else { STATUS_DEAD }, step, id));
     }
 }
 
@@ -335,46 +461,124 @@ fn plant_loop<T: Transport + ?Sized>(
     let loop_start = Instant::now();
 
     let n = n_agents as usize;
+    let realtime = p.realtime_rate.is_some();
     let mut inbox = PlantInbox {
         run_id: p.run_id,
         k: 0,
-        commands: vec![Vec::new(); n],
-        got: vec![false; n],
-        n_got: 0,
+        back: u64::from(p.faults.max_delay()) + u64::from(realtime),
+        plan: Arc::clone(&p.faults),
+        want: vec![false; n],
+        newest: vec![None; n],
+        died: Roster::EMPTY,
         latency_max_ns: 0,
         received: 0,
+        late: 0,
         rejects: RejectCounts::default(),
     };
+    let mut roster = PlantRoster {
+        live: Roster::all(n_agents),
+        lost_at_close: Roster::EMPTY,
+        changes: Vec::new(),
+        since: loop_start,
+    };
+    let hold_steps = p.faults.hold_steps();
+    // The command each agent's spacecraft flies: the newest valid one (held when a share is
+    // missing), zero once the agent is dead (its spacecraft coasts).
+    let mut commands: Vec<Vec<f64>> = vec![Vec::new(); n];
+    // Real time: when each agent last met its deadline (a silent agent is declared dead after
+    // the step timeout, as in lockstep).
+    let mut last_heard = vec![Instant::now(); n];
     let mut row = Vec::with_capacity(columns.len());
-    let mut waiter = Waiter { t, p, me: PLANT_ID, timeouts: 0, typical_wait_us: [0.0; 2] };
+    let mut waiter = Waiter { t, p, me: PLANT_ID, timeouts: 0, typical_wait_us: [0.0; 2], events: Vec::new() };
     let mut last_progress = Instant::now();
     // Measurements of step k go out as soon as the truth reaches tₖ; the telemetry row of step
     // k-1 is formatted afterwards, while the agents compute, so it stays off the critical path.
-    let send_measurements = |t: &mut T, model: &mut dyn PlantModel, rng: &mut ChaCha8Rng, k: u64| {
-        let mut readings = Vec::with_capacity(64);
-        for i in 1..=n_agents {
-            readings.clear();
-            model.readings(i, rng, &mut readings);
-            if !readings.iter().all(|x| x.is_finite()) {
-                let what = format!("reading for agent {i}");
-                return Err(RunError::Diverged { step: k, t_s: p.t_s(k), who: "the plant model", what });
+    let send_measurements =
+        |t: &mut T, model: &mut dyn PlantModel, rng: &mut ChaCha8Rng, k: u64, roster: &mut PlantRoster| {
+            let mut readings = Vec::with_capacity(64);
+            for i in 1..=n_agents {
+                readings.clear();
+                model.readings(i, rng, &mut readings);
+                if !readings.iter().all(|x| x.is_finite()) {
+                    let what = format!("reading for agent {i}");
+                    return Err(RunError::Diverged { step: k, t_s: p.t_s(k), who: "the plant model", what });
+                }
+                let mut m = Measurement::new(Header::new(p.run_id, PLANT_ID, k, p.t_s(k)), &readings);
+                m.live = roster.live;
+                m.lost_at_close = roster.lost_at_close;
+                t.send_measurement(i, &m)?;
             }
-            let m = Measurement::new(Header::new(p.run_id, PLANT_ID, k, p.t_s(k)), &readings);
-            t.send_measurement(i, &m)?;
-        }
-        Ok::<(), RunError>(())
-    };
+            roster.lost_at_close = Roster::EMPTY;
+            Ok::<(), RunError>(())
+        };
     let paced_from = Instant::now();
     let result = (|| {
         let mut round_start = monotonic_ns();
         if p.n_steps > 0 {
-            send_measurements(waiter.t, model, rng, 0)?;
+            send_measurements(waiter.t, model, rng, 0, &mut roster)?;
         }
         for k in 0..p.n_steps {
             let t_s = p.t_s(k);
-            inbox.reset(k);
-            waiter.until(k, "share", &mut inbox)?;
-            for (i, u) in inbox.commands.iter().enumerate() {
+            inbox.k = k;
+            inbox.latency_max_ns = 0;
+            for j in 1..=n_agents {
+                let idx = j as usize - 1;
+                inbox.newest[idx] = None;
+                inbox.want[idx] = roster.live.contains(j);
+            }
+            let limit = match p.realtime_rate {
+                // Real time: a command is due by the end of its step.
+                Some(rate) => {
+                    let due = paced_from + Duration::from_secs_f64((k + 1) as f64 * p.dt_s / rate);
+                    due.saturating_duration_since(Instant::now())
+                }
+                None => p.step_timeout,
+            };
+            match waiter.until(k, "share", &mut inbox, limit) {
+                Ok(()) => {}
+                Err(RunError::Timeout { .. }) if realtime || p.degrade => {}
+                Err(e) => return Err(e),
+            }
+            // Close step k: who delivered, who missed, who is gone.
+            for j in 1..=n_agents {
+                let idx = j as usize - 1;
+                if inbox.died.contains(j) && roster.live.contains(j) {
+                    roster.set(waiter.t, p, j, false, k, "died");
+                    roster.lost_at_close.set(j, true);
+                }
+                if !roster.live.contains(j) {
+                    commands[idx].iter_mut().for_each(|u| *u = 0.0);
+                    continue;
+                }
+                let missed = inbox.want[idx];
+                if missed && realtime {
+                    report.faults.deadline_misses += 1;
+                    if last_heard[idx].elapsed() >= p.step_timeout {
+                        if !p.degrade {
+                            let (from, after_s) = (format!("agent {j}"), p.step_timeout.as_secs_f64());
+                            return Err(RunError::Timeout { step: k, from, what: "share", after_s });
+                        }
+                        roster.set(waiter.t, p, j, false, k, "silent");
+                        roster.lost_at_close.set(j, true);
+                        commands[idx].iter_mut().for_each(|u| *u = 0.0);
+                        continue;
+                    }
+                } else if missed {
+                    // Lockstep: waited the full step timeout (degrade mode, else it returned).
+                    roster.set(waiter.t, p, j, false, k, "silent");
+                    roster.lost_at_close.set(j, true);
+                    commands[idx].iter_mut().for_each(|u| *u = 0.0);
+                    continue;
+                } else {
+                    last_heard[idx] = Instant::now();
+                }
+                match inbox.newest[idx].take() {
+                    Some((_, u)) => commands[idx] = u,
+                    None => *report.faults.held.entry(Proc::Agent(j).name()).or_default() += 1,
+                }
+            }
+            inbox.died = Roster::EMPTY;
+            for (i, u) in commands.iter().enumerate() {
                 model.apply_command(i as u32 + 1, u);
             }
             row.clear();
@@ -390,9 +594,14 @@ fn plant_loop<T: Transport + ?Sized>(
                     std::thread::sleep(due - now);
                 }
             }
+            if k + 1 < p.n_steps && hold_steps.binary_search(&(k + 1)).is_ok() {
+                // Flush first: a process fault may be due to end this run.
+                tel.flush().map_err(io("plant telemetry"))?;
+                hold(&mut waiter, p, k + 1, &mut roster)?;
+            }
             round_start = monotonic_ns();
             if k + 1 < p.n_steps {
-                send_measurements(waiter.t, model, rng, k + 1)?;
+                send_measurements(waiter.t, model, rng, k + 1, &mut roster)?;
             }
             tel.row(k, &row).map_err(io("plant telemetry"))?;
             timing.row_u64(&[k, round_ns, inbox.latency_max_ns]).map_err(io("plant timing"))?;
@@ -408,23 +617,78 @@ fn plant_loop<T: Transport + ?Sized>(
     report.timeouts = waiter.timeouts;
     report.messages_received = inbox.received;
     report.messages_rejected = reject_map(&inbox.rejects);
+    report.faults.late = inbox.late;
+    report.faults.roster = std::mem::take(&mut roster.changes);
     // Never lose telemetry: flush whatever was written, also after an error.
     let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("plant telemetry"));
     result.and(flushed)
 }
 
-/// Run agent `id`'s side of every step.
+/// Hold before the measurements of step `k` until the orchestrator has carried out the process
+/// faults due then, and apply its roster changes.
+fn hold<T: Transport + ?Sized>(
+    w: &mut Waiter<'_, T>,
+    p: &DriveParams,
+    k: u64,
+    roster: &mut PlantRoster,
+) -> Result<(), RunError> {
+    w.t.report(&status(p, PLANT_ID, STATUS_HOLDING, k, 0));
+    let started = Instant::now();
+    let mut events = Vec::new();
+    loop {
+        if w.t.stop_requested() {
+            return Err(RunError::Stopped { step: k, why: "orchestrator" });
+        }
+        if p.terminate.load(Ordering::Relaxed) {
+            return Err(RunError::Stopped { step: k, why: "SIGTERM" });
+        }
+        w.t.control_events(&mut events);
+        for e in events.drain(..) {
+            match e.command {
+                CONTROL_RESUME if e.step == k => {
+                    for id in e.dead.ids() {
+                        roster.set(w.t, p, id, false, k, "fault");
+                    }
+                    for id in e.alive.ids() {
+                        roster.set(w.t, p, id, true, k, "fault");
+                    }
+                    return Ok(());
+                }
+                CONTROL_DEAD => {
+                    for id in e.dead.ids() {
+                        roster.set(w.t, p, id, false, k, "died");
+                    }
+                }
+                _ => {}
+            }
+        }
+        if started.elapsed() > p.hold_timeout {
+            return Err(RunError::Timeout {
+                step: k,
+                from: "the orchestrator".into(),
+                what: "resume after a fault",
+                after_s: started.elapsed().as_secs_f64(),
+            });
+        }
+        std::thread::sleep(Duration::from_micros(200));
+    }
+}
+
+/// Run agent `id`'s side of every step; `restore`: a relaunched agent's checkpoint, already
+/// loaded into `algo`.
 pub fn run_agent<T: Transport + ?Sized>(
     t: &mut T,
     algo: &mut dyn Algorithm,
     id: u32,
     neighbours: &[u32],
     p: &DriveParams,
+    restore: Option<&Checkpoint>,
 ) -> ProcessReport {
     let me = Proc::Agent(id);
     let mut report = new_report(me, p);
+    report_ready(t, p, me);
     let started = Instant::now();
-    let result = agent_loop(t, algo, id, neighbours, p, &mut report);
+    let result = agent_loop(t, algo, id, neighbours, p, restore, &mut report);
     report.wall_s = started.elapsed().as_secs_f64();
     (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
     if let Err(e) = result {
@@ -435,32 +699,69 @@ pub fn run_agent<T: Transport + ?Sized>(
     report
 }
 
-/// A neighbour's shares of step k and k+1 (it may be one step ahead), by step parity.
-#[derive(Default, Clone)]
-struct Slots {
-    step: [Option<u64>; 2],
-    values: [Vec<f64>; 2],
+/// Whether a roster history (first step, live) says live at step `u` (live before any entry).
+fn live_at(hist: &[(u64, bool)], u: u64) -> bool {
+    hist.iter().rev().find(|(s, _)| *s <= u).is_none_or(|e| e.1)
 }
 
-/// An agent's inbox for step k: the plant's measurement, then every neighbour's share.
-struct AgentInbox<'a> {
+/// Fold measurement `m`'s roster into the history of agent `id`.
+fn note_roster(hist: &mut Vec<(u64, bool)>, m: &Measurement, id: u32) {
+    let step = m.header.step;
+    let mut live = hist.last().is_none_or(|e| e.1);
+    if live && m.lost_at_close.contains(id) {
+        hist.push((step.saturating_sub(1), false));
+        live = false;
+    }
+    let now = m.live.contains(id);
+    if now != live {
+        hist.push((step, now));
+    }
+}
+
+/// An agent's view of one neighbour.
+struct Peer {
+    id: u32,
+    /// Valid shares not yet used: (step, values).
+    arrived: Vec<(u64, Vec<f64>)>,
+    /// The last share used (step, values): it stands in for one that does not arrive.
+    held: Option<(u64, Vec<f64>)>,
+    /// Roster history: (first step, live).
+    hist: Vec<(u64, bool)>,
+    /// Steps whose token (an on-time share, or a `LINK_LOST` token) has arrived.
+    tokens: Vec<u64>,
+}
+
+/// An agent's inbox: the plant's measurement, then the neighbours' shares.
+struct AgentInbox {
     run_id: u64,
+    me: u32,
     k: u64,
-    neighbours: &'a [u32],
     /// Waiting for the measurement of step k (true), or past it (false).
     want_measurement: bool,
-    /// The neighbours' step whose shares complete this wait, if any.
+    /// The step whose neighbours' shares complete this wait, if any.
     need_shares: Option<u64>,
-    /// `run.link_delay_steps`.
-    delay: u64,
+    /// Oldest share step accepted, behind k.
+    back: u64,
+    realtime: bool,
+    /// The newest measurement of step ≥ k.
     meas: Option<Box<Measurement>>,
     meas_latency_ns: u64,
-    slots: Vec<Slots>,
+    last_meas_step: Option<u64>,
+    me_hist: Vec<(u64, bool)>,
+    peers: Vec<Peer>,
+    plan: Arc<FaultPlan>,
+    fresh: bool,
     received: u64,
     rejects: RejectCounts,
 }
 
-impl Inbox for AgentInbox<'_> {
+impl AgentInbox {
+    fn i_am_live(&self) -> bool {
+        self.last_meas_step.is_none_or(|s| live_at(&self.me_hist, s))
+    }
+}
+
+impl Inbox for AgentInbox {
     fn take(&mut self, inc: Incoming<'_>) {
         self.received += 1;
         match inc {
@@ -468,38 +769,46 @@ impl Inbox for AgentInbox<'_> {
                 // Once every share of step k is in, the plant may already send step k+1's
                 // measurement while this agent still waits for a neighbour: keep it.
                 let want = if self.want_measurement { self.k } else { self.k + 1 };
-                let e = Expect { run_id: self.run_id, sender: PLANT_ID, step_min: want, step_max: want };
+                let e = Expect { run_id: self.run_id, sender: PLANT_ID, step_min: want, step_max: u64::MAX - 1 };
                 match validate_measurement(m, &e) {
-                    // A duplicate is harmless: the first one counts.
-                    Ok(()) if self.meas.is_none() => {
+                    Ok(()) => {
+                        let step = m.header.step;
+                        if self.last_meas_step.is_some_and(|s| s >= step) {
+                            return; // a duplicate or an older one: the first, newest, counts
+                        }
+                        self.last_meas_step = Some(step);
+                        self.fresh = true;
+                        note_roster(&mut self.me_hist, m, self.me);
+                        for peer in &mut self.peers {
+                            note_roster(&mut peer.hist, m, peer.id);
+                        }
                         self.meas_latency_ns = monotonic_ns().saturating_sub(m.header.sent_wall_ns);
                         self.meas = Some(Box::new(*m));
                     }
-                    Ok(()) => {}
                     Err(r) => self.rejects.add(r),
                 }
             }
             Incoming::Share { from, share } => {
-                let Some(slot) = self.neighbours.iter().position(|&j| j == from) else {
+                let Some(peer) = self.peers.iter_mut().find(|p| p.id == from) else {
                     self.rejects.add(Rejection::Sender);
                     return;
                 };
-                // A neighbour may be one step ahead; with a link delay, last step's share is
-                // still wanted too.
+                // A neighbour may be one step ahead (of this agent, or of the newest measurement
+                // when this agent is catching up); a delayed share may be `back` steps old.
                 let e = Expect {
                     run_id: self.run_id,
                     sender: from,
-                    step_min: self.k.saturating_sub(self.delay),
-                    step_max: self.k + 1,
+                    step_min: self.k.saturating_sub(self.back),
+                    step_max: self.k.max(self.last_meas_step.unwrap_or(0)) + 1,
                 };
                 match validate_share(share, &e) {
                     Ok(()) => {
-                        let s = &mut self.slots[slot];
-                        let par = (share.header.step % 2) as usize;
-                        if s.step[par] != Some(share.header.step) {
-                            s.step[par] = Some(share.header.step);
-                            s.values[par].clear();
-                            s.values[par].extend_from_slice(share.values());
+                        let step = share.header.step;
+                        if share.link == LINK_LOST || self.plan.fate(from, step) == Fate::Deliver {
+                            peer.tokens.push(step);
+                        }
+                        if share.link == LINK_DATA && !peer.arrived.iter().any(|(s, _)| *s == step) {
+                            peer.arrived.push((step, share.values().to_vec()));
                         }
                     }
                     Err(r) => self.rejects.add(r),
@@ -508,16 +817,49 @@ impl Inbox for AgentInbox<'_> {
         }
     }
     fn complete(&self) -> bool {
-        let have = |u: u64| self.slots.iter().all(|s| s.step[(u % 2) as usize] == Some(u));
-        (!self.want_measurement || self.meas.is_some()) && self.need_shares.is_none_or(have)
+        if self.want_measurement {
+            // Off the roster (frozen, or relaunched before its return step): wait on.
+            let Some(m) = &self.meas else { return false };
+            if !live_at(&self.me_hist, m.header.step) {
+                return false;
+            }
+        }
+        let Some(u) = self.need_shares else { return true };
+        // Declared dead while waiting (a late return from a freeze), or the step closed
+        // without the share (real time): go on with what arrived.
+        if !self.i_am_live() || (self.realtime && self.last_meas_step.is_some_and(|s| s > u)) {
+            return true;
+        }
+        self.peers.iter().all(|p| !live_at(&p.hist, u) || p.tokens.contains(&u))
     }
     fn missing(&self) -> (u32, String) {
         if self.want_measurement && self.meas.is_none() {
             return (PLANT_ID, "the plant".into());
         }
+        if self.want_measurement && !self.i_am_live() {
+            return (PLANT_ID, "the plant (to be back on the roster)".into());
+        }
         let u = self.need_shares.unwrap_or(self.k);
-        let j = self.slots.iter().position(|s| s.step[(u % 2) as usize] != Some(u)).map_or(0, |i| self.neighbours[i]);
+        let j = self.peers.iter().find(|p| live_at(&p.hist, u) && !p.tokens.contains(&u)).map_or(0, |p| p.id);
         (j, format!("neighbour agent {j}"))
+    }
+    fn fresh(&mut self) -> bool {
+        std::mem::take(&mut self.fresh)
+    }
+}
+
+/// Garble a share the way a `corrupt` fault says; every receiver's validation rejects it.
+fn corrupt(s: &mut Share, how: Corruption) {
+    match how {
+        // Far outside any accepted window, in either direction.
+        Corruption::WrongStep => s.header.step = s.header.step.wrapping_add(1 << 40),
+        Corruption::WrongSender => s.header.sender = s.header.sender.wrapping_add(1000),
+        Corruption::NonFinite => {
+            s.command[0] = f64::NAN;
+            s.values[0] = f64::NAN;
+            s.command_len = s.command_len.max(1);
+            s.values_len = s.values_len.max(1);
+        }
     }
 }
 
@@ -527,49 +869,167 @@ fn agent_loop<T: Transport + ?Sized>(
     id: u32,
     neighbours: &[u32],
     p: &DriveParams,
+    restore: Option<&Checkpoint>,
     report: &mut ProcessReport,
 ) -> Result<(), RunError> {
     let name = Proc::Agent(id).name();
     let mut columns = vec!["k".to_string(), "t_s".to_string()];
     columns.extend(algo.columns());
     let tel_path = p.dirs.telemetry().join(format!("{name}.csv"));
-    let mut tel = CsvWriter::create(&tel_path, &columns).map_err(io(tel_path.display().to_string()))?;
     let tim_path = p.dirs.timing().join(format!("{name}.csv"));
-    let mut timing = CsvWriter::create(
-        &tim_path,
-        &["k".into(), "meas_latency_ns".into(), "neighbour_wait_ns".into(), "compute_ns".into()],
-    )
-    .map_err(io(tim_path.display().to_string()))?;
-
+    let timing_columns = ["k".into(), "meas_latency_ns".into(), "neighbour_wait_ns".into(), "compute_ns".into()];
+    // A relaunched agent goes on with its predecessor's files.
+    let (mut tel, mut timing) = if restore.is_some() {
+        (
+            CsvWriter::append(&tel_path, columns.len()).map_err(io(tel_path.display().to_string()))?,
+            CsvWriter::append(&tim_path, timing_columns.len()).map_err(io(tim_path.display().to_string()))?,
+        )
+    } else {
+        (
+            CsvWriter::create(&tel_path, &columns).map_err(io(tel_path.display().to_string()))?,
+            CsvWriter::create(&tim_path, &timing_columns).map_err(io(tim_path.display().to_string()))?,
+        )
+    };
+    let plan = &*p.faults;
+    let delay = u64::from(p.link_delay_steps);
     let mut inbox = AgentInbox {
         run_id: p.run_id,
+        me: id,
         k: 0,
-        neighbours,
         want_measurement: true,
         need_shares: None,
-        delay: u64::from(p.link_delay_steps),
+        back: delay + u64::from(plan.max_delay()) + 1,
+        realtime: p.realtime_rate.is_some(),
         meas: None,
         meas_latency_ns: 0,
-        slots: vec![Slots::default(); neighbours.len()],
+        last_meas_step: None,
+        me_hist: Vec::new(),
+        peers: neighbours
+            .iter()
+            .map(|&j| Peer { id: j, arrived: Vec::new(), held: None, hist: Vec::new(), tokens: Vec::new() })
+            .collect(),
+        plan: Arc::clone(&p.faults),
+        fresh: false,
         received: 0,
         rejects: RejectCounts::default(),
     };
+    let mut k = 0;
+    if let Some(c) = restore {
+        k = c.step;
+        report.faults.restored_from_step = Some(c.step);
+        for (j, step, values) in &c.state.held {
+            if let Some(peer) = inbox.peers.iter_mut().find(|p| p.id == *j) {
+                peer.held = Some((*step, values.clone()));
+            }
+        }
+    }
+    let hold_steps = plan.hold_steps();
+    let meas_limit = if plan.has_process_faults() { p.step_timeout + p.hold_timeout } else { p.step_timeout };
+    // The plant declares a silent neighbour dead after its step timeout; wait longer than that.
+    let share_limit = if p.degrade { 2 * p.step_timeout + Duration::from_secs(1) } else { p.step_timeout };
+    let mut pending: Vec<(u64, Box<Share>)> = Vec::new();
+    let mut last_live: Option<Vec<bool>> = None;
     let mut out = ShareOut::default();
     let mut row = Vec::with_capacity(columns.len());
-    let mut waiter = Waiter { t, p, me: id, timeouts: 0, typical_wait_us: [0.0; 2] };
+    let mut waiter = Waiter { t, p, me: id, timeouts: 0, typical_wait_us: [0.0; 2], events: Vec::new() };
+
+    // Step `algo` from `u`'s shares: for each neighbour live at u, the newest share that has
+    // arrived by u, else its last valid one (held, its age recorded); a dead one is left out.
+    let advance = |algo: &mut dyn Algorithm, inbox: &mut AgentInbox, u: Option<u64>, report: &mut ProcessReport| {
+        let Some(u) = u else {
+            algo.step(p.dt_s, &[]); // link delay, step 0: nothing heard yet
+            return;
+        };
+        for peer in &mut inbox.peers {
+            let live = live_at(&peer.hist, u);
+            let mut newest: Option<(u64, Vec<f64>)> = None;
+            peer.tokens.retain(|s| *s > u);
+            peer.arrived.retain_mut(|(s, v)| {
+                let due = plan.arrival(peer.id, *s).is_some_and(|a| a <= u) || *s <= u.saturating_sub(inbox.back);
+                if due && live && newest.as_ref().is_none_or(|(n, _)| *n < *s) {
+                    newest = Some((*s, std::mem::take(v)));
+                }
+                !due
+            });
+            if !live {
+                continue;
+            }
+            match newest {
+                Some(n) if peer.held.as_ref().is_none_or(|(h, _)| *h < n.0) => peer.held = Some(n),
+                _ => *report.faults.held.entry(Proc::Agent(peer.id).name()).or_default() += 1,
+            }
+            if let Some((s, _)) = &peer.held {
+                report.faults.max_age_steps = report.faults.max_age_steps.max(u.saturating_sub(*s));
+            }
+        }
+        let nb: Vec<Neighbour<'_>> = inbox
+            .peers
+            .iter()
+            .filter(|peer| live_at(&peer.hist, u))
+            .filter_map(|peer| peer.held.as_ref().map(|(_, v)| Neighbour { id: peer.id, values: v }))
+            .collect();
+        algo.step(p.dt_s, &nb);
+    };
+    let set_wants = |inbox: &mut AgentInbox, u: Option<u64>| inbox.need_shares = u;
+
     let result = (|| {
-        for k in 0..p.n_steps {
-            let t_s = p.t_s(k);
+        while k < p.n_steps {
             inbox.k = k;
             inbox.want_measurement = true;
             // With a link delay the neighbours' shares of step k-1 were sent before the plant
             // could send measurement k: one wait, one wakeup.
-            let used = k.checked_sub(inbox.delay);
-            inbox.need_shares = if inbox.delay > 0 { used } else { None };
-            waiter.until(k, "measurement", &mut inbox)?;
+            let used = k.checked_sub(delay);
+            set_wants(&mut inbox, if delay > 0 { used } else { None });
+            if hold_steps.binary_search(&k).is_ok() {
+                // A process fault may be due now: be found between steps with every row on disk.
+                tel.flush().and_then(|_| timing.flush()).map_err(io("agent telemetry"))?;
+                waiter.t.report(&status(p, id, STATUS_IDLE, k, 0));
+            }
+            waiter.until(k, "measurement", &mut inbox, meas_limit)?;
+            let m = inbox.meas.take().expect("the wait completed");
+            if m.header.step > k {
+                // Back on the roster after missing steps (thawed, or relaunched from a
+                // checkpoint): propagate through them with the neighbours' last valid shares.
+                let back_at = m.header.step;
+                for s in k..back_at {
+                    advance(algo, &mut inbox, s.checked_sub(delay), report);
+                }
+                report.faults.steps_missed += back_at - k;
+                k = back_at;
+                inbox.k = k;
+                let used = k.checked_sub(delay);
+                set_wants(&mut inbox, if delay > 0 { used } else { None });
+                if delay > 0 {
+                    inbox.want_measurement = false;
+                    waiter.until(k, "share", &mut inbox, share_limit)?;
+                }
+            }
+            let t_s = p.t_s(k);
+            let live: Vec<bool> = inbox.peers.iter().map(|peer| live_at(&peer.hist, k)).collect();
+            if last_live.as_ref() != Some(&live) {
+                algo.roster(&live);
+                last_live = Some(live);
+            }
+            if p.checkpoint_every > 0 && k % p.checkpoint_every == 0 && restore.is_none_or(|c| c.step != k) {
+                let ck = Checkpoint {
+                    agent: id,
+                    step: k,
+                    kind: p.algorithm_kind.clone(),
+                    state: AgentState {
+                        algorithm: algo.save_state(),
+                        held: inbox
+                            .peers
+                            .iter()
+                            .filter_map(|peer| peer.held.as_ref().map(|(s, v)| (peer.id, *s, v.clone())))
+                            .collect(),
+                    },
+                };
+                let path = crate::checkpoint::path_for(&p.dirs.root, id);
+                ck.write(&path).map_err(io(path.display().to_string()))?;
+                report.faults.checkpoints_written += 1;
+            }
 
             let compute_start = monotonic_ns();
-            let m = inbox.meas.take().expect("the wait completed");
             out.command.clear();
             out.values.clear();
             algo.share(&AgentInput { k, t_s, readings: m.readings() }, &mut out);
@@ -579,8 +1039,38 @@ fn agent_loop<T: Transport + ?Sized>(
             if !out.values.iter().all(|x| x.is_finite()) {
                 return Err(RunError::Diverged { step: k, t_s, who: "the algorithm", what: "share value".into() });
             }
+            // Late shares due now go out first; then this step's, as the fault plan says.
+            let mut i = 0;
+            while i < pending.len() {
+                if pending[i].0 <= k {
+                    let (_, s) = pending.swap_remove(i);
+                    waiter.t.send_share(&s)?;
+                } else {
+                    i += 1;
+                }
+            }
             let share = Share::new(Header::new(p.run_id, id, k, t_s), &out.command, &out.values);
-            waiter.t.send_share(&share)?;
+            let fate = plan.fate(id, k);
+            match fate {
+                Fate::Deliver => waiter.t.send_share(&share)?,
+                Fate::Delay(n) => {
+                    report.faults.shares_delayed += 1;
+                    pending.push((k + u64::from(n), Box::new(share)));
+                }
+                Fate::Drop => report.faults.shares_dropped += 1,
+                Fate::Corrupt(how) => {
+                    *report.faults.shares_corrupted.entry(how.name().to_string()).or_default() += 1;
+                    let mut garbled = share;
+                    corrupt(&mut garbled, how);
+                    waiter.t.send_share(&garbled)?;
+                }
+            }
+            if fate != Fate::Deliver {
+                // The step token: lockstep goes on without the share (see `LINK_LOST`).
+                let mut token = Share::new(share.header, &[], &[]);
+                token.link = LINK_LOST;
+                waiter.t.send_share(&token)?;
+            }
             let mut compute_ns = monotonic_ns() - compute_start;
             // Formatting the row overlaps the wait for the neighbours' shares.
             row.clear();
@@ -589,34 +1079,19 @@ fn agent_loop<T: Transport + ?Sized>(
             tel.row(k, &row).map_err(io("agent telemetry"))?;
 
             let wait_start = monotonic_ns();
-            if inbox.delay == 0 {
+            if delay == 0 {
                 inbox.want_measurement = false;
-                inbox.need_shares = Some(k);
-                waiter.until(k, "share", &mut inbox)?;
+                set_wants(&mut inbox, Some(k));
+                waiter.until(k, "share", &mut inbox, share_limit)?;
             }
             let neighbour_wait_ns = monotonic_ns() - wait_start;
 
             let step_start = monotonic_ns();
-            match used {
-                Some(u) => {
-                    let par = (u % 2) as usize;
-                    let nb: Vec<Neighbour<'_>> = neighbours
-                        .iter()
-                        .zip(&inbox.slots)
-                        .map(|(&j, s)| Neighbour { id: j, values: &s.values[par] })
-                        .collect();
-                    algo.step(p.dt_s, &nb);
-                    drop(nb);
-                    for s in &mut inbox.slots {
-                        s.step[par] = None;
-                    }
-                }
-                // Link delay, step 0: nothing has been heard yet.
-                None => algo.step(p.dt_s, &[]),
-            }
+            advance(algo, &mut inbox, used, report);
             compute_ns += monotonic_ns() - step_start;
             timing.row_u64(&[k, inbox.meas_latency_ns, neighbour_wait_ns, compute_ns]).map_err(io("agent timing"))?;
             report.steps_completed = k + 1;
+            k += 1;
         }
         Ok(())
     })();
@@ -654,7 +1129,7 @@ mod tests {
             out.push(self.x[agent as usize - 1] + rng.random::<f64>() * 1e-3);
         }
         fn apply_command(&mut self, agent: u32, command: &[f64]) {
-            self.u[agent as usize - 1] = command[0];
+            self.u[agent as usize - 1] = command.first().copied().unwrap_or(0.0);
         }
         fn advance(&mut self, dt_s: f64) {
             for (x, u) in self.x.iter_mut().zip(&self.u) {
@@ -693,30 +1168,36 @@ mod tests {
             let u: f64 = self.nbr.iter().map(|x| x - self.y).sum::<f64>() * 0.7;
             out.extend([self.y, u]);
         }
+        fn save_state(&self) -> Vec<u8> {
+            crate::checkpoint::encode_state(&(self.y, &self.nbr))
+        }
+        fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+            (self.y, self.nbr) = crate::checkpoint::decode_state(bytes)?;
+            Ok(())
+        }
     }
 
     fn params(dir: &std::path::Path, n_steps: u64, timeout: Duration) -> DriveParams {
         let dirs = RunDirs::new(dir);
         dirs.create_all().unwrap();
-        DriveParams {
-            run_id: 99,
-            n_steps,
-            dt_s: 0.1,
-            step_timeout: timeout,
-            dirs,
-            terminate: Arc::new(AtomicBool::new(false)),
-            process_start: Instant::now(),
-            spin: SpinPolicy::Fixed(Duration::ZERO),
-            link_delay_steps: 0,
-            realtime_rate: None,
-        }
+        DriveParams::basic(99, n_steps, 0.1, timeout, dirs)
+    }
+
+    #[derive(Default)]
+    struct Setup {
+        silent: Option<u32>,
+        abort: bool,
+        faults: Vec<cohort_scenario::faults::FaultSpec>,
     }
 
     /// Run 4 agents on a ring; returns (plant report, agent reports, in-memory shared values).
-    fn run(dir: &std::path::Path, silent: Option<u32>) -> (ProcessReport, Vec<ProcessReport>, Vec<Vec<f64>>) {
+    fn run(dir: &std::path::Path, setup: Setup) -> (ProcessReport, Vec<ProcessReport>, Vec<Vec<f64>>) {
         let topo = Topology { neighbours: vec![vec![2, 4], vec![1, 3], vec![2, 4], vec![3, 1]] };
         let bus = MemoryBus::new(topo.clone());
-        let p = params(dir, 50, Duration::from_millis(if silent.is_some() { 300 } else { 20_000 }));
+        let silent = setup.silent;
+        let mut p = params(dir, 50, Duration::from_millis(if silent.is_some() { 300 } else { 20_000 }));
+        p.degrade = !setup.abort;
+        p.faults = Arc::new(FaultPlan::new(&setup.faults, 11, p.dt_s));
         let shared: Vec<Arc<Mutex<Vec<f64>>>> = (0..4).map(|_| Arc::new(Mutex::new(Vec::new()))).collect();
         std::thread::scope(|sc| {
             let plant = {
@@ -737,7 +1218,7 @@ mod tests {
                     sc.spawn(move || {
                         let mut t = bus.endpoint(Proc::Agent(i));
                         let mut a = ToyAgent { y: 0.0, nbr: vec![], shared: sh };
-                        run_agent(&mut t, &mut a, i, topo.neighbours_of(i), p)
+                        run_agent(&mut t, &mut a, i, topo.neighbours_of(i), p, None)
                     })
                 })
                 .collect();
@@ -751,8 +1232,8 @@ mod tests {
     fn two_in_memory_runs_agree_bit_for_bit_with_memory_and_with_each_other() {
         let base = std::env::temp_dir().join(format!("cohort-drive-{}", std::process::id()));
         let (a, b) = (base.join("a"), base.join("b"));
-        let (pa, ra, sa) = run(&a, None);
-        let (pb, _, sb) = run(&b, None);
+        let (pa, ra, sa) = run(&a, Setup::default());
+        let (pb, _, sb) = run(&b, Setup::default());
         assert!(pa.error.is_none() && pb.error.is_none(), "{:?} {:?}", pa.error, pb.error);
         assert!(ra.iter().all(|r| r.error.is_none() && r.steps_completed == 50));
         // The values each agent held in memory are exactly what its telemetry says.
@@ -786,10 +1267,69 @@ mod tests {
     fn a_silent_agent_is_a_timeout_naming_it_not_a_hang() {
         let base = std::env::temp_dir().join(format!("cohort-drive-silent-{}", std::process::id()));
         let started = Instant::now();
-        let (pr, _, _) = run(&base, Some(3));
+        let (pr, _, _) = run(&base, Setup { silent: Some(3), abort: true, ..Default::default() });
         let err = pr.error.expect("the plant must fail");
         assert!(err.contains("timeout at step 0") && err.contains("agent 3"), "{err}");
         assert!(started.elapsed() < Duration::from_secs(30));
+        let _ = std::fs::remove_dir_all(&base);
+    }
+
+    #[test]
+    fn degrade_mode_marks_a_silent_agent_dead_and_finishes_without_it() {
+        let base = std::env::temp_dir().join(format!("cohort-drive-degrade-{}", std::process::id()));
+        let (pr, ars, _) = run(&base, Setup { silent: Some(3), ..Default::default() });
+        assert!(pr.error.is_none(), "{:?}", pr.error);
+        assert_eq!(pr.steps_completed, 50);
+        assert_eq!(pr.faults.roster.len(), 1, "{:?}", pr.faults.roster);
+        let c = &pr.faults.roster[0];
+        assert_eq!((c.step, c.agent, c.live, c.reason.as_str()), (0, 3, false, "silent"));
+        assert!(ars.iter().all(|r| r.error.is_none() && r.steps_completed == 50), "{ars:?}");
+        let _ = std::fs::remove_dir_all(&base);
+    }
+
+    fn fault(kind: &str, agent: u32, t_s: f64) -> cohort_scenario::faults::FaultSpec {
+        cohort_scenario::faults::FaultSpec { kind: kind.into(), agent, t_s, for_s: None, p: None, delay_steps: None }
+    }
+
+    #[test]
+    fn link_faults_are_deterministic_and_every_lost_share_is_counted() {
+        let base = std::env::temp_dir().join(format!("cohort-drive-links-{}", std::process::id()));
+        let faults = || {
+            let mut drop = fault("drop", 2, 0.5);
+            drop.p = Some(0.3);
+            let mut corrupt = fault("corrupt", 4, 0.0);
+            corrupt.p = Some(0.3);
+            let mut delay = fault("delay", 1, 1.0);
+            (delay.delay_steps, delay.for_s) = (Some(2), Some(2.0));
+            vec![drop, corrupt, delay]
+        };
+        let (pa, ra, sa) = run(&base.join("a"), Setup { faults: faults(), ..Default::default() });
+        let (pb, _, sb) = run(&base.join("b"), Setup { faults: faults(), ..Default::default() });
+        assert!(pa.error.is_none() && ra.iter().all(|r| r.error.is_none()), "{pa:?} {ra:?}");
+        let bits = |v: &Vec<Vec<f64>>| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&sa), bits(&sb), "two runs with the same plan differ");
+        assert_eq!(pa.faults, pb.faults);
+        let by = |id: u32| &ra[id as usize - 1].faults;
+        let dropped = by(2).shares_dropped;
+        let corrupted: u64 = by(4).shares_corrupted.values().sum();
+        assert!(dropped > 3 && corrupted > 3, "too few faults drawn: {dropped} {corrupted}");
+        assert_eq!(by(1).shares_delayed, 20);
+        // The plant holds a command for every lost share, and for the two steps at the start of
+        // the delay window when nothing of agent 1 arrives.
+        assert_eq!(pa.faults.held.get("agent-2"), Some(&dropped));
+        assert_eq!(pa.faults.held.get("agent-4"), Some(&corrupted));
+        assert_eq!(pa.faults.held.get("agent-1"), Some(&2));
+        // Every garbled share was rejected, for the reason it was garbled, by each of its readers.
+        for reader in [&pa, &ra[0], &ra[2]] {
+            for (why, n) in &by(4).shares_corrupted {
+                assert_eq!(reader.messages_rejected.get(why), Some(n), "{} rejects {why}", reader.process);
+            }
+        }
+        assert_eq!(pa.messages_rejected.values().sum::<u64>(), corrupted);
+        // The other agents used agent 2's last valid share in place of each dropped one.
+        assert_eq!(ra[0].faults.held.get("agent-2"), Some(&dropped));
+        assert_eq!(ra[2].faults.held.get("agent-2"), Some(&dropped));
+        assert_eq!(ra[1].faults.max_age_steps, 2, "agent 2 used agent 1's shares 2 steps late");
         let _ = std::fs::remove_dir_all(&base);
     }
 }

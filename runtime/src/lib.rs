@@ -2,6 +2,7 @@
 //! lockstep step drivers generic over the transport ([`drive`]), what a process records
 //! ([`record`]), and per-process random generators ([`rng`]).
 
+pub mod checkpoint;
 pub mod drive;
 pub mod model;
 pub mod process;

@@ -11,6 +11,7 @@ pub trait PlantModel: Send {
     /// order, so the sequence is the same in every run mode).
     fn readings(&mut self, agent: u32, rng: &mut ChaCha8Rng, out: &mut Vec<f64>);
     /// The command agent `agent` sent for the current step, held over it (zero-order hold).
+    /// Missing entries (an empty command: an agent dead before it ever sent one) mean zero.
     fn apply_command(&mut self, agent: u32, command: &[f64]);
     /// Integrate the truth by `dt_s` with the commands held.
     fn advance(&mut self, dt_s: f64);
@@ -54,4 +55,28 @@ pub trait Algorithm: Send {
     /// Telemetry values matching [`Algorithm::columns`], taken right after `share` (state at tₖ
     /// and the command of step k).
     fn row(&self, out: &mut Vec<f64>);
+    /// Which of the configured neighbours (in the scenario's order) are on the roster from this
+    /// step on; called before `share` whenever that changes (and once at the start). A dead
+    /// neighbour's shares stop coming by themselves; this is for what the algorithm gets about
+    /// its neighbours from elsewhere (seed 000: relative measurements in the readings).
+    fn roster(&mut self, _live: &[bool]) {}
+    /// The algorithm's full state as bytes (for checkpoints; see `checkpoint.rs`). Restoring
+    /// them into an algorithm built from the same scenario must give back the same state exactly.
+    fn save_state(&self) -> Vec<u8>;
+    /// Replace the state with one saved by [`Algorithm::save_state`]; on error nothing changed.
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String>;
+}
+
+/// Implements the checkpoint methods of [`Algorithm`] for a type that is its own serde state.
+#[macro_export]
+macro_rules! serde_checkpoint {
+    () => {
+        fn save_state(&self) -> Vec<u8> {
+            $crate::checkpoint::encode_state(self)
+        }
+        fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+            *self = $crate::checkpoint::decode_state(bytes)?;
+            Ok(())
+        }
+    };
 }

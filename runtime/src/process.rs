@@ -19,7 +19,7 @@ use cohort_wire::transport::iox::{IoxRun, IoxTransport};
 use cohort_wire::transport::udp::UdpTransport;
 use cohort_wire::transport::{Proc, Transport};
 
-use crate::drive::{DriveParams, report_ready};
+use crate::drive::DriveParams;
 use crate::record::{ProcessReport, RunDirs};
 
 pub const EXIT_OK: u8 = 0;
@@ -134,19 +134,7 @@ pub fn child_main(
             return ExitCode::from(EXIT_RUN_FAILED);
         }
     };
-    let params = DriveParams {
-        run_id,
-        n_steps: scenario.n_steps(),
-        dt_s: scenario.scenario.dt_s,
-        step_timeout: Duration::from_secs_f64(scenario.run.step_timeout_s),
-        dirs: dirs.clone(),
-        terminate,
-        process_start: start,
-        spin: crate::drive::spin_budget(&scenario.run),
-        link_delay_steps: scenario.run.link_delay_steps,
-        realtime_rate: scenario.run.realtime_rate,
-    };
-    report_ready(transport.as_mut(), &params, me);
+    let params = DriveParams::from_scenario(&scenario, run_id, dirs.clone(), terminate, start);
     log(me, start, format!("ready ({} steps of {} s)", params.n_steps, params.dt_s));
     let report = run(&scenario, transport.as_mut(), &params);
     drop(transport); // release the ports before exiting

@@ -55,6 +55,11 @@ impl CsvWriter {
         writeln!(out, "{}", columns.join(","))?;
         Ok(Self { out, path: path.to_path_buf(), width: columns.len(), line: String::with_capacity(256) })
     }
+    /// Reopen an existing CSV to add rows (a relaunched agent goes on with its predecessor's file).
+    pub fn append(path: &Path, width: usize) -> std::io::Result<Self> {
+        let file = std::fs::OpenOptions::new().append(true).open(path)?;
+        Ok(Self { out: BufWriter::with_capacity(1 << 16, file), path: path.to_path_buf(), width, line: String::new() })
+    }
     /// Write `k`, then the values (the header must have 1 + values.len() columns).
     pub fn row(&mut self, k: u64, values: &[f64]) -> std::io::Result<()> {
         use std::fmt::Write as _;
@@ -112,6 +117,51 @@ pub struct ProcessReport {
     pub metrics: std::collections::BTreeMap<String, f64>,
     /// Why the process ended early, if it did.
     pub error: Option<String>,
+    /// Faults injected by and seen by this process.
+    #[serde(default)]
+    pub faults: FaultReport,
+}
+
+/// What a process injected (as a sender) and saw (as a receiver) of the fault plan, and the
+/// roster changes the plant made. Every lost share is counted here or in `messages_rejected`.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct FaultReport {
+    /// Sender: shares withheld by a `drop` fault.
+    pub shares_dropped: u64,
+    /// Sender: shares published garbled by a `corrupt` fault, per garbling.
+    pub shares_corrupted: std::collections::BTreeMap<String, u64>,
+    /// Sender: shares published late by a `delay` fault.
+    pub shares_delayed: u64,
+    /// Receiver: per peer (`agent-j`), steps at which its last valid share stood in for one that
+    /// did not arrive (dropped, corrupted, delayed, or a missed real-time deadline).
+    pub held: std::collections::BTreeMap<String, u64>,
+    /// Receiver: the oldest share used, in steps behind the step it was used at.
+    pub max_age_steps: u64,
+    /// Receiver: valid shares that came after their step had closed (real-time mode).
+    pub late: u64,
+    /// Plant, real-time mode: commands that missed their step's deadline.
+    pub deadline_misses: u64,
+    /// Agent: steps it was not on the roster for (frozen, or between kill and relaunch); it
+    /// propagated its state through them on its return.
+    pub steps_missed: u64,
+    /// Agent: checkpoints written.
+    pub checkpoints_written: u64,
+    /// Agent: the checkpoint step this process resumed from (a relaunched agent).
+    pub restored_from_step: Option<u64>,
+    /// Plant: every roster change.
+    pub roster: Vec<RosterChange>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RosterChange {
+    /// The first step the change applies to.
+    pub step: u64,
+    pub agent: u32,
+    pub live: bool,
+    /// "silent" (step timeout), "died" (the orchestrator saw the process end), "fault" (the plan).
+    pub reason: String,
+    /// Wall time of the decision, s since the plant's start barrier.
+    pub wall_s: f64,
 }
 
 impl ProcessReport {

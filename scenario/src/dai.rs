@@ -53,7 +53,7 @@ pub fn substeps(dt_s: f64, max_step_s: f64) -> u32 {
 }
 
 /// The learning law (section numbers of seed 004).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Law {
     /// (3): θ̂̇ = g Φᴴ(τ − Φθ̂) (Sec. 2.2).
     Original,

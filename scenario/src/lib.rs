@@ -3,6 +3,7 @@
 
 pub mod dai;
 pub mod error;
+pub mod faults;
 pub mod parse;
 pub mod schema;
 pub mod validate;

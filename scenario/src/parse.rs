@@ -21,6 +21,9 @@ pub struct Overrides {
     pub link_delay_steps: Option<u32>,
     pub transport: Option<String>,
     pub realtime_rate: Option<f64>,
+    /// `--fault` entries, appended to the file's `[[faults]]`.
+    pub faults: Vec<crate::faults::FaultSpec>,
+    pub on_agent_loss: Option<String>,
 }
 
 /// Read, parse and validate a scenario file.
@@ -60,11 +63,15 @@ pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario,
     if let Some(r) = overrides.realtime_rate {
         s.run.realtime_rate = Some(r);
     }
+    s.faults.extend(overrides.faults.iter().cloned());
+    if let Some(x) = &overrides.on_agent_loss {
+        s.run.on_agent_loss = x.clone();
+    }
     let problems = validate(&s);
     if problems.is_empty() { Ok(s) } else { Err(err(problems)) }
 }
 
-const TOP_KEYS: &[&str] = &["scenario", "run", "plant", "algorithm", "agents"];
+const TOP_KEYS: &[&str] = &["scenario", "run", "plant", "algorithm", "agents", "faults"];
 
 fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
     let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
@@ -93,6 +100,10 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
         .and_then(|v| tagged(v, "algorithm", AlgorithmConfig::KINDS, &mut problems));
     let agents =
         required("agents", &mut problems).and_then(|v| section::<Vec<AgentConfig>>(v, "agents", &mut problems));
+    let faults = match table.remove("faults") {
+        Some(v) => section::<Vec<crate::faults::FaultSpec>>(v, "faults", &mut problems),
+        None => Some(Vec::new()),
+    };
     let run = match table.remove("run") {
         Some(v) => section::<RunSettings>(v, "run", &mut problems),
         None => Some(RunSettings::default()),
@@ -113,9 +124,11 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
         "dai-attitude" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::DaiAttitude),
         _ => unreachable!("tagged() only returns known kinds"),
     });
-    match (meta, run, plant, algorithm, agents) {
-        (Some(scenario), Some(run), Some(plant), Some(algorithm), Some(agents)) if problems.is_empty() => {
-            Ok(Scenario { scenario, run, plant, algorithm, agents })
+    match (meta, run, plant, algorithm, agents, faults) {
+        (Some(scenario), Some(run), Some(plant), Some(algorithm), Some(agents), Some(faults))
+            if problems.is_empty() =>
+        {
+            Ok(Scenario { scenario, run, plant, algorithm, agents, faults })
         }
         _ => Err(problems),
     }

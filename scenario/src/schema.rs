@@ -11,6 +11,9 @@ pub struct Scenario {
     pub plant: PlantConfig,
     pub algorithm: AlgorithmConfig,
     pub agents: Vec<AgentConfig>,
+    /// The fault plan (`[[faults]]`), see [`crate::faults`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub faults: Vec<crate::faults::FaultSpec>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -58,6 +61,22 @@ pub struct RunSettings {
     /// (1.0 = real time). Lockstep still waits for every share; absent = as fast as possible.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub realtime_rate: Option<f64>,
+    /// When an agent dies or goes silent past `step_timeout_s`: "degrade" (mark it dead, let its
+    /// spacecraft coast, and go on with the live set) or "abort" (end the run with an error).
+    #[serde(default = "default_on_agent_loss")]
+    pub on_agent_loss: String,
+    /// Every agent writes a checkpoint of its full state every this many steps (0: never). A
+    /// restarted agent resumes from its latest one.
+    #[serde(default = "default_checkpoint_every_steps")]
+    pub checkpoint_every_steps: u64,
+}
+
+fn default_on_agent_loss() -> String {
+    "degrade".into()
+}
+
+fn default_checkpoint_every_steps() -> u64 {
+    500
 }
 
 fn default_transport() -> String {
@@ -85,6 +104,8 @@ impl Default for RunSettings {
             link_delay_steps: 0,
             transport: default_transport(),
             realtime_rate: None,
+            on_agent_loss: default_on_agent_loss(),
+            checkpoint_every_steps: default_checkpoint_every_steps(),
         }
     }
 }
@@ -206,6 +227,17 @@ pub enum AlgorithmConfig {
 impl AlgorithmConfig {
     pub const KINDS: &'static [&'static str] =
         &["consensus-formation", "lb-dnn-servicing", "coast", "null", "dai-attitude"];
+
+    /// The `kind` tag of this algorithm (names its checkpoints).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            AlgorithmConfig::ConsensusFormation(_) => "consensus-formation",
+            AlgorithmConfig::LbDnnServicing(_) => "lb-dnn-servicing",
+            AlgorithmConfig::Coast(_) => "coast",
+            AlgorithmConfig::Null(_) => "null",
+            AlgorithmConfig::DaiAttitude(_) => "dai-attitude",
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -71,6 +71,19 @@ pub fn validate(s: &Scenario) -> Vec<Problem> {
     if ids_ok {
         bounds(&mut c, s);
     }
+    let (dt, dur) = (s.scenario.dt_s, s.scenario.duration_s);
+    if dt.is_finite() && dt > 0.0 && dur.is_finite() && dur > 0.0 {
+        crate::faults::check(&mut c, &s.faults, s.n_agents(), dt, dur);
+    }
+    if s.run.checkpoint_every_steps == 0
+        && let Some(k) = s.faults.iter().position(|f| f.kind == "restart")
+    {
+        c.fail(
+            "run.checkpoint_every_steps",
+            0,
+            format!("faults[{k}] restarts an agent, which resumes from its latest checkpoint: must be > 0"),
+        );
+    }
     c.problems
 }
 
@@ -116,6 +129,9 @@ fn run(c: &mut Checker, r: &RunSettings) {
     }
     if let Some(rate) = r.realtime_rate {
         c.positive("run.realtime_rate", rate);
+    }
+    if r.on_agent_loss != "degrade" && r.on_agent_loss != "abort" {
+        c.fail("run.on_agent_loss", format!("{:?}", r.on_agent_loss), "must be \"degrade\" or \"abort\"");
     }
     if r.link_delay_steps > 1 {
         c.fail("run.link_delay_steps", r.link_delay_steps, "must be 0 or 1");

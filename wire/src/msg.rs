@@ -9,7 +9,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Bumped whenever a payload's layout or meaning changes.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// Sender id of the plant. Agents are numbered 1..=N as in the scenario; the orchestrator is
 /// [`ORCHESTRATOR_ID`].
@@ -55,12 +55,64 @@ pub struct Measurement {
     pub len: u32,
     pub _pad: u32,
     pub readings: [f64; MAX_READINGS],
+    /// The roster as of this step: bit (id − 1) set when agent id is live. It rides with the
+    /// measurement rather than on a service of its own so that it is ordered with the step clock
+    /// (the plant decides who is live while it closes a step; a separate service would race).
+    pub live: Roster,
+    /// Agents the plant declared dead while closing the previous step: their share of step − 1
+    /// was not used (the plant waited it out or learnt that the process died). Every other
+    /// roster change in `live` took effect at this step.
+    pub lost_at_close: Roster,
+}
+
+/// A set of agent ids 1..=MAX_AGENTS as a bit mask.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ZeroCopySend)]
+#[repr(C)]
+#[type_name("cohort::Roster")]
+pub struct Roster(pub [u64; MAX_AGENTS / 64]);
+
+impl Roster {
+    pub const EMPTY: Roster = Roster([0; MAX_AGENTS / 64]);
+    pub fn all(n: u32) -> Self {
+        let mut r = Self::EMPTY;
+        for id in 1..=n {
+            r.set(id, true);
+        }
+        r
+    }
+    pub fn contains(&self, id: u32) -> bool {
+        let b = (id as usize).wrapping_sub(1);
+        b < MAX_AGENTS && self.0[b / 64] >> (b % 64) & 1 == 1
+    }
+    pub fn set(&mut self, id: u32, on: bool) {
+        let b = (id as usize).wrapping_sub(1);
+        if b < MAX_AGENTS {
+            if on {
+                self.0[b / 64] |= 1 << (b % 64);
+            } else {
+                self.0[b / 64] &= !(1 << (b % 64));
+            }
+        }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.0.iter().all(|w| *w == 0)
+    }
+    pub fn ids(&self) -> impl Iterator<Item = u32> + '_ {
+        (1..=MAX_AGENTS as u32).filter(|&id| self.contains(id))
+    }
 }
 
 impl Measurement {
     pub fn new(header: Header, readings: &[f64]) -> Self {
         assert!(readings.len() <= MAX_READINGS, "bound checked at scenario validation");
-        let mut m = Self { header, len: readings.len() as u32, _pad: 0, readings: [0.0; MAX_READINGS] };
+        let mut m = Self {
+            header,
+            len: readings.len() as u32,
+            _pad: 0,
+            readings: [0.0; MAX_READINGS],
+            live: Roster::EMPTY,
+            lost_at_close: Roster::EMPTY,
+        };
         m.readings[..readings.len()].copy_from_slice(readings);
         m
     }
@@ -79,6 +131,9 @@ pub struct Share {
     pub header: Header,
     pub command_len: u32,
     pub values_len: u32,
+    /// [`LINK_DATA`], or [`LINK_LOST`]: a step token with nothing in it.
+    pub link: u32,
+    pub _pad: u32,
     pub command: [f64; MAX_COMMAND],
     pub values: [f64; MAX_SHARE_VALUES],
 }
@@ -90,6 +145,8 @@ impl Share {
             header,
             command_len: command.len() as u32,
             values_len: values.len() as u32,
+            link: LINK_DATA,
+            _pad: 0,
             command: [0.0; MAX_COMMAND],
             values: [0.0; MAX_SHARE_VALUES],
         };
@@ -114,12 +171,38 @@ pub struct RunControl {
     /// One of the `CONTROL_*` constants.
     pub command: u32,
     pub run_id: u64,
+    /// CONTROL_RESUME: the step the plant holds at.
+    pub step: u64,
+    /// CONTROL_RESUME, CONTROL_DEAD: agents to mark dead.
+    pub dead: Roster,
+    /// CONTROL_RESUME: agents to mark live again (relaunched or thawed).
+    pub alive: Roster,
 }
+
+impl RunControl {
+    pub fn new(command: u32, run_id: u64) -> Self {
+        Self { version: SCHEMA_VERSION, command, run_id, step: 0, dead: Roster::EMPTY, alive: Roster::EMPTY }
+    }
+}
+
+/// A share that carries data.
+pub const LINK_DATA: u32 = 0;
+/// A step token: the sender finished computing this step, but the link lost (or delayed) its
+/// share. Lockstep needs it — without it the plant could not tell "lost" from "not yet sent" and
+/// would either wait out a timeout per lost share or run ahead of the sender. Receivers use it to
+/// close the step and never read numbers from it (a `drop`, `corrupt` or `delay` fault).
+pub const LINK_LOST: u32 = 1;
 
 /// Stop: finish nothing more, write what you have, exit.
 pub const CONTROL_STOP: u32 = 1;
 /// Start: every process reported ready (all ports exist), the plant may send step 0.
 pub const CONTROL_START: u32 = 2;
+/// The orchestrator has carried out the process faults due at `step`: the plant, holding before
+/// that step's measurements, applies `dead`/`alive` to the roster and goes on.
+pub const CONTROL_RESUME: u32 = 3;
+/// Agents in `dead` died outside the fault plan (the orchestrator reaped them): the plant marks
+/// them dead at the step it is closing instead of waiting out the step timeout.
+pub const CONTROL_DEAD: u32 = 4;
 
 /// Process → orchestrator: lifecycle and progress (never on the step's critical path).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
@@ -147,3 +230,12 @@ pub const STATUS_PROGRESS: u32 = 2;
 pub const STATUS_WAITING: u32 = 3;
 /// The process finished every step.
 pub const STATUS_DONE: u32 = 4;
+/// The plant holds before sending the measurements of `step` (a process fault is due).
+pub const STATUS_HOLDING: u32 = 5;
+/// The plant marked agent `waiting_for` dead from `step` on (it coasts from then).
+pub const STATUS_DEAD: u32 = 6;
+/// The plant marked agent `waiting_for` live again from `step` on.
+pub const STATUS_ALIVE: u32 = 7;
+/// Agent `sender` finished every step before `step` and flushed its telemetry: a process fault
+/// due at `step` (a hold step) finds it in a known state.
+pub const STATUS_IDLE: u32 = 8;

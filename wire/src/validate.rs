@@ -98,7 +98,7 @@ pub fn validate_measurement(m: &Measurement, e: &Expect) -> Result<(), Rejection
 
 pub fn validate_share(s: &Share, e: &Expect) -> Result<(), Rejection> {
     check_header(&s.header, e)?;
-    if s.command_len as usize > MAX_COMMAND || s.values_len as usize > MAX_SHARE_VALUES {
+    if s.command_len as usize > MAX_COMMAND || s.values_len as usize > MAX_SHARE_VALUES || s.link > 1 {
         return Err(Rejection::Length);
     }
     if !all_finite(s.command()) || !all_finite(s.values()) {

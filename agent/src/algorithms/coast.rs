@@ -3,9 +3,12 @@
 
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct Coast;
 
 impl Algorithm for Coast {
+    cohort_runtime::serde_checkpoint!();
+
     fn columns(&self) -> Vec<String> {
         vec!["u_x_mps2".into(), "u_y_mps2".into(), "u_z_mps2".into()]
     }

@@ -12,6 +12,7 @@
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use cohort_scenario::ConsensusFormation as Gains;
 
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct ConsensusFormation {
     gains: Gains,
     slot_m: [f64; 3],
@@ -75,6 +76,8 @@ fn axpy(x: &[f64; 3], a: f64, d: &[f64; 3]) -> [f64; 3] {
 }
 
 impl Algorithm for ConsensusFormation {
+    cohort_runtime::serde_checkpoint!();
+
     fn columns(&self) -> Vec<String> {
         let mut c = Vec::new();
         for (q, unit) in [("r_hat", "m"), ("v_hat", "mps"), ("u", "mps2")] {

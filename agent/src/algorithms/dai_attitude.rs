@@ -88,7 +88,7 @@ pub fn pinv(m: &Regressor) -> Gain {
 }
 
 /// The trajectory generator (14): I_ref ω̇_d + ω_d × I_ref ω_d = τ_test (zero after t_off).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Reference {
     pub j: Matrix3<f64>,
     pub j_inv: Matrix3<f64>,
@@ -114,7 +114,7 @@ impl Reference {
 }
 
 /// The law and its gains.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct LawParams {
     pub law: Law,
     /// G = R = r I₆.
@@ -139,7 +139,7 @@ impl LawParams {
 }
 
 /// What the laws learn from: the regressor Φ, its gain N, and the torque τ that Φθ should equal.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Regression {
     pub phi: Regressor,
     pub gain: Gain,
@@ -187,6 +187,7 @@ pub fn theta_rate(
 }
 
 /// The sampled-data agent.
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct DaiAttitudeAgent {
     p: LawParams,
     reference: Reference,
@@ -256,6 +257,8 @@ impl DaiAttitudeAgent {
 }
 
 impl Algorithm for DaiAttitudeAgent {
+    cohort_runtime::serde_checkpoint!();
+
     fn columns(&self) -> Vec<String> {
         Self::column_names()
     }

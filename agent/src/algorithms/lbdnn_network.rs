@@ -26,7 +26,7 @@
 use rand_distr::StandardNormal;
 
 /// A fully connected Lb-DNN of fixed shape plus the scratch buffers for evaluating it.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct LbDnn {
     /// L₀ … L_{k+1}.
     sizes: Vec<usize>,

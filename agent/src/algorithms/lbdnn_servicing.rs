@@ -18,7 +18,9 @@
 //! step θ̂ᵢ is clipped radially back to ‖θ̂ᵢ‖ ≤ θ̄ (counted in `projection_clips`).
 //!
 //! When a neighbour disappears (issue 7) its terms are left out of the sums and |Nᵢ| counts the
-//! neighbours actually heard this step.
+//! neighbours actually heard this step; once it is off the roster, its relative measurement dᵢⱼ
+//! is left out of ηᵢ too (12), so the survivors run the same law on the live graph. A neighbour
+//! whose share is only late or lost keeps its dᵢⱼ, and its last valid share stands in.
 
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use cohort_scenario::LbDnnServicing as Gains;
@@ -35,12 +37,15 @@ const INT_ETA_TILDE: usize = 6;
 const INT_RHO: usize = 9;
 const THETA: usize = 12;
 
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct LbDnnServicing {
     g: Gains,
     /// Cᵢ rows and bᵢ.
     c: Vec<V3>,
     b: bool,
     neighbours: Vec<u32>,
+    /// Per neighbour: on the roster (a dead one's relative measurement is left out of ηᵢ).
+    live: Vec<bool>,
     net: LbDnn,
     p: usize,
     /// Internal state x (12 + p).
@@ -86,6 +91,7 @@ impl LbDnnServicing {
             g,
             c: output_matrix,
             b,
+            live: vec![true; neighbours.len()],
             neighbours,
             net,
             p,
@@ -116,6 +122,9 @@ impl LbDnnServicing {
         let m = self.c.len();
         let mut eta = [0.0; 3];
         for j in 0..self.neighbours.len() {
+            if !self.live[j] {
+                continue;
+            }
             if let Some(d) = readings.get(m + 3 * j..m + 3 * j + 3) {
                 eta = add(&eta, &v3(d));
             }
@@ -216,6 +225,12 @@ pub fn project(theta: &[f64], d: &mut [f64], theta_bar: f64, band: f64) {
 }
 
 impl Algorithm for LbDnnServicing {
+    cohort_runtime::serde_checkpoint!();
+
+    fn roster(&mut self, live: &[bool]) {
+        self.live = live.to_vec();
+    }
+
     fn columns(&self) -> Vec<String> {
         let mut c = Vec::new();
         for ax in ["x", "y", "z"] {

@@ -3,11 +3,14 @@
 
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 
+#[derive(serde::Serialize, serde::Deserialize)]
 pub struct Null {
     pub share_values: usize,
 }
 
 impl Algorithm for Null {
+    cohort_runtime::serde_checkpoint!();
+
     fn columns(&self) -> Vec<String> {
         Vec::new()
     }

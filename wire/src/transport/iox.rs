@@ -24,14 +24,17 @@ use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{event as ev_factory, publish_subscribe as ps_factory};
 
 use super::{Incoming, Proc, Topology, Transport, TransportError, monotonic_ns};
-use crate::msg::{CONTROL_START, CONTROL_STOP, Measurement, RunControl, SCHEMA_VERSION, Share, Status};
+use crate::msg::{
+    CONTROL_DEAD, CONTROL_RESUME, CONTROL_START, CONTROL_STOP, Measurement, Roster, RunControl, SCHEMA_VERSION, Share,
+    Status,
+};
 
 type Svc = ipc::Service;
 
 /// Subscriber queue depth for shares: a neighbour can be one step ahead, so two suffice; four
 /// leave room without ever making a sender wait (safe overflow is on, and in lockstep the queue
 /// never fills).
-const SHARE_BUFFER: usize = 4;
+const SHARE_BUFFER: usize = 8;
 const MEAS_BUFFER: usize = 2;
 const STATUS_BUFFER: usize = 64;
 /// Parent of every run's own iceoryx2 root directory.
@@ -193,11 +196,14 @@ pub struct IoxServices {
 }
 
 impl IoxServices {
-    pub fn create(run: &IoxRun, topo: &Topology) -> Result<Self, TransportError> {
+    /// `spare`: how many agent processes may be relaunched during the run. A killed process's
+    /// ports stay registered (dead-node scans are off, see `IoxRun::node`), so every limit gets
+    /// that many spare places.
+    pub fn create(run: &IoxRun, topo: &Topology, spare: usize) -> Result<Self, TransportError> {
         let node = run.node("orchestrator")?;
         let n = topo.n_agents() as usize;
         // Every process of the run may hold a port: size node limits generously from N.
-        let max_nodes = n + 3;
+        let max_nodes = n + 3 + 2 * spare;
         let mut meas = Vec::with_capacity(n);
         let mut share = Vec::with_capacity(n);
         let mut wake = Vec::with_capacity(n + 1);
@@ -206,7 +212,7 @@ impl IoxServices {
                 node.service_builder(&run.service(&format!("meas/{i}"))?)
                     .publish_subscribe::<Measurement>()
                     .max_publishers(1)
-                    .max_subscribers(1)
+                    .max_subscribers(1 + spare)
                     .max_nodes(max_nodes)
                     .subscriber_max_buffer_size(MEAS_BUFFER)
                     .history_size(0)
@@ -216,8 +222,8 @@ impl IoxServices {
             share.push(
                 node.service_builder(&run.service(&format!("share/{i}"))?)
                     .publish_subscribe::<Share>()
-                    .max_publishers(1)
-                    .max_subscribers(1 + topo.readers_of(i).len())
+                    .max_publishers(1 + spare)
+                    .max_subscribers(1 + topo.readers_of(i).len() + spare)
                     .max_nodes(max_nodes)
                     .subscriber_max_buffer_size(SHARE_BUFFER)
                     .history_size(0)
@@ -229,8 +235,8 @@ impl IoxServices {
             wake.push(
                 node.service_builder(&run.service(&format!("wake/{}", p.name()))?)
                     .event()
-                    .max_notifiers(topo.senders_to(p) + 1)
-                    .max_listeners(1)
+                    .max_notifiers(topo.senders_to(p) + 1 + spare)
+                    .max_listeners(1 + spare)
                     .max_nodes(max_nodes)
                     .create()
                     .map_err(|e| TransportError::iox(format!("create wake/{}", p.name()), e))?,
@@ -240,16 +246,16 @@ impl IoxServices {
             .service_builder(&run.service("control")?)
             .publish_subscribe::<RunControl>()
             .max_publishers(1)
-            .max_subscribers(n + 1)
+            .max_subscribers(n + 1 + spare)
             .max_nodes(max_nodes)
-            .subscriber_max_buffer_size(2)
+            .subscriber_max_buffer_size(16)
             .history_size(1)
             .create()
             .map_err(|e| TransportError::iox("create control", e))?;
         let status = node
             .service_builder(&run.service("status")?)
             .publish_subscribe::<Status>()
-            .max_publishers(n + 1)
+            .max_publishers(n + 1 + spare)
             .max_subscribers(1)
             .max_nodes(max_nodes)
             .subscriber_max_buffer_size(STATUS_BUFFER)
@@ -287,7 +293,24 @@ impl IoxServices {
     }
 
     fn control(&self, command: u32) -> Result<(), TransportError> {
-        let msg = RunControl { version: SCHEMA_VERSION, command, run_id: self.run.run_id };
+        self.send_control(RunControl::new(command, self.run.run_id))
+    }
+
+    /// Let the plant go on past the hold at `step`, with these roster changes.
+    pub fn resume(&self, step: u64, dead: Roster, alive: Roster) -> Result<(), TransportError> {
+        let mut msg = RunControl::new(CONTROL_RESUME, self.run.run_id);
+        (msg.step, msg.dead, msg.alive) = (step, dead, alive);
+        self.send_control(msg)
+    }
+
+    /// Tell the plant these agents died outside the fault plan.
+    pub fn report_dead(&self, dead: Roster) -> Result<(), TransportError> {
+        let mut msg = RunControl::new(CONTROL_DEAD, self.run.run_id);
+        msg.dead = dead;
+        self.send_control(msg)
+    }
+
+    fn send_control(&self, msg: RunControl) -> Result<(), TransportError> {
         self.control_pub.send_copy(msg).map(|_| ()).map_err(|e| TransportError::iox("send control", e))
     }
 
@@ -311,6 +334,8 @@ pub struct IoxControl {
     run_id: u64,
     stop: bool,
     started: bool,
+    /// Resume and dead-agent notices not yet taken by the driver.
+    events: Vec<RunControl>,
     // Dropped last.
     _node: Node<Svc>,
 }
@@ -338,7 +363,15 @@ impl IoxControl {
             .publisher_builder()
             .create()
             .map_err(|e| TransportError::iox("status publisher", e))?;
-        Ok(Self { control_sub, status_pub, run_id: run.run_id, stop: false, started: false, _node: node })
+        Ok(Self {
+            control_sub,
+            status_pub,
+            run_id: run.run_id,
+            stop: false,
+            started: false,
+            events: Vec::new(),
+            _node: node,
+        })
     }
 
     fn poll(&mut self) {
@@ -348,6 +381,7 @@ impl IoxControl {
                 match c.command {
                     CONTROL_STOP => self.stop = true,
                     CONTROL_START => self.started = true,
+                    CONTROL_RESUME | CONTROL_DEAD => self.events.push(*c),
                     _ => {}
                 }
             }
@@ -369,6 +403,10 @@ impl IoxControl {
             self.poll();
         }
         self.started
+    }
+    pub fn take_events(&mut self, out: &mut Vec<RunControl>) {
+        self.poll();
+        out.append(&mut self.events);
     }
 }
 
@@ -516,7 +554,12 @@ impl Transport for IoxTransport {
     }
 
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError> {
-        self.listener.timed_wait(|_| {}, timeout).map(|_| ()).map_err(|e| TransportError::iox("wait", e))
+        match self.listener.timed_wait(|_| {}, timeout) {
+            // A signal (SIGTERM, or SIGCONT after a freeze) cut the wait short: callers re-poll
+            // and look at the stop flags after every return anyway.
+            Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => Ok(()),
+            r => r.map(|_| ()).map_err(|e| TransportError::iox("wait", e)),
+        }
     }
 
     fn report(&mut self, s: &Status) {
@@ -529,5 +572,9 @@ impl Transport for IoxTransport {
 
     fn start_granted(&mut self) -> bool {
         self.control.start_granted()
+    }
+
+    fn control_events(&mut self, out: &mut Vec<RunControl>) {
+        self.control.take_events(out);
     }
 }

@@ -9,7 +9,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
 
 use super::{Incoming, Proc, Topology, Transport, TransportError, monotonic_ns};
-use crate::msg::{Measurement, Share, Status};
+use crate::msg::{Measurement, RunControl, Share, Status};
 
 #[derive(Default)]
 struct Inbox {
@@ -31,6 +31,7 @@ pub struct MemoryBus {
     slots: Vec<Slot>,
     stop: AtomicBool,
     status: Mutex<VecDeque<Status>>,
+    control: Mutex<Vec<RunControl>>,
 }
 
 impl MemoryBus {
@@ -41,6 +42,7 @@ impl MemoryBus {
             slots: (0..=n).map(|_| Slot::default()).collect(),
             stop: AtomicBool::new(false),
             status: Mutex::new(VecDeque::new()),
+            control: Mutex::new(Vec::new()),
         })
     }
     pub fn endpoint(self: &Arc<Self>, me: Proc) -> MemoryTransport {
@@ -56,6 +58,12 @@ impl MemoryBus {
         for s in &self.slots {
             s.cv.notify_all();
         }
+    }
+    /// Hand the plant a resume or dead-agent notice (what the orchestrator publishes on the
+    /// control service in a multi-process run).
+    pub fn send_control(&self, c: RunControl) {
+        self.control.lock().unwrap_or_else(|p| p.into_inner()).push(c);
+        self.slots[0].cv.notify_all();
     }
     /// Status reports sent so far, oldest first (drained).
     pub fn take_status(&self) -> Vec<Status> {
@@ -142,5 +150,11 @@ impl Transport for MemoryTransport {
 
     fn start_granted(&mut self) -> bool {
         true // every inbox exists from the bus's creation
+    }
+
+    fn control_events(&mut self, out: &mut Vec<RunControl>) {
+        if self.me == Proc::Plant {
+            out.append(&mut self.bus.control.lock().unwrap_or_else(|p| p.into_inner()));
+        }
     }
 }

@@ -10,7 +10,7 @@ pub mod udp;
 
 use std::time::Duration;
 
-use crate::msg::{Measurement, Share, Status};
+use crate::msg::{Measurement, RunControl, Share, Status};
 
 /// Which process an endpoint belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -104,6 +104,9 @@ pub trait Transport {
     /// (iceoryx2 delivers nothing to a subscriber that does not exist yet). The plant polls this
     /// before step 0.
     fn start_granted(&mut self) -> bool;
+    /// The plant only: the orchestrator's resume and dead-agent notices received so far
+    /// (`CONTROL_RESUME`, `CONTROL_DEAD`), appended to `out`.
+    fn control_events(&mut self, out: &mut Vec<RunControl>);
 }
 
 /// CLOCK_MONOTONIC in ns: system-wide, so send and receive stamps of two processes compare.

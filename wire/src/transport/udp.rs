@@ -196,4 +196,8 @@ impl Transport for UdpTransport {
     fn start_granted(&mut self) -> bool {
         self.control.start_granted()
     }
+
+    fn control_events(&mut self, out: &mut Vec<crate::msg::RunControl>) {
+        self.control.take_events(out);
+    }
 }

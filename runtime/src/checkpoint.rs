@@ -1,0 +1,210 @@
+//! Agent checkpoints: an agent's full state every `run.checkpoint_every_steps` steps, so a
+//! restarted process resumes where its predecessor was. A file is checked end to end before a
+//! single byte of it is used — magic, schema version, agent, algorithm, length, CRC-32 — and a
+//! refused file is an error naming the file and the reason, never a half-loaded state.
+//!
+//! Layout (little-endian): `COHORTCK` · u32 version · u32 agent id · u64 step · u32 kind length ·
+//! kind (UTF-8) · u64 payload length · payload (bincode: algorithm state and the driver's held
+//! neighbour values) · u32 CRC-32 of everything before it.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+const MAGIC: &[u8; 8] = b"COHORTCK";
+/// Bumped whenever the layout or the meaning of the payload changes.
+pub const CHECKPOINT_VERSION: u32 = 1;
+
+/// What a checkpoint restores: the algorithm's own bytes and the driver's last valid share of
+/// each neighbour (id, step, values).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AgentState {
+    pub algorithm: Vec<u8>,
+    pub held: Vec<(u32, u64, Vec<f64>)>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Checkpoint {
+    pub agent: u32,
+    /// The step the agent is about to start (its state is at t = step·dt).
+    pub step: u64,
+    pub kind: String,
+    pub state: AgentState,
+}
+
+#[derive(Debug, thiserror::Error)]
+#[error("checkpoint {}: {reason}", path.display())]
+pub struct CheckpointError {
+    pub path: PathBuf,
+    pub reason: String,
+}
+
+/// Where agent `id`'s latest checkpoint lives in a run directory.
+pub fn path_for(run_dir: &Path, id: u32) -> PathBuf {
+    run_dir.join("checkpoints").join(format!("agent-{id}.ckpt"))
+}
+
+fn config() -> impl bincode::config::Config {
+    bincode::config::standard().with_little_endian().with_fixed_int_encoding()
+}
+
+impl Checkpoint {
+    pub fn encode(&self) -> Vec<u8> {
+        let payload = bincode::serde::encode_to_vec(&self.state, config()).expect("plain data always encodes");
+        let mut out = Vec::with_capacity(payload.len() + 64);
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&CHECKPOINT_VERSION.to_le_bytes());
+        out.extend_from_slice(&self.agent.to_le_bytes());
+        out.extend_from_slice(&self.step.to_le_bytes());
+        out.extend_from_slice(&(self.kind.len() as u32).to_le_bytes());
+        out.extend_from_slice(self.kind.as_bytes());
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(&payload);
+        let crc = crc32fast::hash(&out);
+        out.extend_from_slice(&crc.to_le_bytes());
+        out
+    }
+
+    /// Decode and check `bytes` as agent `agent`'s checkpoint for algorithm `kind`.
+    pub fn decode(bytes: &[u8], agent: u32, kind: &str) -> Result<Self, String> {
+        if bytes.len() < MAGIC.len() + 4 || &bytes[..8] != MAGIC {
+            return Err("not a Cohort checkpoint (bad magic)".into());
+        }
+        let (body, crc) = bytes.split_at(bytes.len().saturating_sub(4));
+        let version = u32::from_le_bytes(body[8..12].try_into().expect("4 bytes"));
+        if version != CHECKPOINT_VERSION {
+            return Err(format!("schema version {version}, this build reads version {CHECKPOINT_VERSION}"));
+        }
+        let want = crc32fast::hash(body);
+        let got = u32::from_le_bytes(crc.try_into().map_err(|_| "truncated".to_string())?);
+        if want != got {
+            return Err(format!("checksum mismatch (stored {got:08x}, computed {want:08x}): the file is corrupted"));
+        }
+        let mut r = Reader { b: body, at: 12 };
+        let id = r.u32()?;
+        if id != agent {
+            return Err(format!("written by agent {id}, not agent {agent}"));
+        }
+        let step = r.u64()?;
+        let kind_len = r.u32()? as usize;
+        let k = std::str::from_utf8(r.take(kind_len)?).map_err(|_| "algorithm name is not UTF-8".to_string())?;
+        if k != kind {
+            return Err(format!("holds the state of algorithm {k:?}, this agent runs {kind:?}"));
+        }
+        let len = r.u64()? as usize;
+        let payload = r.take(len)?;
+        if r.at != body.len() {
+            return Err(format!("{} trailing bytes after the payload", body.len() - r.at));
+        }
+        let (state, used): (AgentState, usize) =
+            bincode::serde::decode_from_slice(payload, config()).map_err(|e| format!("payload: {e}"))?;
+        if used != payload.len() {
+            return Err("payload longer than its state".into());
+        }
+        Ok(Self { agent, step, kind: k.to_string(), state })
+    }
+
+    /// Write atomically (a reader never sees half a file): to a temporary name, then rename.
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir)?;
+        }
+        let tmp = path.with_extension("ckpt.tmp");
+        std::fs::write(&tmp, self.encode())?;
+        std::fs::rename(&tmp, path)
+    }
+
+    pub fn read(path: &Path, agent: u32, kind: &str) -> Result<Self, CheckpointError> {
+        let err = |reason: String| CheckpointError { path: path.to_path_buf(), reason };
+        let bytes = std::fs::read(path).map_err(|e| err(format!("cannot read: {e}")))?;
+        Self::decode(&bytes, agent, kind).map_err(err)
+    }
+}
+
+struct Reader<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
+        let end = self.at.checked_add(n).filter(|&e| e <= self.b.len()).ok_or("truncated")?;
+        let s = &self.b[self.at..end];
+        self.at = end;
+        Ok(s)
+    }
+    fn u32(&mut self) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(self.take(4)?.try_into().expect("4 bytes")))
+    }
+    fn u64(&mut self) -> Result<u64, String> {
+        Ok(u64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+    }
+}
+
+/// Encode an algorithm's state (its serde form) as checkpoint bytes.
+pub fn encode_state<T: Serialize>(state: &T) -> Vec<u8> {
+    bincode::serde::encode_to_vec(state, config()).expect("algorithm state always encodes")
+}
+
+/// Decode an algorithm's state; the whole input must be used.
+pub fn decode_state<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, String> {
+    let (v, used) = bincode::serde::decode_from_slice(bytes, config()).map_err(|e| e.to_string())?;
+    if used != bytes.len() {
+        return Err(format!("{} trailing bytes after the algorithm state", bytes.len() - used));
+    }
+    Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Checkpoint {
+        Checkpoint {
+            agent: 2,
+            step: 1200,
+            kind: "lb-dnn-servicing".into(),
+            state: AgentState { algorithm: vec![1, 2, 3, 250], held: vec![(1, 1199, vec![0.5, -1.25])] },
+        }
+    }
+
+    #[test]
+    fn round_trips_exactly() {
+        let c = sample();
+        assert_eq!(Checkpoint::decode(&c.encode(), 2, "lb-dnn-servicing").unwrap(), c);
+    }
+
+    #[test]
+    fn every_kind_of_damage_is_refused_with_its_reason() {
+        let good = sample().encode();
+        let mut flipped = good.clone();
+        let mid = flipped.len() / 2;
+        flipped[mid] ^= 0x40;
+        let mut version = good.clone();
+        version[8] = 9;
+        let cases: Vec<(Vec<u8>, &str, u32, &str)> = vec![
+            (flipped, "checksum mismatch", 2, "lb-dnn-servicing"),
+            (good[..good.len() - 7].to_vec(), "checksum", 2, "lb-dnn-servicing"),
+            (version, "schema version 9", 2, "lb-dnn-servicing"),
+            (b"hello world, not a checkpoint".to_vec(), "bad magic", 2, "lb-dnn-servicing"),
+            (good.clone(), "not agent 3", 3, "lb-dnn-servicing"),
+            (good.clone(), "this agent runs \"coast\"", 2, "coast"),
+            (Vec::new(), "bad magic", 2, "lb-dnn-servicing"),
+        ];
+        for (bytes, says, agent, kind) in cases {
+            let e = Checkpoint::decode(&bytes, agent, kind).unwrap_err();
+            assert!(e.contains(says), "expected {says:?}, got {e:?}");
+        }
+    }
+
+    #[test]
+    fn read_names_the_file() {
+        let dir = std::env::temp_dir().join(format!("cohort-ckpt-{}", std::process::id()));
+        let p = path_for(&dir, 2);
+        sample().write(&p).unwrap();
+        assert_eq!(Checkpoint::read(&p, 2, "lb-dnn-servicing").unwrap(), sample());
+        let e = Checkpoint::read(&path_for(&dir, 5), 5, "x").unwrap_err().to_string();
+        assert!(e.contains("agent-5.ckpt") && e.contains("cannot read"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
