@@ -155,6 +155,22 @@ pub fn decode_state<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, S
     Ok(v)
 }
 
+/// For a field holding scenario configuration inside an algorithm's state: bincode is not
+/// self-describing, so a struct that skips absent optional keys (as the scenario's do, for TOML)
+/// would not decode again. Such a field goes in as JSON text. Use with
+/// `#[serde(with = "cohort_runtime::checkpoint::as_json")]`.
+pub mod as_json {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer, de::DeserializeOwned};
+
+    pub fn serialize<T: Serialize, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+        serde_json::to_string(v).map_err(serde::ser::Error::custom)?.serialize(s)
+    }
+
+    pub fn deserialize<'de, T: DeserializeOwned, D: Deserializer<'de>>(d: D) -> Result<T, D::Error> {
+        serde_json::from_str(&String::deserialize(d)?).map_err(serde::de::Error::custom)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

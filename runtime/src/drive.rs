@@ -750,6 +750,10 @@ struct AgentInbox {
     me_hist: Vec<(u64, bool)>,
     peers: Vec<Peer>,
     plan: Arc<FaultPlan>,
+    /// A relaunched agent, before its first measurement: its neighbours may already be far
+    /// ahead of its checkpoint (their shares of the return step can beat the plant's measurement
+    /// to it), so shares up to the run's last step are accepted.
+    relaunched_until: Option<u64>,
     fresh: bool,
     received: u64,
     rejects: RejectCounts,
@@ -799,7 +803,10 @@ impl Inbox for AgentInbox {
                     run_id: self.run_id,
                     sender: from,
                     step_min: self.k.saturating_sub(self.back),
-                    step_max: self.k.max(self.last_meas_step.unwrap_or(0)) + 1,
+                    step_max: match (self.last_meas_step, self.relaunched_until) {
+                        (None, Some(last)) => last,
+                        (m, _) => self.k.max(m.unwrap_or(0)) + 1,
+                    },
                 };
                 match validate_share(share, &e) {
                     Ok(()) => {
@@ -909,6 +916,7 @@ fn agent_loop<T: Transport + ?Sized>(
             .map(|&j| Peer { id: j, arrived: Vec::new(), held: None, hist: Vec::new(), tokens: Vec::new() })
             .collect(),
         plan: Arc::clone(&p.faults),
+        relaunched_until: restore.map(|_| p.n_steps),
         fresh: false,
         received: 0,
         rejects: RejectCounts::default(),
@@ -980,6 +988,26 @@ fn agent_loop<T: Transport + ?Sized>(
             // could send measurement k: one wait, one wakeup.
             let used = k.checked_sub(delay);
             set_wants(&mut inbox, if delay > 0 { used } else { None });
+            // The state at the start of step k (after step k−1), before any fault due at k.
+            if p.checkpoint_every > 0 && k % p.checkpoint_every == 0 && restore.is_none_or(|c| c.step != k) {
+                let ck = Checkpoint {
+                    agent: id,
+                    step: k,
+                    kind: p.algorithm_kind.clone(),
+                    state: AgentState {
+                        algorithm: algo.save_state(),
+                        held: inbox
+                            .peers
+                            .iter()
+                            .filter_map(|peer| peer.held.as_ref().map(|(s, v)| (peer.id, *s, v.clone())))
+                            .collect(),
+                    },
+                };
+                let path = crate::checkpoint::path_for(&p.dirs.root, id);
+                ck.write(&path).map_err(io(path.display().to_string()))?;
+                report.faults.checkpoints_written += 1;
+            }
+
             if hold_steps.binary_search(&k).is_ok() {
                 // A process fault may be due now: be found between steps with every row on disk.
                 tel.flush().and_then(|_| timing.flush()).map_err(io("agent telemetry"))?;
@@ -1010,25 +1038,6 @@ fn agent_loop<T: Transport + ?Sized>(
                 algo.roster(&live);
                 last_live = Some(live);
             }
-            if p.checkpoint_every > 0 && k % p.checkpoint_every == 0 && restore.is_none_or(|c| c.step != k) {
-                let ck = Checkpoint {
-                    agent: id,
-                    step: k,
-                    kind: p.algorithm_kind.clone(),
-                    state: AgentState {
-                        algorithm: algo.save_state(),
-                        held: inbox
-                            .peers
-                            .iter()
-                            .filter_map(|peer| peer.held.as_ref().map(|(s, v)| (peer.id, *s, v.clone())))
-                            .collect(),
-                    },
-                };
-                let path = crate::checkpoint::path_for(&p.dirs.root, id);
-                ck.write(&path).map_err(io(path.display().to_string()))?;
-                report.faults.checkpoints_written += 1;
-            }
-
             let compute_start = monotonic_ns();
             out.command.clear();
             out.values.clear();

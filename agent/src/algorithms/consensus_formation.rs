@@ -14,6 +14,7 @@ use cohort_scenario::ConsensusFormation as Gains;
 
 #[derive(serde::Serialize, serde::Deserialize)]
 pub struct ConsensusFormation {
+    #[serde(with = "cohort_runtime::checkpoint::as_json")]
     gains: Gains,
     slot_m: [f64; 3],
     /// Neighbour id → (its slot, its latest published position estimate).

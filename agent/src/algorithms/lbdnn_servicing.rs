@@ -39,6 +39,7 @@ const THETA: usize = 12;
 
 #[derive(serde::Serialize, serde::Deserialize)]
 pub struct LbDnnServicing {
+    #[serde(with = "cohort_runtime::checkpoint::as_json")]
     g: Gains,
     /// Cᵢ rows and bᵢ.
     c: Vec<V3>,
