@@ -297,6 +297,9 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, progress: &Progress) -> LaunchOutcom
         metrics,
         error: error.clone(),
         faults: Default::default(),
+        messages_sent: 0,
+        received_from: Default::default(),
+        latency_from_ns: Default::default(),
     };
     let mut write_errors = Vec::new();
     for rep in [report("plant", metrics), report("agent-1", BTreeMap::new())] {

@@ -13,6 +13,7 @@ mod progress;
 mod reference;
 mod report;
 mod rundir;
+mod soak;
 mod summary;
 mod supervise;
 mod sweep_report;
@@ -92,6 +93,31 @@ enum Cmd {
         /// KIND one of kill, freeze, restart, delay, drop, corrupt (see topologies/README.md).
         #[arg(long, value_name = "SPEC")]
         fault: Vec<String>,
+    },
+    /// Run a scenario multi-process again and again for a wall-clock budget, watching latency
+    /// per link, deadline misses, message counts, RSS and iceoryx2 entries (exit 1 when one of
+    /// them goes wrong; see soak.md in the output directory).
+    Soak {
+        /// Scenario file (TOML).
+        file: PathBuf,
+        /// Wall-clock budget: 10m, 90s, 1h.
+        #[arg(long, default_value = "10m")]
+        wall: String,
+        /// Pace the plant by the wall clock.
+        #[arg(long)]
+        realtime: bool,
+        /// With --realtime: sim seconds per wall second.
+        #[arg(long, default_value_t = 1.0, requires = "realtime")]
+        rate: f64,
+        /// Random faults in every run: a comma list of kinds (kill,freeze,restart,delay,drop,corrupt).
+        #[arg(long, value_name = "KINDS")]
+        faults: Option<String>,
+        /// Output directory; default runs/<scenario>-soak-<UTC time>/.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// First run's seed (then +1 per run); default the scenario's.
+        #[arg(long)]
+        seed: Option<u64>,
     },
     /// Run a scenario once per seed (in-process reference runs by default) and write the
     /// distribution of its summary metrics as Markdown and CSV.
@@ -207,6 +233,46 @@ fn main() -> ExitCode {
             launch(&file, out.as_deref(), &o, reference, !no_plots)
         }
         Cmd::Sweep { file, args } => sweep(&file, &args),
+        Cmd::Soak { file, wall, realtime, rate, faults, out, seed } => {
+            let wall = match soak::parse_wall(&wall) {
+                Ok(w) => w,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(EXIT_INVALID);
+                }
+            };
+            let faults = match faults.as_deref().map(soak::parse_fault_kinds).transpose() {
+                Ok(f) => f.unwrap_or_default(),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(EXIT_INVALID);
+                }
+            };
+            if realtime && !(rate.is_finite() && rate > 0.0) {
+                eprintln!("error: --rate {rate}: must be a positive number");
+                return ExitCode::from(EXIT_INVALID);
+            }
+            if let Err(e) = supervise::install_signal_handlers() {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_FAILED);
+            }
+            let out = out.unwrap_or_else(|| {
+                let stem = file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+                PathBuf::from(format!("runs/{stem}-soak-{}", rundir::utc_stamp()))
+            });
+            let o = soak::Options { file, wall, realtime, rate, faults, out, seed };
+            match soak::run(&o) {
+                Ok((md, ok)) => {
+                    println!("{md}");
+                    println!("written: {} (soak.md, soak.json, *.png)", o.out.display());
+                    if ok { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILED) }
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(EXIT_INVALID)
+                }
+            }
+        }
         Cmd::Bench { quick, reps, out } => {
             if let Err(e) = supervise::install_signal_handlers() {
                 eprintln!("error: {e}");
@@ -348,6 +414,19 @@ fn run_once(
         eprintln!("error: cannot write {}: {e}", dirs.root.join("summary.json").display());
     }
     (outcome, summary)
+}
+
+/// The soak's scenario, validated once up front (with its first run's settings).
+fn load_for_soak(file: &Path, o: &soak::Options) -> Result<Scenario, String> {
+    let ov = Overrides { seed: o.seed, realtime_rate: o.realtime.then_some(o.rate), ..Default::default() };
+    let s = cohort_scenario::load(file, &ov).map_err(|e| e.to_string())?;
+    if s.dai_continuous().is_some() {
+        return Err(format!(
+            "{}: a continuous-coupling scenario runs in one process; a soak needs processes",
+            file.display()
+        ));
+    }
+    Ok(s)
 }
 
 fn load_or_exit(file: &Path, o: &Overrides) -> Result<Scenario, ExitCode> {

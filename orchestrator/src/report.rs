@@ -832,6 +832,23 @@ fn draw_time_figure(path: &Path, fig: &TimeFigure) -> DrawResult {
     Ok(())
 }
 
+/// A line chart of named series against time, for reports other than a run's (the soak's).
+pub(crate) fn draw_lines(
+    path: &Path,
+    title: &str,
+    y_desc: &str,
+    series: Vec<(String, Vec<(f64, f64)>)>,
+) -> Result<(), String> {
+    ensure_font().map_err(|e| e.to_string())?;
+    let series = series
+        .into_iter()
+        .enumerate()
+        .map(|(i, (label, points))| Series { label, color: series_color(None, i), points })
+        .collect();
+    let fig = TimeFigure { title: title.into(), y_desc: y_desc.into(), series };
+    draw_time_figure(path, &fig).map_err(|e| format!("{}: {e}", path.display()))
+}
+
 fn fill_time_chart<'a, 'b: 'a, Y>(
     chart: &mut ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, Y>>,
     y_desc: &str,

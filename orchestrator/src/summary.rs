@@ -56,6 +56,9 @@ pub struct Summary {
     /// Wall-clock latencies from `timing/`, in ns.
     pub latency_ns: BTreeMap<String, Percentiles>,
     pub processes: Vec<ProcessReport>,
+    /// Messages that went missing without being counted anywhere (sent, but neither received
+    /// nor rejected by a reader that ran to the end): must be empty.
+    pub messages_unaccounted: Vec<String>,
     /// Faults carried out, roster changes and their effect (empty without faults).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub timeline: Vec<crate::supervise::TimelineEvent>,
@@ -140,6 +143,7 @@ pub fn build(s: &Scenario, dirs: &RunDirs, outcome: Outcome) -> Summary {
         messages_rejected: rejected,
         timeouts: processes.iter().map(|p| p.timeouts).sum(),
         latency_ns: latency,
+        messages_unaccounted: unaccounted(s, &processes, &outcome.timeline),
         processes,
         timeline: outcome.timeline,
     }
@@ -148,4 +152,43 @@ pub fn build(s: &Scenario, dirs: &RunDirs, outcome: Outcome) -> Summary {
 pub fn write(dirs: &RunDirs, summary: &Summary) -> std::io::Result<()> {
     let text = serde_json::to_string_pretty(summary).map_err(std::io::Error::other)?;
     std::fs::write(dirs.root.join("summary.json"), text + "\n")
+}
+
+/// Every message sent must reach every reader that ran to the end, where it is counted as
+/// received (valid or rejected): a shortfall is a message lost without being counted (an
+/// overflowing subscriber queue would be one). Links to or from an agent that a fault stopped,
+/// or that died, are left out: a dead reader reads nothing, and a relaunched agent's report
+/// covers only its second life.
+pub fn unaccounted(
+    s: &Scenario,
+    processes: &[ProcessReport],
+    timeline: &[crate::supervise::TimelineEvent],
+) -> Vec<String> {
+    let complete = |name: &str| processes.iter().find(|p| p.process == name && p.error.is_none());
+    let disturbed = |id: u32| timeline.iter().any(|e| e.agent == id && e.event != "alive");
+    let mut out = Vec::new();
+    let Some(plant) = complete("plant") else { return out };
+    let n = s.n_agents();
+    for j in 1..=n {
+        let name = format!("agent-{j}");
+        let Some(sender) = complete(&name) else { continue };
+        if disturbed(j) {
+            continue;
+        }
+        let readers = std::iter::once("plant".to_string())
+            .chain(s.topology().readers_of(j).into_iter().filter(|&r| !disturbed(r)).map(|r| format!("agent-{r}")));
+        for r in readers {
+            let Some(reader) = complete(&r) else { continue };
+            let got = reader.received_from.get(&name).copied().unwrap_or(0);
+            if got != sender.messages_sent {
+                out.push(format!("{name} → {r}: {} sent, {got} received", sender.messages_sent));
+            }
+        }
+        let got = sender.received_from.get("plant").copied().unwrap_or(0);
+        let sent = plant.messages_sent / u64::from(n);
+        if got != sent {
+            out.push(format!("plant → {name}: {sent} sent, {got} received"));
+        }
+    }
+    out
 }

@@ -27,7 +27,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::checkpoint::{AgentState, Checkpoint};
 use crate::model::{AgentInput, Algorithm, Neighbour, PlantModel, ShareOut};
-use crate::record::{CsvWriter, ProcessReport, RosterChange, RunDirs, reject_map};
+use crate::record::{CsvWriter, LatencyHist, ProcessReport, RosterChange, RunDirs, reject_map};
 
 /// Longest single blocking wait before re-polling.
 const POLL: Duration = Duration::from_millis(10);
@@ -315,6 +315,9 @@ fn new_report(me: Proc, p: &DriveParams) -> ProcessReport {
         metrics: Default::default(),
         error: None,
         faults: Default::default(),
+        messages_sent: 0,
+        received_from: Default::default(),
+        latency_from_ns: Default::default(),
     }
 }
 
@@ -357,6 +360,9 @@ struct PlantInbox {
     died: Roster,
     latency_max_ns: u64,
     received: u64,
+    /// Per agent: messages received (valid or not), and the latency of the valid ones.
+    from: Vec<u64>,
+    latency: Vec<LatencyHist>,
     late: u64,
     rejects: RejectCounts,
 }
@@ -370,9 +376,13 @@ impl Inbox for PlantInbox {
         };
         let e =
             Expect { run_id: self.run_id, sender: from, step_min: self.k.saturating_sub(self.back), step_max: self.k };
+        if let Some(n) = self.from.get_mut(from as usize - 1) {
+            *n += 1;
+        }
         match validate_share(share, &e) {
             Ok(()) => {
                 let idx = (from - 1) as usize;
+                self.latency[idx].record(monotonic_ns().saturating_sub(share.header.sent_wall_ns));
                 let step = share.header.step;
                 let on_time = share.link == LINK_LOST || self.plan.fate(from, step) == Fate::Deliver;
                 if step == self.k && on_time {
@@ -472,6 +482,8 @@ fn plant_loop<T: Transport + ?Sized>(
         died: Roster::EMPTY,
         latency_max_ns: 0,
         received: 0,
+        from: vec![0; n],
+        latency: (0..n).map(|_| LatencyHist::default()).collect(),
         late: 0,
         rejects: RejectCounts::default(),
     };
@@ -491,6 +503,7 @@ fn plant_loop<T: Transport + ?Sized>(
     let mut row = Vec::with_capacity(columns.len());
     let mut waiter = Waiter { t, p, me: PLANT_ID, timeouts: 0, typical_wait_us: [0.0; 2], events: Vec::new() };
     let mut last_progress = Instant::now();
+    let sent = std::cell::Cell::new(0u64);
     // Measurements of step k go out as soon as the truth reaches tₖ; the telemetry row of step
     // k-1 is formatted afterwards, while the agents compute, so it stays off the critical path.
     let send_measurements =
@@ -507,6 +520,7 @@ fn plant_loop<T: Transport + ?Sized>(
                 m.live = roster.live;
                 m.lost_at_close = roster.lost_at_close;
                 t.send_measurement(i, &m)?;
+                sent.set(sent.get() + 1);
             }
             roster.lost_at_close = Roster::EMPTY;
             Ok::<(), RunError>(())
@@ -619,6 +633,12 @@ fn plant_loop<T: Transport + ?Sized>(
     report.messages_rejected = reject_map(&inbox.rejects);
     report.faults.late = inbox.late;
     report.faults.roster = std::mem::take(&mut roster.changes);
+    report.messages_sent = sent.get();
+    for (i, (n, h)) in inbox.from.iter().zip(&inbox.latency).enumerate() {
+        let name = Proc::Agent(i as u32 + 1).name();
+        report.received_from.insert(name.clone(), *n);
+        report.latency_from_ns.insert(name, h.buckets());
+    }
     // Never lose telemetry: flush whatever was written, also after an error.
     let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("plant telemetry"));
     result.and(flushed)
@@ -729,6 +749,9 @@ struct Peer {
     hist: Vec<(u64, bool)>,
     /// Steps whose token (an on-time share, or a `LINK_LOST` token) has arrived.
     tokens: Vec<u64>,
+    /// Messages received from it (valid or not), and the latency of the valid ones.
+    received: u64,
+    latency: LatencyHist,
 }
 
 /// An agent's inbox: the plant's measurement, then the neighbours' shares.
@@ -746,6 +769,8 @@ struct AgentInbox {
     /// The newest measurement of step ≥ k.
     meas: Option<Box<Measurement>>,
     meas_latency_ns: u64,
+    from_plant: u64,
+    latency_plant: LatencyHist,
     last_meas_step: Option<u64>,
     me_hist: Vec<(u64, bool)>,
     peers: Vec<Peer>,
@@ -774,8 +799,10 @@ impl Inbox for AgentInbox {
                 // measurement while this agent still waits for a neighbour: keep it.
                 let want = if self.want_measurement { self.k } else { self.k + 1 };
                 let e = Expect { run_id: self.run_id, sender: PLANT_ID, step_min: want, step_max: u64::MAX - 1 };
+                self.from_plant += 1;
                 match validate_measurement(m, &e) {
                     Ok(()) => {
+                        self.latency_plant.record(monotonic_ns().saturating_sub(m.header.sent_wall_ns));
                         let step = m.header.step;
                         if self.last_meas_step.is_some_and(|s| s >= step) {
                             return; // a duplicate or an older one: the first, newest, counts
@@ -797,6 +824,7 @@ impl Inbox for AgentInbox {
                     self.rejects.add(Rejection::Sender);
                     return;
                 };
+                peer.received += 1;
                 // A neighbour may be one step ahead (of this agent, or of the newest measurement
                 // when this agent is catching up); a delayed share may be `back` steps old.
                 let e = Expect {
@@ -810,6 +838,7 @@ impl Inbox for AgentInbox {
                 };
                 match validate_share(share, &e) {
                     Ok(()) => {
+                        peer.latency.record(monotonic_ns().saturating_sub(share.header.sent_wall_ns));
                         let step = share.header.step;
                         if share.link == LINK_LOST || self.plan.fate(from, step) == Fate::Deliver {
                             peer.tokens.push(step);
@@ -909,11 +938,21 @@ fn agent_loop<T: Transport + ?Sized>(
         realtime: p.realtime_rate.is_some(),
         meas: None,
         meas_latency_ns: 0,
+        from_plant: 0,
+        latency_plant: LatencyHist::default(),
         last_meas_step: None,
         me_hist: Vec::new(),
         peers: neighbours
             .iter()
-            .map(|&j| Peer { id: j, arrived: Vec::new(), held: None, hist: Vec::new(), tokens: Vec::new() })
+            .map(|&j| Peer {
+                id: j,
+                arrived: Vec::new(),
+                held: None,
+                hist: Vec::new(),
+                tokens: Vec::new(),
+                received: 0,
+                latency: LatencyHist::default(),
+            })
             .collect(),
         plan: Arc::clone(&p.faults),
         relaunched_until: restore.map(|_| p.n_steps),
@@ -1054,6 +1093,7 @@ fn agent_loop<T: Transport + ?Sized>(
                 if pending[i].0 <= k {
                     let (_, s) = pending.swap_remove(i);
                     waiter.t.send_share(&s)?;
+                    report.messages_sent += 1;
                 } else {
                     i += 1;
                 }
@@ -1061,7 +1101,10 @@ fn agent_loop<T: Transport + ?Sized>(
             let share = Share::new(Header::new(p.run_id, id, k, t_s), &out.command, &out.values);
             let fate = plan.fate(id, k);
             match fate {
-                Fate::Deliver => waiter.t.send_share(&share)?,
+                Fate::Deliver => {
+                    waiter.t.send_share(&share)?;
+                    report.messages_sent += 1;
+                }
                 Fate::Delay(n) => {
                     report.faults.shares_delayed += 1;
                     pending.push((k + u64::from(n), Box::new(share)));
@@ -1072,6 +1115,7 @@ fn agent_loop<T: Transport + ?Sized>(
                     let mut garbled = share;
                     corrupt(&mut garbled, how);
                     waiter.t.send_share(&garbled)?;
+                    report.messages_sent += 1;
                 }
             }
             if fate != Fate::Deliver {
@@ -1079,6 +1123,7 @@ fn agent_loop<T: Transport + ?Sized>(
                 let mut token = Share::new(share.header, &[], &[]);
                 token.link = LINK_LOST;
                 waiter.t.send_share(&token)?;
+                report.messages_sent += 1;
             }
             let mut compute_ns = monotonic_ns() - compute_start;
             // Formatting the row overlaps the wait for the neighbours' shares.
@@ -1107,6 +1152,13 @@ fn agent_loop<T: Transport + ?Sized>(
     report.timeouts = waiter.timeouts;
     report.messages_received = inbox.received;
     report.messages_rejected = reject_map(&inbox.rejects);
+    report.received_from.insert("plant".into(), inbox.from_plant);
+    report.latency_from_ns.insert("plant".into(), inbox.latency_plant.buckets());
+    for peer in &inbox.peers {
+        let name = Proc::Agent(peer.id).name();
+        report.received_from.insert(name.clone(), peer.received);
+        report.latency_from_ns.insert(name, peer.latency.buckets());
+    }
     let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("agent telemetry"));
     result.and(flushed)
 }

@@ -120,7 +120,62 @@ pub struct ProcessReport {
     /// Faults injected by and seen by this process.
     #[serde(default)]
     pub faults: FaultReport,
+    /// Messages this process published (shares, or measurements).
+    #[serde(default)]
+    pub messages_sent: u64,
+    /// Per sender (`plant`, `agent-j`): every message received from it, valid or not.
+    #[serde(default)]
+    pub received_from: std::collections::BTreeMap<String, u64>,
+    /// Per sender: wall latency (send → receipt) of its valid messages, ns, as histogram buckets.
+    #[serde(default)]
+    pub latency_from_ns: std::collections::BTreeMap<String, LatencyBuckets>,
 }
+
+/// A latency histogram (HdrHistogram, 3 significant figures, 100 ns to 60 s) kept by a receiver
+/// per sender.
+pub struct LatencyHist(hdrhistogram::Histogram<u64>);
+
+impl Default for LatencyHist {
+    fn default() -> Self {
+        Self(hdrhistogram::Histogram::new_with_bounds(100, 60_000_000_000, 3).expect("valid bounds"))
+    }
+}
+
+impl LatencyHist {
+    pub fn record(&mut self, ns: u64) {
+        self.0.saturating_record(ns.max(100));
+    }
+    pub fn buckets(&self) -> LatencyBuckets {
+        LatencyBuckets(self.0.iter_recorded().map(|v| (v.value_iterated_to(), v.count_at_value())).collect())
+    }
+    /// Rebuild from buckets (to merge the runs of a soak).
+    pub fn from_buckets(b: &LatencyBuckets) -> Self {
+        let mut h = Self::default();
+        for &(v, n) in &b.0 {
+            h.0.saturating_record_n(v, n);
+        }
+        h
+    }
+    pub fn add(&mut self, other: &LatencyHist) {
+        let _ = self.0.add(&other.0);
+    }
+    pub fn len(&self) -> u64 {
+        self.0.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+    pub fn quantile(&self, q: f64) -> u64 {
+        self.0.value_at_quantile(q)
+    }
+    pub fn max(&self) -> u64 {
+        self.0.max()
+    }
+}
+
+/// A histogram's recorded buckets: (value, count), ascending.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct LatencyBuckets(pub Vec<(u64, u64)>);
 
 /// What a process injected (as a sender) and saw (as a receiver) of the fault plan, and the
 /// roster changes the plant made. Every lost share is counted here or in `messages_rejected`.
