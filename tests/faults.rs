@@ -212,3 +212,21 @@ fn a_damaged_checkpoint_is_refused_and_the_agent_stays_off_the_roster() {
     assert_clean(&run);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn bad_fault_arguments_are_refused_before_anything_runs() {
+    let dir = scratch_dir("fault-args");
+    for (args, says) in [
+        (vec!["--fault", "kill:agent=x@t=1"], "--fault (#1)"),
+        (vec!["--fault", "kill:agent=2@t=1", "--fault", "drop:agent=2@t=1,p=2"], "faults[1].p = 2.0"),
+        (vec!["--fault", "kill:agent=2@t=1", "--reference"], "--reference"),
+        (vec!["--on-agent-loss", "maybe"], "run.on_agent_loss"),
+    ] {
+        let o = launch_scenario(Path::new("topologies/consensus-ring.toml"), &dir.join("run"), &args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}:\n{}", describe_output(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(says), "{args:?}: expected {says:?} in:\n{err}");
+        assert!(!dir.join("run").exists(), "{args:?}: a run directory was created");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

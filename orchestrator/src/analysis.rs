@@ -151,3 +151,49 @@ fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, Stri
     }
     Ok(m)
 }
+
+/// The effect of each process fault on seed 000's headline metric: the mean ‖eᵢ‖ of the
+/// servicers no fault touched, over the 10 s before the fault and over the run's last 10 s.
+pub fn fault_effects(
+    s: &Scenario,
+    dirs: &RunDirs,
+    timeline: &[crate::supervise::TimelineEvent],
+) -> Result<BTreeMap<String, f64>, String> {
+    let mut m = BTreeMap::new();
+    let path = dirs.root.join("derived/fig1.csv");
+    if !path.is_file() {
+        return Ok(m);
+    }
+    let faults: Vec<_> = timeline.iter().filter(|e| matches!(e.event.as_str(), "kill" | "freeze")).collect();
+    if faults.is_empty() {
+        return Ok(m);
+    }
+    let hit: Vec<u32> = faults.iter().map(|e| e.agent).collect();
+    let survivors: Vec<u32> = (1..=s.n_agents()).filter(|i| !hit.contains(i)).collect();
+    let mut want = vec!["t_s".to_string()];
+    want.extend(survivors.iter().map(|i| format!("a{i}_e_norm_m")));
+    let t = Table::read(&path, &want)?;
+    let mean_over = |from: f64, to: f64| {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for (r, &ts) in t.col("t_s").iter().enumerate() {
+            if ts + 1e-9 >= from && ts < to - 1e-9 {
+                for i in &survivors {
+                    sum += t.col(&format!("a{i}_e_norm_m"))[r];
+                    n += 1;
+                }
+            }
+        }
+        (n > 0).then(|| sum / n as f64)
+    };
+    let end = s.scenario.duration_s;
+    for e in faults {
+        let key = format!("fault.{}_agent{}_t{:.0}", e.event, e.agent, e.t_s);
+        if let Some(x) = mean_over(e.t_s - 10.0, e.t_s) {
+            m.insert(format!("{key}.survivors_e_norm_mean_before_m"), x);
+        }
+        if let Some(x) = mean_over(end - 10.0, end) {
+            m.insert(format!("{key}.survivors_e_norm_mean_last10s_m"), x);
+        }
+    }
+    Ok(m)
+}

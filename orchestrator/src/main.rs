@@ -410,6 +410,10 @@ fn run_once(
         Ok(extra) => summary.metrics.extend(extra),
         Err(e) => eprintln!("warning: analysis skipped: {e}"),
     }
+    match analysis::fault_effects(s, dirs, &outcome.timeline) {
+        Ok(extra) => summary.metrics.extend(extra),
+        Err(e) => eprintln!("warning: fault effects skipped: {e}"),
+    }
     if let Err(e) = summary::write(dirs, &summary) {
         eprintln!("error: cannot write {}: {e}", dirs.root.join("summary.json").display());
     }

@@ -92,6 +92,40 @@ pub enum ReportError {
 /// needed; existing files of the same names are overwritten). Returns the paths written, in
 /// drawing order: the paper's figures of a `derived/fig1.csv` run first (see [`fig1`]), then
 /// the figures of `plant.csv` and any other non-agent file, then those of the agent files.
+/// The run's fault timeline as a Markdown table (`plots/timeline.md`), when it has one.
+fn timeline_table(run_dir: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(run_dir.join("summary.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let events = v["timeline"].as_array().filter(|t| !t.is_empty())?;
+    let mut md = String::from(
+        "# Fault timeline\n\n| wall s | step | t s | agent | event | detail |\n|---:|---:|---:|---:|---|---|\n",
+    );
+    for e in events {
+        md.push_str(&format!(
+            "| {:.3} | {} | {:.2} | {} | {} | {} |\n",
+            e["wall_s"].as_f64().unwrap_or(f64::NAN),
+            e["step"],
+            e["t_s"].as_f64().unwrap_or(f64::NAN),
+            e["agent"],
+            e["event"].as_str().unwrap_or(""),
+            e["detail"].as_str().unwrap_or("").replace('|', "/")
+        ));
+    }
+    let effects: Vec<String> = v["metrics"]
+        .as_object()
+        .into_iter()
+        .flatten()
+        .filter(|(k, _)| k.starts_with("fault."))
+        .map(|(k, x)| format!("| {k} | {x} |"))
+        .collect();
+    if !effects.is_empty() {
+        md.push_str("\n## Effect on the headline metric\n\n| metric | value |\n|---|---:|\n");
+        md.push_str(&effects.join("\n"));
+        md.push('\n');
+    }
+    Some(md)
+}
+
 pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     let telemetry_dir = run_dir.join("telemetry");
     let files = list_telemetry(&telemetry_dir)?;
@@ -180,6 +214,11 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
                 return Err(ReportError::Plot { path, message: "the plotting library panicked".to_string() });
             }
         }
+    }
+    if let Some(md) = timeline_table(run_dir) {
+        let path = plots_dir.join("timeline.md");
+        std::fs::write(&path, md).map_err(|error| ReportError::Io { path: path.clone(), error })?;
+        written.push(path);
     }
     Ok(written)
 }

@@ -461,6 +461,8 @@ impl Supervisor<'_> {
         let mut hold: Option<Hold> = None;
         // The plant's roster, as it reported it.
         let mut off_roster = vec![false; s.n_agents() as usize + 1];
+        // Graph conditions that stopped holding (warned once until they hold again).
+        let mut warned: Vec<String> = Vec::new();
         loop {
             let sig = SIGNALLED.load(Ordering::SeqCst);
             if sig != 0 {
@@ -503,6 +505,18 @@ impl Supervisor<'_> {
                         }
                         let detail = if dead { self.dead_detail(a, st.step) } else { "back on the roster".to_string() };
                         self.event(st.step, a, if dead { "dead" } else { "alive" }, detail);
+                        // What the survivors' graph still satisfies.
+                        let live: Vec<bool> = off_roster.iter().skip(1).map(|off| !off).collect();
+                        let now = cohort_scenario::live_graph::warnings(&s.agents, &live);
+                        for w in now.iter().filter(|w| !warned.contains(*w)) {
+                            eprintln!(
+                                "warning: from step {} (t = {:.3} s): {w}",
+                                st.step,
+                                st.step as f64 * s.scenario.dt_s
+                            );
+                            self.event(st.step, 0, "warning", w.clone());
+                        }
+                        warned = now;
                         if dead && !self.planned_loss(a, st.step) && !kids[a as usize].reported_dead {
                             let kid = &kids[a as usize];
                             let state = if kid.exit.is_none() { " (its process is alive but silent)" } else { "" };

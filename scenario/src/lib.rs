@@ -4,6 +4,7 @@
 pub mod dai;
 pub mod error;
 pub mod faults;
+pub mod live_graph;
 pub mod parse;
 pub mod schema;
 pub mod validate;

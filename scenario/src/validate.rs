@@ -196,46 +196,19 @@ fn agents(c: &mut Checker, agents: &[AgentConfig]) -> bool {
 /// The (undirected) communication graph must be connected (Assumption 2 of seed 000, and
 /// what every formation algorithm here needs).
 fn connectivity(c: &mut Checker, agents: &[AgentConfig]) {
-    let n = agents.len();
-    let mut adj = vec![Vec::new(); n + 1];
-    for a in agents {
-        for &j in &a.neighbours {
-            adj[a.id as usize].push(j as usize);
-            adj[j as usize].push(a.id as usize);
-        }
-    }
-    let mut comp = vec![0usize; n + 1];
-    let mut n_comp = 0;
-    for start in 1..=n {
-        if comp[start] != 0 {
-            continue;
-        }
-        n_comp += 1;
-        let mut stack = vec![start];
-        comp[start] = n_comp;
-        while let Some(v) = stack.pop() {
-            for &w in &adj[v] {
-                if comp[w] == 0 {
-                    comp[w] = n_comp;
-                    stack.push(w);
-                }
-            }
-        }
-    }
-    if n_comp > 1 {
-        let groups: Vec<String> = (1..=n_comp)
-            .map(|g| {
-                let ids: Vec<String> = (1..=n).filter(|&v| comp[v] == g).map(|v| v.to_string()).collect();
-                format!("{{{}}}", ids.join(", "))
-            })
+    let groups = crate::live_graph::components(agents, &vec![true; agents.len()]);
+    if groups.len() > 1 {
+        let g: Vec<String> = groups
+            .iter()
+            .map(|g| format!("{{{}}}", g.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", ")))
             .collect();
         c.fail(
             "agents[].neighbours",
-            format!("{n_comp} components"),
+            format!("{} components", groups.len()),
             format!(
                 "the communication graph is disconnected (Assumption 2 of seed 000; every method here needs it \
                  connected): {}",
-                groups.join(" and ")
+                g.join(" and ")
             ),
         );
     }
