@@ -295,6 +295,7 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, progress: &Progress) -> LaunchOutcom
         max_rss_kb: 0,
         metrics,
         error: error.clone(),
+        solver: None,
     };
     let mut write_errors = Vec::new();
     for rep in [report("plant", metrics), report("agent-1", BTreeMap::new())] {

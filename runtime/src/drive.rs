@@ -225,6 +225,7 @@ fn new_report(me: Proc, p: &DriveParams) -> ProcessReport {
         max_rss_kb: 0,
         metrics: Default::default(),
         error: None,
+        solver: None,
     }
 }
 
@@ -241,6 +242,13 @@ pub fn run_plant<T: Transport + ?Sized>(
     let result = plant_loop(t, model, rng, n_agents, p, &mut report);
     (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
     report.metrics = model.metrics().into_iter().collect();
+    let mut result = result;
+    for (name, text) in model.extra_telemetry() {
+        let path = p.dirs.snapshots().join(name);
+        if let Err(e) = std::fs::create_dir_all(p.dirs.snapshots()).and_then(|_| std::fs::write(&path, text)) {
+            result = result.and(Err(io(path.display().to_string())(e)));
+        }
+    }
     if let Err(e) = result {
         report.error = Some(e.to_string());
     } else {
@@ -426,6 +434,7 @@ pub fn run_agent<T: Transport + ?Sized>(
     let started = Instant::now();
     let result = agent_loop(t, algo, id, neighbours, p, &mut report);
     report.wall_s = started.elapsed().as_secs_f64();
+    report.solver = algo.solver_stats();
     (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
     if let Err(e) = result {
         report.error = Some(e.to_string());

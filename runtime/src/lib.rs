@@ -7,3 +7,4 @@ pub mod model;
 pub mod process;
 pub mod record;
 pub mod rng;
+pub mod solver_stats;

@@ -30,6 +30,11 @@ impl RunDirs {
     pub fn logs(&self) -> PathBuf {
         self.root.join("logs")
     }
+    /// Sim-time outputs that are not one row per step (a plant model's
+    /// [`crate::model::PlantModel::extra_telemetry`]), created when there are some.
+    pub fn snapshots(&self) -> PathBuf {
+        self.root.join("snapshots")
+    }
     pub fn create_all(&self) -> std::io::Result<()> {
         for d in [self.telemetry(), self.timing(), self.status(), self.logs()] {
             std::fs::create_dir_all(d)?;
@@ -112,6 +117,10 @@ pub struct ProcessReport {
     pub metrics: std::collections::BTreeMap<String, f64>,
     /// Why the process ended early, if it did.
     pub error: Option<String>,
+    /// Agents whose algorithm solves an optimisation problem every step: solver counts and solve
+    /// times (see [`crate::model::Algorithm::solver_stats`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver: Option<crate::solver_stats::SolverStats>,
 }
 
 impl ProcessReport {

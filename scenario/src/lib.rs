@@ -5,6 +5,8 @@ pub mod dai;
 pub mod error;
 pub mod parse;
 pub mod schema;
+pub mod tsnr_formation;
+pub mod tsnr_net;
 pub mod validate;
 
 pub use error::{Problem, ScenarioError};

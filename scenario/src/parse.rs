@@ -103,6 +103,7 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
         "orbital" => section(body, "plant", &mut problems).map(PlantConfig::Orbital),
         "null" => section(body, "plant", &mut problems).map(PlantConfig::Null),
         "rigid-body" => section(body, "plant", &mut problems).map(PlantConfig::RigidBody),
+        "tsnr-net" => section(body, "plant", &mut problems).map(PlantConfig::TsnrNet),
         _ => unreachable!("tagged() only returns known kinds"),
     });
     let algorithm = algorithm.and_then(|(kind, body)| match kind.as_str() {
@@ -111,6 +112,7 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
         "coast" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::Coast),
         "null" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::Null),
         "dai-attitude" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::DaiAttitude),
+        "tsnr-formation" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::TsnrFormation),
         _ => unreachable!("tagged() only returns known kinds"),
     });
     match (meta, run, plant, algorithm, agents) {
