@@ -34,6 +34,37 @@ pub fn build(s: &Scenario, id: u32) -> Box<dyn Algorithm> {
         AlgorithmConfig::Coast(_) => Box::new(algorithms::coast::Coast),
         AlgorithmConfig::Null(a) => Box::new(algorithms::null::Null { share_values: a.share_values }),
         AlgorithmConfig::DaiAttitude(c) => Box::new(algorithms::dai_attitude::DaiAttitudeAgent::new(c)),
+        AlgorithmConfig::TsnrFormation(c) => tsnr_formation(s, c, id),
+    }
+}
+
+/// Seed 001: the method `algorithm.method` names. AEMC's tension forecast is chosen by
+/// `algorithm.mpc.tension_forecast`.
+fn tsnr_formation(s: &Scenario, c: &cohort_scenario::tsnr_formation::TsnrFormation, id: u32) -> Box<dyn Algorithm> {
+    use algorithms::{tsnr_aemc::TsnrAemc, tsnr_dmpc::TsnrDmpc, tsnr_smc::TsnrSmc};
+    let dt_s = s.scenario.dt_s;
+    let model =
+        cohort_scenario::tsnr_formation::TsnrModel::of(s).expect("validated: tsnr-formation needs the tsnr-net plant");
+    match c.method.as_str() {
+        "aemc" => {
+            let m = c.mpc.as_ref().expect("validated: aemc needs [algorithm.mpc]");
+            let forecast: Box<dyn cohort_tsnr::forecast::TensionForecast> = match m.tension_forecast.as_str() {
+                "hold-measured" => Box::new(cohort_tsnr::forecast::HoldMeasured),
+                "dnn" => {
+                    let path = m.tension_weights.as_deref().expect("validated: dnn needs tension_weights");
+                    // Validation loaded this file already; it can only fail here if it changed since.
+                    let predictor = cohort_tsnr::predictor::TensionPredictor::load(std::path::Path::new(path))
+                        .unwrap_or_else(|e| panic!("{e}"));
+                    Box::new(cohort_tsnr::dnn_forecast::DnnForecast::new(std::sync::Arc::new(predictor), id))
+                }
+                other => unreachable!("validated: unknown tension forecast {other:?}"),
+            };
+            let graph = s.topology().neighbours;
+            Box::new(TsnrAemc::new(c, &model, dt_s, s.run.link_delay_steps, id, &graph, forecast))
+        }
+        "dmpc" => Box::new(TsnrDmpc::new(c, &model, dt_s, id)),
+        "smc" => Box::new(TsnrSmc::new(c, &model, id)),
+        other => unreachable!("validated: unknown tsnr-formation method {other:?}"),
     }
 }
 

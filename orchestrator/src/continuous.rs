@@ -300,6 +300,7 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, progress: &Progress) -> LaunchOutcom
         messages_sent: 0,
         received_from: Default::default(),
         latency_from_ns: Default::default(),
+        solver: None,
     };
     let mut write_errors = Vec::new();
     for rep in [report("plant", metrics), report("agent-1", BTreeMap::new())] {

@@ -17,6 +17,7 @@ mod soak;
 mod summary;
 mod supervise;
 mod sweep_report;
+mod tsnr_train;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -157,10 +158,36 @@ enum Cmd {
         #[arg(long)]
         in_process: bool,
     },
+    /// Train a learned model offline and write its weights file and a report beside it.
+    Train {
+        #[command(subcommand)]
+        what: TrainCmd,
+    },
     /// Draw PNG plots of a run directory's telemetry into RUN_DIR/plots/.
     Report {
         /// A run directory written by `launch`.
         run_dir: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
+enum TrainCmd {
+    /// Seed 001's DNN tension predictor (eqs. (7)–(11)): simulate random capture trajectories with
+    /// the net plant, train with candle (CPU), write the weights (safetensors) and
+    /// NAME-report.md/.json beside them. Deterministic for a given seed.
+    TsnrTension {
+        /// Weights file to write, e.g. tsnr/weights/tension.safetensors.
+        #[arg(long)]
+        out: PathBuf,
+        /// Seeds the trajectories, the initial weights and the batch order.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Trajectories of 30 s to simulate (a fifth held out for the report).
+        #[arg(long, default_value_t = 300)]
+        trajectories: u64,
+        /// Passes over the training windows.
+        #[arg(long, default_value_t = 25)]
+        epochs: usize,
     },
 }
 
@@ -313,6 +340,25 @@ fn main() -> ExitCode {
                 Ok(md) => {
                     println!("{md}");
                     println!("written: {}", o.out.join("dai-tables.md").display());
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(EXIT_FAILED)
+                }
+            }
+        }
+        Cmd::Train { what: TrainCmd::TsnrTension { out, seed, trajectories, epochs } } => {
+            let command = format!(
+                "orchestrator train tsnr-tension --out {} --seed {seed} --trajectories {trajectories} --epochs {epochs}",
+                out.display()
+            );
+            let o = tsnr_train::Options { out, seed, trajectories, epochs, n_t: 10 };
+            match tsnr_train::run(&o, &command) {
+                Ok(md) => {
+                    println!("{md}");
+                    let (json, md_path) = tsnr_train::report_paths(&o.out);
+                    println!("written: {}, {} and {}", o.out.display(), md_path.display(), json.display());
                     ExitCode::SUCCESS
                 }
                 Err(e) => {

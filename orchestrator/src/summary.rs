@@ -180,14 +180,19 @@ pub fn unaccounted(
         for r in readers {
             let Some(reader) = complete(&r) else { continue };
             let got = reader.received_from.get(&name).copied().unwrap_or(0);
-            if got != sender.messages_sent {
-                out.push(format!("{name} → {r}: {} sent, {got} received", sender.messages_sent));
+            let overrun = reader.faults.overrun.get(&name).copied().unwrap_or(0);
+            if got + overrun != sender.messages_sent {
+                out.push(format!(
+                    "{name} → {r}: {} sent, {got} received, {overrun} counted as lost to a full queue",
+                    sender.messages_sent
+                ));
             }
         }
         let got = sender.received_from.get("plant").copied().unwrap_or(0);
+        let overrun = sender.faults.overrun.get("plant").copied().unwrap_or(0);
         let sent = plant.messages_sent / u64::from(n);
-        if got != sent {
-            out.push(format!("plant → {name}: {sent} sent, {got} received"));
+        if got + overrun != sent {
+            out.push(format!("plant → {name}: {sent} sent, {got} received, {overrun} counted as lost to a full queue"));
         }
     }
     out

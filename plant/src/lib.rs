@@ -38,6 +38,21 @@ pub fn build(s: &Scenario) -> Box<dyn PlantModel> {
             p.substeps(s.scenario.dt_s),
             p.gyro_noise_std_rad_s,
         )),
+        PlantConfig::TsnrNet(p) => {
+            let mu = |i: usize| s.agent(i as u32 + 1);
+            let r0 = std::array::from_fn(|i| mu(i).r0_m.expect("validated"));
+            let v0 = std::array::from_fn(|i| mu(i).v0_mps.expect("validated"));
+            let dt_s = s.scenario.dt_s;
+            let plant = models::tsnr_net::TsnrNetPlant::new(
+                p.net_params(),
+                r0,
+                v0,
+                p.thrust_bound_n,
+                dt_s,
+                p.snapshot_steps(dt_s),
+            );
+            Box::new(plant.expect("validated: the net parameters passed NetParams::validate"))
+        }
     }
 }
 

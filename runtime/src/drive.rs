@@ -318,6 +318,7 @@ fn new_report(me: Proc, p: &DriveParams) -> ProcessReport {
         messages_sent: 0,
         received_from: Default::default(),
         latency_from_ns: Default::default(),
+        solver: None,
     }
 }
 
@@ -335,6 +336,13 @@ pub fn run_plant<T: Transport + ?Sized>(
     let result = plant_loop(t, model, rng, n_agents, p, &mut report);
     (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
     report.metrics = model.metrics().into_iter().collect();
+    let mut result = result;
+    for (name, text) in model.extra_telemetry() {
+        let path = p.dirs.snapshots().join(name);
+        if let Err(e) = std::fs::create_dir_all(p.dirs.snapshots()).and_then(|_| std::fs::write(&path, text)) {
+            result = result.and(Err(io(path.display().to_string())(e)));
+        }
+    }
     if let Err(e) = result {
         report.error = Some(e.to_string());
     } else {
@@ -363,6 +371,9 @@ struct PlantInbox {
     /// Per agent: messages received (valid or not), and the latency of the valid ones.
     from: Vec<u64>,
     latency: Vec<LatencyHist>,
+    /// Per agent: the newest step of a token, and tokens lost to a full queue (a gap in steps).
+    last_token: Vec<Option<u64>>,
+    overrun: Vec<u64>,
     late: u64,
     rejects: RejectCounts,
 }
@@ -385,6 +396,14 @@ impl Inbox for PlantInbox {
                 self.latency[idx].record(monotonic_ns().saturating_sub(share.header.sent_wall_ns));
                 let step = share.header.step;
                 let on_time = share.link == LINK_LOST || self.plan.fate(from, step) == Fate::Deliver;
+                if on_time {
+                    if let Some(last) = self.last_token[idx]
+                        && step > last + 1
+                    {
+                        self.overrun[idx] += step - last - 1;
+                    }
+                    self.last_token[idx] = Some(self.last_token[idx].map_or(step, |l| l.max(step)));
+                }
                 if step == self.k && on_time {
                     self.want[idx] = false;
                 } else if on_time && share.link == LINK_DATA {
@@ -484,6 +503,8 @@ fn plant_loop<T: Transport + ?Sized>(
         received: 0,
         from: vec![0; n],
         latency: (0..n).map(|_| LatencyHist::default()).collect(),
+        last_token: vec![None; n],
+        overrun: vec![0; n],
         late: 0,
         rejects: RejectCounts::default(),
     };
@@ -637,6 +658,7 @@ fn plant_loop<T: Transport + ?Sized>(
     for (i, (n, h)) in inbox.from.iter().zip(&inbox.latency).enumerate() {
         let name = Proc::Agent(i as u32 + 1).name();
         report.received_from.insert(name.clone(), *n);
+        report.faults.overrun.insert(name.clone(), inbox.overrun[i]);
         report.latency_from_ns.insert(name, h.buckets());
     }
     // Never lose telemetry: flush whatever was written, also after an error.
@@ -710,6 +732,7 @@ pub fn run_agent<T: Transport + ?Sized>(
     let started = Instant::now();
     let result = agent_loop(t, algo, id, neighbours, p, restore, &mut report);
     report.wall_s = started.elapsed().as_secs_f64();
+    report.solver = algo.solver_stats();
     (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
     if let Err(e) = result {
         report.error = Some(e.to_string());
@@ -752,6 +775,9 @@ struct Peer {
     /// Messages received from it (valid or not), and the latency of the valid ones.
     received: u64,
     latency: LatencyHist,
+    /// The newest step of a token from it, and tokens lost to a full queue (a gap in steps).
+    last_token: Option<u64>,
+    overrun: u64,
 }
 
 /// An agent's inbox: the plant's measurement, then the neighbours' shares.
@@ -771,6 +797,8 @@ struct AgentInbox {
     meas_latency_ns: u64,
     from_plant: u64,
     latency_plant: LatencyHist,
+    /// Measurements lost to a full queue (a gap in their steps).
+    overrun_plant: u64,
     last_meas_step: Option<u64>,
     me_hist: Vec<(u64, bool)>,
     peers: Vec<Peer>,
@@ -807,6 +835,9 @@ impl Inbox for AgentInbox {
                         if self.last_meas_step.is_some_and(|s| s >= step) {
                             return; // a duplicate or an older one: the first, newest, counts
                         }
+                        if let Some(last) = self.last_meas_step {
+                            self.overrun_plant += step - last - 1;
+                        }
                         self.last_meas_step = Some(step);
                         self.fresh = true;
                         note_roster(&mut self.me_hist, m, self.me);
@@ -842,6 +873,13 @@ impl Inbox for AgentInbox {
                         let step = share.header.step;
                         if share.link == LINK_LOST || self.plan.fate(from, step) == Fate::Deliver {
                             peer.tokens.push(step);
+                            if let Some(last) = peer.last_token
+                                && step > last + 1
+                                && live_at(&peer.hist, step)
+                            {
+                                peer.overrun += step - last - 1;
+                            }
+                            peer.last_token = Some(peer.last_token.map_or(step, |l| l.max(step)));
                         }
                         if share.link == LINK_DATA && !peer.arrived.iter().any(|(s, _)| *s == step) {
                             peer.arrived.push((step, share.values().to_vec()));
@@ -940,6 +978,7 @@ fn agent_loop<T: Transport + ?Sized>(
         meas_latency_ns: 0,
         from_plant: 0,
         latency_plant: LatencyHist::default(),
+        overrun_plant: 0,
         last_meas_step: None,
         me_hist: Vec::new(),
         peers: neighbours
@@ -952,6 +991,8 @@ fn agent_loop<T: Transport + ?Sized>(
                 tokens: Vec::new(),
                 received: 0,
                 latency: LatencyHist::default(),
+                last_token: None,
+                overrun: 0,
             })
             .collect(),
         plan: Arc::clone(&p.faults),
@@ -1058,6 +1099,13 @@ fn agent_loop<T: Transport + ?Sized>(
                 // Back on the roster after missing steps (thawed, or relaunched from a
                 // checkpoint): propagate through them with the neighbours' last valid shares.
                 let back_at = m.header.step;
+                // Only what it had before it left: which of the shares sent meanwhile are still
+                // queued depends on when it woke (a full queue keeps the newest), so using them
+                // would make the run depend on timing.
+                for peer in &mut inbox.peers {
+                    peer.arrived.retain(|(s, _)| *s >= back_at);
+                    peer.tokens.retain(|s| *s >= back_at);
+                }
                 for s in k..back_at {
                     advance(algo, &mut inbox, s.checked_sub(delay), report);
                 }
@@ -1153,10 +1201,12 @@ fn agent_loop<T: Transport + ?Sized>(
     report.messages_received = inbox.received;
     report.messages_rejected = reject_map(&inbox.rejects);
     report.received_from.insert("plant".into(), inbox.from_plant);
+    report.faults.overrun.insert("plant".into(), inbox.overrun_plant);
     report.latency_from_ns.insert("plant".into(), inbox.latency_plant.buckets());
     for peer in &inbox.peers {
         let name = Proc::Agent(peer.id).name();
         report.received_from.insert(name.clone(), peer.received);
+        report.faults.overrun.insert(name.clone(), peer.overrun);
         report.latency_from_ns.insert(name, peer.latency.buckets());
     }
     let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("agent telemetry"));

@@ -8,3 +8,4 @@ pub mod model;
 pub mod process;
 pub mod record;
 pub mod rng;
+pub mod solver_stats;

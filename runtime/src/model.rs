@@ -19,6 +19,12 @@ pub trait PlantModel: Send {
     fn row(&self, out: &mut Vec<f64>);
     /// Headline metrics for `summary.json`, computed at the end of the run.
     fn metrics(&self) -> Vec<(String, f64)>;
+    /// Sim-time outputs kept apart from the per-step rows, as (file name, text), written to the
+    /// run's `snapshots/` when the run ends (also after an error): e.g. every node of a net at a
+    /// few times, far too wide for a row of every step. Deterministic like the rows.
+    fn extra_telemetry(&self) -> Vec<(String, String)> {
+        Vec::new()
+    }
 }
 
 /// What an agent's algorithm gets from its own sensors at step k.
@@ -65,6 +71,12 @@ pub trait Algorithm: Send {
     fn save_state(&self) -> Vec<u8>;
     /// Replace the state with one saved by [`Algorithm::save_state`]; on error nothing changed.
     fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String>;
+    /// For an algorithm that solves an optimisation problem every step: its solver's counts and
+    /// wall-clock solve times, for the end-of-run report (never telemetry: times differ between
+    /// runs). None for the others.
+    fn solver_stats(&self) -> Option<crate::solver_stats::SolverStats> {
+        None
+    }
 }
 
 /// Implements the checkpoint methods of [`Algorithm`] for a type that is its own serde state.

@@ -30,6 +30,11 @@ impl RunDirs {
     pub fn logs(&self) -> PathBuf {
         self.root.join("logs")
     }
+    /// Sim-time outputs that are not one row per step (a plant model's
+    /// [`crate::model::PlantModel::extra_telemetry`]), created when there are some.
+    pub fn snapshots(&self) -> PathBuf {
+        self.root.join("snapshots")
+    }
     pub fn create_all(&self) -> std::io::Result<()> {
         for d in [self.telemetry(), self.timing(), self.status(), self.logs()] {
             std::fs::create_dir_all(d)?;
@@ -129,6 +134,10 @@ pub struct ProcessReport {
     /// Per sender: wall latency (send → receipt) of its valid messages, ns, as histogram buckets.
     #[serde(default)]
     pub latency_from_ns: std::collections::BTreeMap<String, LatencyBuckets>,
+    /// Agents whose algorithm solves an optimisation problem every step: solver counts and solve
+    /// times (see [`crate::model::Algorithm::solver_stats`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver: Option<crate::solver_stats::SolverStats>,
 }
 
 /// A latency histogram (HdrHistogram, 3 significant figures, 100 ns to 60 s) kept by a receiver
@@ -194,6 +203,9 @@ pub struct FaultReport {
     pub max_age_steps: u64,
     /// Receiver: valid shares that came after their step had closed (real-time mode).
     pub late: u64,
+    /// Receiver, per sender: messages its full queue dropped (iceoryx2 keeps the newest when a
+    /// slow reader falls behind, e.g. in real time), seen as a gap in the senders' steps.
+    pub overrun: std::collections::BTreeMap<String, u64>,
     /// Plant, real-time mode: commands that missed their step's deadline.
     pub deadline_misses: u64,
     /// Agent: steps it was not on the roster for (frozen, or between kill and relaunch); it

@@ -7,6 +7,8 @@ pub mod faults;
 pub mod live_graph;
 pub mod parse;
 pub mod schema;
+pub mod tsnr_formation;
+pub mod tsnr_net;
 pub mod validate;
 
 pub use error::{Problem, ScenarioError};

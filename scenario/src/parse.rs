@@ -64,6 +64,17 @@ pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario,
         s.run.realtime_rate = Some(r);
     }
     s.faults.extend(overrides.faults.iter().cloned());
+    // Files a scenario names are relative to the scenario file; the resolved scenario (which the
+    // child processes read from the run directory) carries them absolute.
+    if let AlgorithmConfig::TsnrFormation(a) = &mut s.algorithm
+        && let Some(m) = &mut a.mpc
+        && let Some(w) = &mut m.tension_weights
+        && Path::new(w.as_str()).is_relative()
+    {
+        let base = file.parent().unwrap_or(Path::new(""));
+        let joined = base.join(w.as_str());
+        *w = std::fs::canonicalize(&joined).unwrap_or(joined).display().to_string();
+    }
     if let Some(x) = &overrides.on_agent_loss {
         s.run.on_agent_loss = x.clone();
     }
@@ -114,6 +125,7 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
         "orbital" => section(body, "plant", &mut problems).map(PlantConfig::Orbital),
         "null" => section(body, "plant", &mut problems).map(PlantConfig::Null),
         "rigid-body" => section(body, "plant", &mut problems).map(PlantConfig::RigidBody),
+        "tsnr-net" => section(body, "plant", &mut problems).map(PlantConfig::TsnrNet),
         _ => unreachable!("tagged() only returns known kinds"),
     });
     let algorithm = algorithm.and_then(|(kind, body)| match kind.as_str() {
@@ -122,6 +134,7 @@ fn parse_only(text: &str) -> Result<Scenario, Vec<Problem>> {
         "coast" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::Coast),
         "null" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::Null),
         "dai-attitude" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::DaiAttitude),
+        "tsnr-formation" => section(body, "algorithm", &mut problems).map(AlgorithmConfig::TsnrFormation),
         _ => unreachable!("tagged() only returns known kinds"),
     });
     match (meta, run, plant, algorithm, agents, faults) {

@@ -125,10 +125,14 @@ pub enum PlantConfig {
     /// Seed 004: each agent's spacecraft is a rigid body (Euler's equations with the true inertia
     /// and attitude quaternion); the agent senses its body rates and commands a body torque.
     RigidBody(crate::dai::RigidBodyPlant),
+    /// Seed 001: the tethered space net robot's net (spring–damper mesh) and its four MUs (the
+    /// corners) under CW relative motion; agent i senses MU i's state and the net tension on it
+    /// and commands its thrust.
+    TsnrNet(crate::tsnr_net::TsnrNetPlant),
 }
 
 impl PlantConfig {
-    pub const KINDS: &'static [&'static str] = &["double-integrator", "orbital", "null", "rigid-body"];
+    pub const KINDS: &'static [&'static str] = &["double-integrator", "orbital", "null", "rigid-body", "tsnr-net"];
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -222,11 +226,14 @@ pub enum AlgorithmConfig {
     /// Seed 004: deterministic-AI attitude-rate control, feedforward (2) with the estimated
     /// inertia and one of the learning laws original (3), general (6) or specific (10), (13).
     DaiAttitude(crate::dai::DaiAttitude),
+    /// Seed 001: tethered-space-net-robot formation control along desired quintic trajectories,
+    /// by AEMC (cooperative-game DMPC with tension prediction), DMPC or SMC (`method`).
+    TsnrFormation(crate::tsnr_formation::TsnrFormation),
 }
 
 impl AlgorithmConfig {
     pub const KINDS: &'static [&'static str] =
-        &["consensus-formation", "lb-dnn-servicing", "coast", "null", "dai-attitude"];
+        &["consensus-formation", "lb-dnn-servicing", "coast", "null", "dai-attitude", "tsnr-formation"];
 
     /// The `kind` tag of this algorithm (names its checkpoints).
     pub fn kind(&self) -> &'static str {
@@ -236,6 +243,7 @@ impl AlgorithmConfig {
             AlgorithmConfig::Coast(_) => "coast",
             AlgorithmConfig::Null(_) => "null",
             AlgorithmConfig::DaiAttitude(_) => "dai-attitude",
+            AlgorithmConfig::TsnrFormation(_) => "tsnr-formation",
         }
     }
 }
@@ -331,7 +339,8 @@ pub struct AgentConfig {
     pub id: u32,
     /// The agents whose shares this one reads.
     pub neighbours: Vec<u32>,
-    /// Initial position and velocity (double-integrator plant), m and m/s.
+    /// Initial position and velocity, m and m/s (double-integrator plant; tsnr-net plant: the
+    /// MU's state in the target's LVLH frame).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub r0_m: Option<[f64; 3]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -242,6 +242,7 @@ fn plant(c: &mut Checker, s: &Scenario) {
         PlantConfig::Orbital(p) => orbital(c, s, p),
         PlantConfig::Null(_) => {}
         PlantConfig::RigidBody(p) => c.problems.extend(crate::dai::validate_plant(s, p)),
+        PlantConfig::TsnrNet(p) => c.problems.extend(crate::tsnr_net::validate_plant(s, p)),
     }
 }
 
@@ -408,6 +409,7 @@ fn algorithm(c: &mut Checker, s: &Scenario) {
         }
         AlgorithmConfig::Coast(_) | AlgorithmConfig::Null(_) => {}
         AlgorithmConfig::DaiAttitude(a) => c.problems.extend(crate::dai::validate_algorithm(s, a)),
+        AlgorithmConfig::TsnrFormation(a) => c.problems.extend(crate::tsnr_formation::validate_algorithm(s, a)),
     }
 }
 
@@ -421,6 +423,7 @@ pub fn message_sizes(s: &Scenario) -> MessageSizes {
             PlantConfig::Orbital(_) => a.output_matrix.as_ref().map_or(0, |m| m.len()) + 3 * a.neighbours.len(),
             PlantConfig::Null(p) => p.readings,
             PlantConfig::RigidBody(_) => crate::dai::READINGS,
+            PlantConfig::TsnrNet(_) => crate::tsnr_net::READINGS,
         })
         .max()
         .unwrap_or(0);
@@ -430,6 +433,9 @@ pub fn message_sizes(s: &Scenario) -> MessageSizes {
         AlgorithmConfig::Coast(_) => 0,
         AlgorithmConfig::Null(a) => a.share_values,
         AlgorithmConfig::DaiAttitude(_) => 0,
+        AlgorithmConfig::TsnrFormation(a) => {
+            a.share_values(s.agents.iter().map(|a| a.neighbours.len()).max().unwrap_or(0))
+        }
     };
     MessageSizes { readings, command: 3, share_values }
 }

@@ -6,3 +6,8 @@ pub mod dai_attitude;
 pub mod lbdnn_network;
 pub mod lbdnn_servicing;
 pub mod null;
+pub mod tsnr_aemc;
+pub mod tsnr_common;
+pub mod tsnr_dmpc;
+pub mod tsnr_mpc;
+pub mod tsnr_smc;

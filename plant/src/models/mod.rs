@@ -5,3 +5,4 @@ pub mod null;
 pub mod orbit;
 pub mod rigid_body;
 pub mod servicing;
+pub mod tsnr_net;
