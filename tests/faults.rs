@@ -230,3 +230,34 @@ fn bad_fault_arguments_are_refused_before_anything_runs() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn in_real_time_a_frozen_agent_costs_deadline_misses_until_it_is_declared_dead() {
+    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch_dir("fault-realtime");
+    let run = dir.join("run");
+    // Ring at 100 Hz in real time; agent 2 frozen at 2 s for 3 s, step timeout 1 s: the plant
+    // misses agent 2's command at every step's deadline (and flies the last one) until a second
+    // of silence has passed, then declares it dead; it is back on the roster at 5 s.
+    let o = launch_scenario(
+        Path::new("topologies/consensus-ring.toml"),
+        &run,
+        &["--duration", "6", "--realtime", "--step-timeout", "1", "--fault", "freeze:agent=2@t=2,for=3"],
+    );
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let s = summary(&run);
+    let plant = process(&s, "plant");
+    let misses = plant["faults"]["deadline_misses"].as_u64().unwrap();
+    let held = plant["faults"]["held"]["agent-2"].as_u64().unwrap_or(0);
+    // About one second of 10-ms steps (more on a loaded machine, where others miss too).
+    assert!((60..=400).contains(&misses), "{misses} deadline misses");
+    assert!(held >= 60, "agent 2's last command stood in {held} times");
+    let dead = events(&s, 2, "dead");
+    assert_eq!(dead.len(), 1, "{}", s["timeline"]);
+    let step = dead[0]["step"].as_u64().unwrap();
+    assert!((250..=340).contains(&step), "declared dead at step {step} (frozen at 200, timeout 1 s)");
+    assert_eq!(events(&s, 2, "alive")[0]["step"], 500);
+    assert_eq!(s["steps_completed"], 600);
+    assert_clean(&run);
+    let _ = std::fs::remove_dir_all(&dir);
+}
