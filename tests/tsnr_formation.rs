@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-use cohort::{describe_output, launch_scenario, repo_root, scratch_dir};
+use cohort::{describe_output, launch_scenario, orchestrator_command, repo_root, scratch_dir};
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
@@ -98,6 +98,27 @@ fn aemc_multi_process_run_is_bit_identical_to_the_reference() {
         let a = std::fs::read(mp.join("telemetry").join(f)).unwrap();
         let b = std::fs::read(rf.join("telemetry").join(f)).unwrap();
         assert!(a == b, "telemetry/{f} differs between the multi-process run and the reference");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A launch with plots (the default) draws the seed-001 figures: Figs. 8/9's tension panels and
+/// the 3-D net at the snapshot times.
+#[test]
+fn launch_draws_the_tension_and_net_figures() {
+    let _g = heavy();
+    let dir = scratch_dir("tsnr-figures");
+    let out = dir.join("run");
+    // Not `launch_scenario`: it passes --no-plots.
+    let o =
+        orchestrator_command().arg("launch").arg(scenario(1, "aemc", &dir)).arg("--out").arg(&out).output().unwrap();
+    assert!(o.status.success(), "{}", describe_output(&o));
+    for name in ["tsnr_tension.png", "tsnr_net_3d.png"] {
+        let path = out.join("plots").join(name);
+        let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "{} is not a PNG", path.display());
+        // A blank canvas compresses to a few kB; these figures are a few hundred kB.
+        assert!(bytes.len() > 20_000, "{}: only {} bytes", path.display(), bytes.len());
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -56,6 +56,7 @@ pub fn analyse(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, St
     match (&s.plant, &s.algorithm) {
         (PlantConfig::Orbital(_), AlgorithmConfig::LbDnnServicing(_)) => servicing(s, dirs),
         (PlantConfig::RigidBody(_), AlgorithmConfig::DaiAttitude(_)) => crate::dai_analysis::analyse(s, dirs),
+        (PlantConfig::TsnrNet(_), AlgorithmConfig::TsnrFormation(_)) => crate::tsnr_analysis::analyse(s, dirs),
         _ => Ok(BTreeMap::new()),
     }
 }

@@ -12,11 +12,14 @@ mod dai_tables;
 mod progress;
 mod reference;
 mod report;
+mod report_tsnr;
 mod rundir;
 mod soak;
 mod summary;
 mod supervise;
 mod sweep_report;
+mod tsnr_analysis;
+mod tsnr_compare;
 mod tsnr_train;
 
 use std::path::{Path, PathBuf};
@@ -127,6 +130,23 @@ enum Cmd {
         file: PathBuf,
         #[command(flatten)]
         args: SweepArgs,
+    },
+    /// Seed 001: run a tsnr-formation scenario once per method, multi-process, and write the
+    /// analogue of the paper's Tables 1–2 (fuel per MU beside the published values) with each
+    /// run's tracking, thrust and solver metrics (compare.md, compare.csv); each run's directory
+    /// is DIR/<method>/.
+    Compare {
+        /// Scenario file (TOML) with algorithm.kind = "tsnr-formation".
+        file: PathBuf,
+        /// Methods to run, in this order: a comma list of aemc, dmpc, smc (each at most once).
+        #[arg(long, value_name = "LIST")]
+        algorithms: String,
+        /// Output directory (absent or empty); default runs/<scenario>-compare-<UTC time>/.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Draw neither the runs' plots nor the comparison figures.
+        #[arg(long)]
+        no_plots: bool,
     },
     /// Measure what the multi-process runtime costs (see bench/results.md); run from the
     /// repository root.
@@ -256,10 +276,12 @@ fn main() -> ExitCode {
                 realtime_rate: realtime.then_some(rate),
                 faults,
                 on_agent_loss,
+                method: None,
             };
             launch(&file, out.as_deref(), &o, reference, !no_plots)
         }
         Cmd::Sweep { file, args } => sweep(&file, &args),
+        Cmd::Compare { file, algorithms, out, no_plots } => compare(&file, &algorithms, out.as_deref(), !no_plots),
         Cmd::Soak { file, wall, realtime, rate, faults, out, seed } => {
             let wall = match soak::parse_wall(&wall) {
                 Ok(w) => w,
@@ -620,6 +642,100 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
         Ok(md) => {
             println!("{md}");
             println!("sweep results: {} and {}", root.join("sweep.md").display(), root.join("sweep.csv").display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(EXIT_FAILED)
+        }
+    }
+}
+
+/// `orchestrator compare`: one multi-process run per method into `root/<method>/`, then the table.
+fn compare(file: &Path, algorithms: &str, out: Option<&Path>, plots: bool) -> ExitCode {
+    let methods = match tsnr_compare::parse_algorithms(algorithms) {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(EXIT_INVALID);
+        }
+    };
+    // Validate every method's scenario up front, so a bad file or method fails before any run.
+    let mut scenarios = Vec::new();
+    for m in &methods {
+        match load_or_exit(file, &Overrides { method: Some(m.clone()), ..Default::default() }) {
+            Ok(s) => scenarios.push((m.clone(), s)),
+            Err(code) => return code,
+        }
+    }
+    let Some((_, first)) = scenarios.first() else {
+        eprintln!("error: --algorithms {algorithms:?}: no method");
+        return ExitCode::from(EXIT_INVALID);
+    };
+    let root = out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from(format!("runs/{}-compare-{}", first.scenario.name, rundir::utc_stamp())));
+    // Like a run directory: absent or empty, so an earlier comparison is never mixed in.
+    if std::fs::read_dir(&root).is_ok_and(|mut d| d.next().is_some()) {
+        eprintln!("error: --out {}: directory exists and is not empty (refusing to mix runs)", root.display());
+        return ExitCode::from(EXIT_INVALID);
+    }
+    if let Err(e) = std::fs::create_dir_all(&root) {
+        eprintln!("error: {}: cannot create: {e}", root.display());
+        return ExitCode::from(EXIT_INVALID);
+    }
+    if let Err(e) = supervise::install_signal_handlers() {
+        eprintln!("error: {e}");
+        return ExitCode::from(EXIT_FAILED);
+    }
+    eprintln!("comparing {} over {} (multi-process) → {}", file.display(), methods.join(", "), root.display());
+    let mut runs = Vec::new();
+    for (method, s) in &scenarios {
+        let dirs = match prepare(s, Some(&root.join(method))) {
+            Ok(d) => d,
+            Err(code) => return code,
+        };
+        let (outcome, summary) = run_once(s, &dirs, false, false);
+        if let Some(e) = &outcome.error {
+            eprintln!("error: {method}: {e}");
+            eprintln!("run directory (partial): {}", dirs.root.display());
+            return ExitCode::from(outcome.exit_code);
+        }
+        eprintln!(
+            "{method}: {} steps in {:.2} s; fuel {:.2} N·s",
+            summary.steps_completed,
+            outcome.wall_s,
+            summary.metrics.get("fuel_total_ns").copied().unwrap_or(f64::NAN)
+        );
+        if plots && let Err(e) = report::report(&dirs.root) {
+            eprintln!("warning: {method}: plots not drawn: {e}");
+        }
+        runs.push((method.clone(), summary.metrics));
+    }
+    // The Figs. 10/11 analogue: every method's tracking error on one figure. A figure is not
+    // worth losing the tables over, so a failure is a warning.
+    let figures = if plots {
+        let dirs: Vec<(String, PathBuf)> = methods.iter().map(|m| (m.clone(), root.join(m))).collect();
+        report_tsnr::draw_comparison(&root, &dirs).unwrap_or_else(|e| {
+            eprintln!("warning: comparison figures not drawn: {e}");
+            Vec::new()
+        })
+    } else {
+        Vec::new()
+    };
+    let ctx = tsnr_compare::Context {
+        file,
+        scenario_name: &first.scenario.name,
+        seed: first.scenario.seed,
+        n_mus: first.n_agents(),
+        steps: first.n_steps(),
+        dt_s: first.scenario.dt_s,
+        figures: &figures,
+    };
+    match tsnr_compare::write(&root, &ctx, &runs) {
+        Ok(md) => {
+            println!("{md}");
+            println!("comparison: {} and {}", root.join("compare.md").display(), root.join("compare.csv").display());
             ExitCode::SUCCESS
         }
         Err(e) => {

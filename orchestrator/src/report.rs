@@ -27,7 +27,9 @@
 //!
 //! A run directory holding `derived/fig1.csv` (the seed-000 servicing scenario, written by the
 //! orchestrator after the run) also gets the paper's figures, drawn by [`fig1`]; its per-body
-//! plant columns (`b<b>_...`) are then left out of the generic figures.
+//! plant columns (`b<b>_...`) are then left out of the generic figures. A seed-001 run (tethered
+//! net: `snapshots/net_nodes.csv` or the plant's `mu<i>_tension_*_n` columns) also gets the
+//! tension and 3-D net figures of [`crate::report_tsnr`].
 
 use std::collections::{HashMap, HashSet};
 use std::error::Error;
@@ -51,10 +53,10 @@ pub const LOG_SCALE_RATIO: f64 = 1e3;
 
 const TIME_FIGURE_SIZE: (u32, u32) = (1200, 700);
 const XY_FIGURE_SIZE: (u32, u32) = (1000, 1000);
-const MARGIN: u32 = 20;
-const X_LABEL_AREA: u32 = 60;
-const Y_LABEL_AREA: u32 = 110;
-const CAPTION_SIZE: u32 = 26;
+pub(crate) const MARGIN: u32 = 20;
+pub(crate) const X_LABEL_AREA: u32 = 60;
+pub(crate) const Y_LABEL_AREA: u32 = 110;
+pub(crate) const CAPTION_SIZE: u32 = 26;
 pub(crate) const FONT_FAMILY: &str = "sans-serif";
 /// Embedded because the `ab_glyph` font backend has no system font lookup. The path is relative
 /// to this file: `<workspace>/assets/DejaVuSans.ttf`.
@@ -86,12 +88,16 @@ pub enum ReportError {
     Plot { path: PathBuf, message: String },
     #[error("{}: {reason}", .path.display())]
     Fig1Input { path: PathBuf, reason: String },
+    /// A seed-001 (tethered net) input that cannot be drawn; `line` is 1-based, when known.
+    #[error("{}{}: {reason}", .path.display(), .line.map(|l| format!(":{l}")).unwrap_or_default())]
+    TsnrInput { path: PathBuf, line: Option<usize>, reason: String },
 }
 
 /// Reads `run_dir/telemetry/*.csv` and writes PNG plots into `run_dir/plots/` (created if
 /// needed; existing files of the same names are overwritten). Returns the paths written, in
-/// drawing order: the paper's figures of a `derived/fig1.csv` run first (see [`fig1`]), then
-/// the figures of `plant.csv` and any other non-agent file, then those of the agent files.
+/// drawing order: the paper's figures of a tsnr run or a `derived/fig1.csv` run first (see
+/// [`crate::report_tsnr`], [`fig1`]), then the figures of `plant.csv` and any other non-agent
+/// file, then those of the agent files.
 /// The run's fault timeline as a Markdown table (`plots/timeline.md`), when it has one.
 fn timeline_table(run_dir: &Path) -> Option<String> {
     let text = std::fs::read_to_string(run_dir.join("summary.json")).ok()?;
@@ -137,6 +143,8 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     let mut used_stems = HashSet::new();
     let mut agent_tables = Vec::new();
     let mut fig1_bodies = None;
+    // Kept for the seed-001 figures, which join the plant's truth with the agents' telemetry.
+    let mut plant_table = None;
     for file in &files {
         let is_fig1_plant = is_fig1 && file.kind == FileKind::Other && file.stem == "plant";
         let table = if is_fig1_plant {
@@ -167,6 +175,9 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
                 if let Some(fig) = trajectory_figure(&source, &table, &tables[0].1) {
                     figures.push(Figure::Xy(unique_stem(&xy_stem, &mut used_stems), fig));
                 }
+                if file.stem == "plant" {
+                    plant_table = Some(table);
+                }
             }
         }
     }
@@ -189,6 +200,15 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
         }
         figures.splice(0..0, fig1_figures);
     }
+    let tsnr_figures = crate::report_tsnr::figures(run_dir, plant_table.as_ref(), &agent_tables)?;
+    let tsnr_figures: Vec<Figure> = tsnr_figures
+        .into_iter()
+        .map(|(stem, fig)| {
+            used_stems.insert(stem.clone());
+            Figure::Tsnr(stem, fig)
+        })
+        .collect();
+    figures.splice(0..0, tsnr_figures);
 
     ensure_font()?;
     let plots_dir = run_dir.join("plots");
@@ -204,6 +224,7 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
             Figure::Time(_, fig) => draw_time_figure(&path, fig),
             Figure::Xy(_, fig) => draw_xy_figure(&path, fig),
             Figure::Fig1(_, fig) => fig.draw(&path),
+            Figure::Tsnr(_, fig) => fig.draw(&path),
         }));
         match outcome {
             Ok(Ok(())) => written.push(path),
@@ -287,20 +308,20 @@ fn list_telemetry(dir: &Path) -> Result<Vec<TelemetryFile>, ReportError> {
 
 /// One telemetry file, column-major.
 #[derive(Debug)]
-struct Table {
+pub(crate) struct Table {
     /// The `t_s` column.
-    t: Vec<f64>,
+    pub(crate) t: Vec<f64>,
     /// The columns after `k` and `t_s`, in header order.
-    columns: Vec<Column>,
+    pub(crate) columns: Vec<Column>,
 }
 
 #[derive(Debug)]
-struct Column {
-    name: String,
-    values: Vec<f64>,
+pub(crate) struct Column {
+    pub(crate) name: String,
+    pub(crate) values: Vec<f64>,
 }
 
-fn read_table(path: &Path) -> Result<Table, ReportError> {
+pub(crate) fn read_table(path: &Path) -> Result<Table, ReportError> {
     read_table_with(path, &|_| true)
 }
 
@@ -529,10 +550,10 @@ struct Source {
 
 /// One line of a figure; non-finite points split the line.
 #[derive(Debug)]
-struct Series {
-    label: String,
-    color: RGBColor,
-    points: Vec<(f64, f64)>,
+pub(crate) struct Series {
+    pub(crate) label: String,
+    pub(crate) color: RGBColor,
+    pub(crate) points: Vec<(f64, f64)>,
 }
 
 #[derive(Debug)]
@@ -555,12 +576,13 @@ enum Figure {
     Time(String, TimeFigure),
     Xy(String, XyFigure),
     Fig1(String, fig1::Fig1Figure),
+    Tsnr(String, crate::report_tsnr::TsnrFigure),
 }
 
 impl Figure {
     fn stem(&self) -> &str {
         match self {
-            Figure::Time(stem, _) | Figure::Xy(stem, _) | Figure::Fig1(stem, _) => stem,
+            Figure::Time(stem, _) | Figure::Xy(stem, _) | Figure::Fig1(stem, _) | Figure::Tsnr(stem, _) => stem,
         }
     }
 }
@@ -713,7 +735,7 @@ fn is_finite_point(p: &(f64, f64)) -> bool {
 /// At most `max_points` finite points of `(x[i], y[i])`: all of them if few enough, else the
 /// minimum and maximum of `y` in each of `max_points / 2` equal buckets of rows, in row order,
 /// so peaks survive. Non-finite points become gaps (`GAP`, at most one per bucket).
-fn downsample_min_max(x: &[f64], y: &[f64], max_points: usize) -> Vec<(f64, f64)> {
+pub(crate) fn downsample_min_max(x: &[f64], y: &[f64], max_points: usize) -> Vec<(f64, f64)> {
     let n = x.len().min(y.len());
     let point = |i: usize| (x[i], y[i]);
     let buckets = (max_points / 2).max(1);
@@ -788,7 +810,7 @@ fn finite_runs(points: &[(f64, f64)]) -> impl Iterator<Item = &[(f64, f64)]> {
 // ---------------------------------------------------------------------------------------------
 // Drawing
 
-type DrawResult = Result<(), Box<dyn Error + Send + Sync>>;
+pub(crate) type DrawResult = Result<(), Box<dyn Error + Send + Sync>>;
 
 /// Register the embedded font once per process (every figure of the orchestrator uses it).
 pub(crate) fn ensure_font() -> Result<(), ReportError> {
@@ -798,7 +820,7 @@ pub(crate) fn ensure_font() -> Result<(), ReportError> {
 }
 
 /// Smallest and largest finite value, if any.
-fn finite_bounds(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+pub(crate) fn finite_bounds(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     values.filter(|v| v.is_finite()).fold(None, |acc, v| match acc {
         None => Some((v, v)),
         Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
@@ -806,7 +828,7 @@ fn finite_bounds(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
 }
 
 /// A finite, non-empty axis range around `bounds` with 5 % margins.
-fn linear_range(bounds: Option<(f64, f64)>) -> (f64, f64) {
+pub(crate) fn linear_range(bounds: Option<(f64, f64)>) -> (f64, f64) {
     let Some((lo, hi)) = bounds else {
         return (0.0, 1.0);
     };
@@ -822,7 +844,7 @@ fn linear_range(bounds: Option<(f64, f64)>) -> (f64, f64) {
     }
 }
 
-fn format_tick(v: &f64) -> String {
+pub(crate) fn format_tick(v: &f64) -> String {
     let a = v.abs();
     if a == 0.0 {
         "0".to_string()
@@ -942,7 +964,9 @@ where
 }
 
 /// The legend box, upper right (any chart: time series, trajectories, 3-D).
-fn draw_legend<'a, 'b: 'a, CT: CoordTranslate>(chart: &mut ChartContext<'a, BitMapBackend<'b>, CT>) -> DrawResult {
+pub(crate) fn draw_legend<'a, 'b: 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, BitMapBackend<'b>, CT>,
+) -> DrawResult {
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperRight)

@@ -24,6 +24,9 @@ pub struct Overrides {
     /// `--fault` entries, appended to the file's `[[faults]]`.
     pub faults: Vec<crate::faults::FaultSpec>,
     pub on_agent_loss: Option<String>,
+    /// `compare --algorithms`: replaces `algorithm.method` of a tsnr-formation scenario (another
+    /// algorithm kind is an error: it has no method to replace).
+    pub method: Option<String>,
 }
 
 /// Read, parse and validate a scenario file.
@@ -77,6 +80,20 @@ pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario,
     }
     if let Some(x) = &overrides.on_agent_loss {
         s.run.on_agent_loss = x.clone();
+    }
+    if let Some(m) = &overrides.method {
+        match &mut s.algorithm {
+            // The value itself is checked by validation, like a method written in the file.
+            AlgorithmConfig::TsnrFormation(a) => a.method = m.clone(),
+            other => {
+                let kind = format!("{:?}", other.kind());
+                return Err(err(vec![Problem::new(
+                    "algorithm.kind",
+                    Some(kind),
+                    "--algorithms needs a tsnr-formation scenario",
+                )]));
+            }
+        }
     }
     let problems = validate(&s);
     if problems.is_empty() { Ok(s) } else { Err(err(problems)) }

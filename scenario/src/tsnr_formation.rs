@@ -400,4 +400,21 @@ mod tests {
         );
         assert!(e.contains("algorithm.kind = \"tsnr-formation\": needs plant.kind = \"tsnr-net\""), "{e}");
     }
+
+    #[test]
+    fn the_method_override_replaces_the_files_method_and_is_validated() {
+        let o = |m: &str| Overrides { method: Some(m.to_string()), ..Default::default() };
+        let s = parse(&case(2), Path::new("x.toml"), &o("smc")).unwrap();
+        let AlgorithmConfig::TsnrFormation(a) = &s.algorithm else { panic!("not tsnr-formation") };
+        assert_eq!(a.method, "smc");
+        let e = parse(&case(1), Path::new("x.toml"), &o("pid")).unwrap_err().to_string();
+        assert!(e.contains("algorithm.method = \"pid\": must be"), "{e}");
+        let ring = std::fs::read_to_string(format!("{}/../topologies/consensus-ring.toml", env!("CARGO_MANIFEST_DIR")))
+            .unwrap();
+        let e = parse(&ring, Path::new("ring.toml"), &o("aemc")).unwrap_err().to_string();
+        assert!(
+            e.contains("algorithm.kind = \"consensus-formation\": --algorithms needs a tsnr-formation scenario"),
+            "{e}"
+        );
+    }
 }
