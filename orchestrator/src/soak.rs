@@ -300,11 +300,17 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
                 let (mut r, mut m) = (Vec::new(), Vec::new());
                 while !stop.load(Ordering::SeqCst) {
                     let wall_s = t0.elapsed().as_secs_f64();
-                    for (process, rss_kb) in run_processes(&run_dir) {
-                        r.push(RssSample { wall_s, run: index, process, rss_kb });
-                    }
-                    if let Some(kb) = rss_kb("/proc/self/status") {
+                    let procs = run_processes(&run_dir);
+                    // The orchestrator is watched while it supervises (its processes are alive):
+                    // afterwards it reads the whole run's telemetry for the summary, a one-off
+                    // that is not a leak (its RSS from run to run stays in the table).
+                    if !procs.is_empty()
+                        && let Some(kb) = rss_kb("/proc/self/status")
+                    {
                         r.push(RssSample { wall_s, run: index, process: "orchestrator".into(), rss_kb: kb });
+                    }
+                    for (process, rss_kb) in procs {
+                        r.push(RssSample { wall_s, run: index, process, rss_kb });
                     }
                     m.push(ShmSample { wall_s, entries: shm_entries() });
                     let until = Instant::now() + SAMPLE_EVERY;
