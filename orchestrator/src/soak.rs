@@ -107,8 +107,8 @@ struct RunRecord {
     messages_received: u64,
     messages_rejected: u64,
     shares_held: u64,
-    /// Messages a full queue dropped (counted by their readers from the gap in steps).
-    lost_to_full_queue: u64,
+    /// Steps missing at the readers (a full queue, or a sender that skipped), from step gaps.
+    steps_missing: u64,
     unaccounted: Vec<String>,
     faults: Vec<String>,
 }
@@ -357,7 +357,7 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
             messages_received: summary.messages_received,
             messages_rejected: summary.messages_rejected.values().sum(),
             shares_held: summary.processes.iter().flat_map(|p| p.faults.held.values()).sum(),
-            lost_to_full_queue: summary.processes.iter().flat_map(|p| p.faults.overrun.values()).sum(),
+            steps_missing: summary.processes.iter().flat_map(|p| p.faults.overrun.values()).sum(),
             unaccounted: summary.messages_unaccounted.clone(),
             faults: s.faults.iter().map(describe).collect(),
         };
@@ -473,7 +473,7 @@ fn markdown(r: &SoakReport) -> String {
         ));
     }
     s.push_str(&format!("\nDeadline misses (plant, real time): {}\n\n", r.deadline_misses));
-    s.push_str("## Runs\n\n| run | seed | status | steps | wall s | sent | received | rejected | held | lost to a full queue | deadline misses | faults |\n|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+    s.push_str("## Runs\n\n| run | seed | status | steps | wall s | sent | received | rejected | held | steps missing (full queue or skipped) | deadline misses | faults |\n|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     for x in &r.runs {
         s.push_str(&format!(
             "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} |\n",
@@ -486,7 +486,7 @@ fn markdown(r: &SoakReport) -> String {
             x.messages_received,
             x.messages_rejected,
             x.shares_held,
-            x.lost_to_full_queue,
+            x.steps_missing,
             x.deadline_misses,
             x.faults.join(" ")
         ));

@@ -180,10 +180,13 @@ pub fn unaccounted(
         for r in readers {
             let Some(reader) = complete(&r) else { continue };
             let got = reader.received_from.get(&name).copied().unwrap_or(0);
-            let overrun = reader.faults.overrun.get(&name).copied().unwrap_or(0);
-            if got + overrun != sender.messages_sent {
+            // A gap in the sender's steps is either lost in a full queue or never sent: a sender
+            // that fell behind in real time skips to the newest measurement (its `steps_missed`).
+            let gap = reader.faults.overrun.get(&name).copied().unwrap_or(0);
+            let skipped = sender.faults.steps_missed;
+            if got + gap != sender.messages_sent + skipped {
                 out.push(format!(
-                    "{name} → {r}: {} sent, {got} received, {overrun} counted as lost to a full queue",
+                    "{name} → {r}: {} sent (and {skipped} steps skipped), {got} received, {gap} steps missing",
                     sender.messages_sent
                 ));
             }

@@ -203,8 +203,9 @@ pub struct FaultReport {
     pub max_age_steps: u64,
     /// Receiver: valid shares that came after their step had closed (real-time mode).
     pub late: u64,
-    /// Receiver, per sender: messages its full queue dropped (iceoryx2 keeps the newest when a
-    /// slow reader falls behind, e.g. in real time), seen as a gap in the senders' steps.
+    /// Receiver, per sender: steps missing from its messages — lost in this reader's full queue
+    /// (iceoryx2 keeps the newest when a slow reader falls behind, e.g. in real time), or never
+    /// sent because the sender itself fell behind and skipped them (its `steps_missed`).
     pub overrun: std::collections::BTreeMap<String, u64>,
     /// Plant, real-time mode: commands that missed their step's deadline.
     pub deadline_misses: u64,
