@@ -44,7 +44,7 @@ use plotters::prelude::*;
 use plotters::style::register_font;
 
 #[path = "report_fig1.rs"]
-mod fig1;
+pub(crate) mod fig1;
 
 /// Most points drawn per series; longer series are reduced to this many.
 pub const MAX_POINTS: usize = 4000;

@@ -22,6 +22,7 @@
 use std::path::Path;
 
 use plotters::coord::Shift;
+use plotters::coord::ranged3d::Cartesian3d;
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -480,22 +481,25 @@ fn cube_ranges(paths: &[Path3d]) -> [(f64, f64); 3] {
     })
 }
 
-/// Fig. 2. The chart's axes are (cross-track z, radial x, in-track y): radial is vertical, and
-/// the order is a cyclic permutation of LVLH's, so the view is not mirrored.
-fn draw_trajectories(path: &Path, fig: &TrajectoryFigure) -> DrawResult {
-    let [xr, yr, zr] = cube_ranges(&fig.paths);
-    let to_chart = |(x, y, z): (f64, f64, f64)| (z, x, y);
-
-    let root = BitMapBackend::new(path, FIGURE_3D_SIZE).into_drawing_area();
+/// A white 3-D chart over `ranges` (in chart order), seen from `view` = (yaw, pitch, scale), its
+/// axes, light grid and tick labels drawn: what every 3-D figure of the reports starts from.
+pub(crate) fn cube_chart<'a, 'b>(
+    root: &'a DrawingArea<BitMapBackend<'b>, Shift>,
+    title: &str,
+    ranges: [(f64, f64); 3],
+    view: (f64, f64, f64),
+) -> Result<
+    ChartContext<'a, BitMapBackend<'b>, Cartesian3d<RangedCoordf64, RangedCoordf64, RangedCoordf64>>,
+    Box<dyn std::error::Error + Send + Sync>,
+> {
     root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(&fig.title, (FONT_FAMILY, CAPTION_SIZE))
+    let [a, b, c] = ranges;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FONT_FAMILY, CAPTION_SIZE))
         .margin(MARGIN)
-        .build_cartesian_3d(zr.0..zr.1, xr.0..xr.1, yr.0..yr.1)?;
+        .build_cartesian_3d(a.0..a.1, b.0..b.1, c.0..c.1)?;
     chart.with_projection(|mut pb| {
-        pb.yaw = VIEW_YAW;
-        pb.pitch = VIEW_PITCH;
-        pb.scale = VIEW_SCALE;
+        (pb.yaw, pb.pitch, pb.scale) = view;
         pb.into_matrix()
     });
     chart
@@ -508,6 +512,17 @@ fn draw_trajectories(path: &Path, fig: &TrajectoryFigure) -> DrawResult {
         .y_formatter(&format_tick)
         .z_formatter(&format_tick)
         .draw()?;
+    Ok(chart)
+}
+
+/// Fig. 2. The chart's axes are (cross-track z, radial x, in-track y): radial is vertical, and
+/// the order is a cyclic permutation of LVLH's, so the view is not mirrored.
+fn draw_trajectories(path: &Path, fig: &TrajectoryFigure) -> DrawResult {
+    let [xr, yr, zr] = cube_ranges(&fig.paths);
+    let to_chart = |(x, y, z): (f64, f64, f64)| (z, x, y);
+
+    let root = BitMapBackend::new(path, FIGURE_3D_SIZE).into_drawing_area();
+    let mut chart = cube_chart(&root, &fig.title, [zr, xr, yr], (VIEW_YAW, VIEW_PITCH, VIEW_SCALE))?;
 
     // Axis names, just beyond the middle of the edges the tick labels are drawn on.
     let axis_font = (FONT_FAMILY, 18).into_font().color(&BLACK);

@@ -715,27 +715,8 @@ fn draw_net(path: &Path, fig: &NetFigure) -> DrawResult {
     let to_chart = |p: [f64; 3]| (p[1], p[2], p[0]);
 
     let root = BitMapBackend::new(path, NET_FIGURE_SIZE).into_drawing_area();
-    root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(&fig.title, (FONT_FAMILY, CAPTION_SIZE))
-        .margin(MARGIN)
-        .build_cartesian_3d(yr.0..yr.1, zr.0..zr.1, xr.0..xr.1)?;
-    chart.with_projection(|mut pb| {
-        pb.yaw = VIEW_YAW;
-        pb.pitch = VIEW_PITCH;
-        pb.scale = VIEW_SCALE;
-        pb.into_matrix()
-    });
-    chart
-        .configure_axes()
-        .light_grid_style(BLACK.mix(0.08))
-        .bold_grid_style(BLACK.mix(0.2))
-        .max_light_lines(2)
-        .label_style((FONT_FAMILY, 15))
-        .x_formatter(&format_tick)
-        .y_formatter(&format_tick)
-        .z_formatter(&format_tick)
-        .draw()?;
+    let mut chart =
+        crate::report::fig1::cube_chart(&root, &fig.title, [yr, zr, xr], (VIEW_YAW, VIEW_PITCH, VIEW_SCALE))?;
     // Axis names beside the middle of the edges that carry the tick labels (with this view: y
     // front left, x front right, z at the back right), offset in pixels past the labels.
     let axis_font = (FONT_FAMILY, 18).into_font().color(&BLACK);
