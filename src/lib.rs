@@ -128,3 +128,30 @@ pub fn launch_scenario(file: &std::path::Path, out: &std::path::Path, extra: &[&
         .output()
         .expect("running the orchestrator")
 }
+
+/// A JSON file (a summary, a process report), parsed.
+pub fn read_json(path: &std::path::Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// A run directory's `summary.json`.
+pub fn summary(run_dir: &std::path::Path) -> serde_json::Value {
+    read_json(&run_dir.join("summary.json"))
+}
+
+/// Column `name` of a CSV's text, as numbers.
+pub fn csv_column(csv: &str, name: &str) -> Vec<f64> {
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
+    let i = header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"));
+    lines.map(|l| l.split(',').nth(i).expect("a full row").parse().expect("a number")).collect()
+}
+
+/// `topologies/tsnr-case{case}.toml` to be written elsewhere: the files it names are relative to
+/// it, so they are made absolute.
+pub fn tsnr_scenario_text(case: u32) -> String {
+    let text = std::fs::read_to_string(repo_root().join(format!("topologies/tsnr-case{case}.toml"))).unwrap();
+    let weights = repo_root().join("tsnr/weights/");
+    text.replace("\"../tsnr/weights/", &format!("\"{}", weights.display()))
+}

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::sync::Mutex;
 
-use cohort::{describe_output, launch_scenario, repo_root, scratch_dir};
+use cohort::{describe_output, launch_scenario, repo_root, scratch_dir, summary};
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
@@ -21,11 +21,6 @@ fn topology(name: &str) -> PathBuf {
 
 fn launch(file: &Path, out: &Path, extra: &[&str]) -> Output {
     launch_scenario(file, out, extra)
-}
-
-fn summary(run_dir: &Path) -> serde_json::Value {
-    let text = std::fs::read_to_string(run_dir.join("summary.json")).expect("summary.json");
-    serde_json::from_str(&text).expect("summary.json is JSON")
 }
 
 fn metric(s: &serde_json::Value, key: &str) -> f64 {

@@ -6,14 +6,12 @@
 use std::path::Path;
 use std::sync::Mutex;
 
-use cohort::{describe_output, iceoryx2_leftovers, launch_scenario, processes_mentioning, scratch_dir, telemetry_bits};
+use cohort::{
+    describe_output, iceoryx2_leftovers, launch_scenario, processes_mentioning, scratch_dir, summary, telemetry_bits,
+};
 use serde_json::Value;
 
 static HEAVY: Mutex<()> = Mutex::new(());
-
-fn summary(run: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).expect("summary.json")).unwrap()
-}
 
 fn assert_clean(run: &Path) {
     let s = summary(run);

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use cohort::{
     bin_path, describe_output, iceoryx2_leftovers, launch_scenario, orchestrator_command, processes_mentioning,
-    repo_root, scratch_dir, telemetry_bits,
+    repo_root, scratch_dir, summary, telemetry_bits,
 };
 
 static HEAVY: Mutex<()> = Mutex::new(());
@@ -31,11 +31,6 @@ fn ring() -> PathBuf {
 
 fn launch(out: &Path, extra: &[&str]) -> Output {
     launch_scenario(&ring(), out, extra)
-}
-
-fn summary(run_dir: &Path) -> serde_json::Value {
-    let text = std::fs::read_to_string(run_dir.join("summary.json")).expect("summary.json");
-    serde_json::from_str(&text).expect("summary.json is JSON")
 }
 
 fn run_id(run_dir: &Path) -> String {

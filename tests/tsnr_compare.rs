@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::sync::Mutex;
 
-use cohort::{describe_output, orchestrator_command, repo_root, scratch_dir};
+use cohort::{
+    csv_column, describe_output, orchestrator_command, read_json, repo_root, scratch_dir, tsnr_scenario_text,
+};
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
@@ -27,11 +29,6 @@ fn compare(file: &Path, algorithms: &str, out: &Path, extra: &[&str]) -> Output 
         .expect("running the orchestrator")
 }
 
-fn json(path: &Path) -> serde_json::Value {
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    serde_json::from_str(&text).unwrap()
-}
-
 /// compare.csv as its header and metric → cells.
 fn read_csv(path: &Path) -> (Vec<String>, BTreeMap<String, Vec<String>>) {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -44,14 +41,6 @@ fn read_csv(path: &Path) -> (Vec<String>, BTreeMap<String, Vec<String>>) {
         rows.insert(cells[0].clone(), cells[1..].to_vec());
     }
     (header, rows)
-}
-
-/// Column `name` of a telemetry CSV.
-fn column(csv: &str, name: &str) -> Vec<f64> {
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let i = header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"));
-    lines.map(|l| l.split(',').nth(i).unwrap().parse().unwrap()).collect()
 }
 
 #[test]
@@ -68,7 +57,7 @@ fn compare_runs_each_method_multi_process_and_tabulates_their_summaries() {
             let run = out.join(m);
             let scenario = std::fs::read_to_string(run.join("scenario.toml")).unwrap();
             assert!(scenario.contains(&format!("method = \"{m}\"")), "{m}: the run's scenario.toml:\n{scenario}");
-            let s = json(&run.join("summary.json"));
+            let s = read_json(&run.join("summary.json"));
             assert_eq!(s["status"], "ok", "{m}");
             assert_eq!(s["mode"], "multi-process", "{m}");
             assert!(run.join("plots").is_dir(), "{m}: the run's plots were not drawn");
@@ -118,9 +107,9 @@ fn compare_runs_each_method_multi_process_and_tabulates_their_summaries() {
     // The tracking metrics agree with the telemetry (MU 2 of DMPC, computed here independently).
     let csv = std::fs::read_to_string(out.join("dmpc/telemetry/agent-2.csv")).unwrap();
     let (t, e): (Vec<f64>, Vec<f64>) = {
-        let cols: Vec<Vec<f64>> = ["x", "y", "z"].iter().map(|ax| column(&csv, &format!("err_{ax}_m"))).collect();
+        let cols: Vec<Vec<f64>> = ["x", "y", "z"].iter().map(|ax| csv_column(&csv, &format!("err_{ax}_m"))).collect();
         let e = (0..cols[0].len()).map(|r| cols.iter().map(|c| c[r] * c[r]).sum::<f64>().sqrt()).collect();
-        (column(&csv, "t_s"), e)
+        (csv_column(&csv, "t_s"), e)
     };
     let first: Vec<f64> = e.iter().zip(&t).filter(|(_, t)| **t < 10.0 - 1e-9).map(|(e, _)| *e).collect();
     assert_eq!(first.len(), 100);
@@ -159,13 +148,9 @@ fn compare_runs_each_method_multi_process_and_tabulates_their_summaries() {
 fn another_scenario_has_no_published_column() {
     let _g = heavy();
     let dir = scratch_dir("tsnr-compare-other");
-    let text = std::fs::read_to_string(repo_root().join("topologies/tsnr-case1.toml")).unwrap();
+    let text = tsnr_scenario_text(1);
     assert_eq!(text.matches("name = \"tsnr-case1\"").count(), 1);
-    // Files the scenario names are relative to it: point them back at the repository.
-    let weights = repo_root().join("tsnr/weights/");
-    let text = text
-        .replace("\"../tsnr/weights/", &format!("\"{}", weights.display()))
-        .replace("name = \"tsnr-case1\"", "name = \"tsnr-case1-copy\"");
+    let text = text.replace("name = \"tsnr-case1\"", "name = \"tsnr-case1-copy\"");
     let file = dir.join("copy.toml");
     std::fs::write(&file, text).unwrap();
     let out = dir.join("cmp");

@@ -6,7 +6,10 @@
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-use cohort::{describe_output, launch_scenario, orchestrator_command, repo_root, scratch_dir};
+use cohort::{
+    csv_column, describe_output, launch_scenario, orchestrator_command, read_json, repo_root, scratch_dir,
+    tsnr_scenario_text,
+};
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
@@ -16,27 +19,12 @@ fn heavy() -> std::sync::MutexGuard<'static, ()> {
 
 /// `topologies/tsnr-case{case}.toml` with `method` selected, written into `dir`.
 fn scenario(case: u32, method: &str, dir: &Path) -> PathBuf {
-    let text = std::fs::read_to_string(repo_root().join(format!("topologies/tsnr-case{case}.toml"))).unwrap();
+    let text = tsnr_scenario_text(case);
     let line = "\nmethod = \"aemc\"\n";
     assert_eq!(text.matches(line).count(), 1, "tsnr-case{case}.toml selects AEMC on one line");
     let path = dir.join(format!("case{case}-{method}.toml"));
-    // Files the scenario names are relative to it: point them back at the repository.
-    let weights = repo_root().join("tsnr/weights/");
-    let text = text.replace("\"../tsnr/weights/", &format!("\"{}", weights.display()));
     std::fs::write(&path, text.replace(line, &format!("\nmethod = \"{method}\"\n"))).unwrap();
     path
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
-
-/// Column `name` of a telemetry CSV.
-fn column(csv: &str, name: &str) -> Vec<f64> {
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let i = header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"));
-    lines.map(|l| l.split(',').nth(i).unwrap().parse().unwrap()).collect()
 }
 
 #[test]
@@ -49,7 +37,7 @@ fn every_method_closes_the_net_within_the_thrust_bound_in_both_cases() {
             let out = dir.join(format!("run-{case}-{method}"));
             let o = launch_scenario(&scenario(case, method, &dir), &out, &["--reference"]);
             assert!(o.status.success(), "{what}: {}", describe_output(&o));
-            let s = json(&out.join("summary.json"));
+            let s = read_json(&out.join("summary.json"));
             assert_eq!(s["metrics"]["thrust_bound_violations"].as_f64(), Some(0.0), "{what}");
             for id in 1..=4 {
                 let csv = std::fs::read_to_string(out.join(format!("telemetry/agent-{id}.csv"))).unwrap();
@@ -57,19 +45,19 @@ fn every_method_closes_the_net_within_the_thrust_bound_in_both_cases() {
                 // of the 0.5 m mesh) of its desired position in the last row (t = 29.9 s).
                 let err: f64 = ["x", "y", "z"]
                     .iter()
-                    .map(|ax| column(&csv, &format!("err_{ax}_m")).last().copied().unwrap().powi(2))
+                    .map(|ax| csv_column(&csv, &format!("err_{ax}_m")).last().copied().unwrap().powi(2))
                     .sum::<f64>()
                     .sqrt();
                 assert!(err < 0.05, "{what}: MU {id} is {err} m off at the end");
                 for ax in ["x", "y", "z"] {
-                    let u = column(&csv, &format!("u_{ax}_n"));
+                    let u = csv_column(&csv, &format!("u_{ax}_n"));
                     assert!(u.iter().all(|u| u.abs() <= 5.0), "{what}: MU {id} thrust {ax} beyond 5 N");
                 }
-                let report = json(&out.join(format!("status/agent-{id}.json")));
+                let report = read_json(&out.join(format!("status/agent-{id}.json")));
                 if method == "smc" {
                     assert!(report.get("solver").is_none(), "{what}: SMC solves no QP");
                 } else {
-                    assert!(column(&csv, "qp_status").iter().all(|s| *s == 0.0), "{what}: MU {id} QP status");
+                    assert!(csv_column(&csv, "qp_status").iter().all(|s| *s == 0.0), "{what}: MU {id} QP status");
                     let st = &report["solver"];
                     assert_eq!(st["solves"].as_u64(), Some(300), "{what}: {st}");
                     assert_eq!(st["solved"].as_u64(), Some(300), "{what}: {st}");
@@ -93,7 +81,7 @@ fn aemc_multi_process_run_is_bit_identical_to_the_reference() {
     assert!(o.status.success(), "{}", describe_output(&o));
     let o = launch_scenario(&file, &rf, &["--reference"]);
     assert!(o.status.success(), "--reference: {}", describe_output(&o));
-    assert_eq!(json(&mp.join("summary.json"))["mode"], "multi-process");
+    assert_eq!(read_json(&mp.join("summary.json"))["mode"], "multi-process");
     for f in ["plant.csv", "agent-1.csv", "agent-2.csv", "agent-3.csv", "agent-4.csv"] {
         let a = std::fs::read(mp.join("telemetry").join(f)).unwrap();
         let b = std::fs::read(rf.join("telemetry").join(f)).unwrap();

@@ -22,8 +22,8 @@
 use std::path::Path;
 
 use plotters::coord::Shift;
-use plotters::coord::ranged3d::Cartesian3d;
 use plotters::coord::ranged1d::ValueFormatter;
+use plotters::coord::ranged3d::Cartesian3d;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -481,6 +481,9 @@ fn cube_ranges(paths: &[Path3d]) -> [(f64, f64); 3] {
     })
 }
 
+pub(crate) type CubeChart<'a, 'b> =
+    ChartContext<'a, BitMapBackend<'b>, Cartesian3d<RangedCoordf64, RangedCoordf64, RangedCoordf64>>;
+
 /// A white 3-D chart over `ranges` (in chart order), seen from `view` = (yaw, pitch, scale), its
 /// axes, light grid and tick labels drawn: what every 3-D figure of the reports starts from.
 pub(crate) fn cube_chart<'a, 'b>(
@@ -488,10 +491,7 @@ pub(crate) fn cube_chart<'a, 'b>(
     title: &str,
     ranges: [(f64, f64); 3],
     view: (f64, f64, f64),
-) -> Result<
-    ChartContext<'a, BitMapBackend<'b>, Cartesian3d<RangedCoordf64, RangedCoordf64, RangedCoordf64>>,
-    Box<dyn std::error::Error + Send + Sync>,
-> {
+) -> Result<CubeChart<'a, 'b>, Box<dyn std::error::Error + Send + Sync>> {
     root.fill(&WHITE)?;
     let [a, b, c] = ranges;
     let mut chart = ChartBuilder::on(root)
