@@ -362,8 +362,10 @@ struct PlantInbox {
     plan: Arc<FaultPlan>,
     /// Per agent: step k's token still awaited.
     want: Vec<bool>,
-    /// Per agent: the newest data share taken (step, command).
-    newest: Vec<Option<(u64, Vec<f64>)>>,
+    /// Per agent: the step of the newest data share taken, and its command (buffers reused:
+    /// this is every share of every step).
+    newest_step: Vec<Option<u64>>,
+    newest_cmd: Vec<Vec<f64>>,
     /// Agents the orchestrator reported dead while the plant waited.
     died: Roster,
     latency_max_ns: u64,
@@ -409,8 +411,10 @@ impl Inbox for PlantInbox {
                 } else if on_time && share.link == LINK_DATA {
                     self.late += 1; // its step closed without it (real time)
                 }
-                if share.link == LINK_DATA && self.newest[idx].as_ref().is_none_or(|(s, _)| *s < step) {
-                    self.newest[idx] = Some((step, share.command().to_vec()));
+                if share.link == LINK_DATA && self.newest_step[idx].is_none_or(|s| s < step) {
+                    self.newest_step[idx] = Some(step);
+                    self.newest_cmd[idx].clear();
+                    self.newest_cmd[idx].extend_from_slice(share.command());
                     let latency = monotonic_ns().saturating_sub(share.header.sent_wall_ns);
                     self.latency_max_ns = self.latency_max_ns.max(latency);
                 }
@@ -497,7 +501,8 @@ fn plant_loop<T: Transport + ?Sized>(
         back: u64::from(p.faults.max_delay()) + u64::from(realtime),
         plan: Arc::clone(&p.faults),
         want: vec![false; n],
-        newest: vec![None; n],
+        newest_step: vec![None; n],
+        newest_cmd: vec![Vec::new(); n],
         died: Roster::EMPTY,
         latency_max_ns: 0,
         received: 0,
@@ -558,7 +563,7 @@ fn plant_loop<T: Transport + ?Sized>(
             inbox.latency_max_ns = 0;
             for j in 1..=n_agents {
                 let idx = j as usize - 1;
-                inbox.newest[idx] = None;
+                inbox.newest_step[idx] = None;
                 inbox.want[idx] = roster.live.contains(j);
             }
             let limit = match p.realtime_rate {
@@ -607,8 +612,8 @@ fn plant_loop<T: Transport + ?Sized>(
                 } else {
                     last_heard[idx] = Instant::now();
                 }
-                match inbox.newest[idx].take() {
-                    Some((_, u)) => commands[idx] = u,
+                match inbox.newest_step[idx].take() {
+                    Some(_) => std::mem::swap(&mut commands[idx], &mut inbox.newest_cmd[idx]),
                     None => *report.faults.held.entry(Proc::Agent(j).name()).or_default() += 1,
                 }
             }
@@ -766,6 +771,8 @@ struct Peer {
     id: u32,
     /// Valid shares not yet used: (step, values).
     arrived: Vec<(u64, Vec<f64>)>,
+    /// Value buffers to reuse for the next shares (a share arrives every step).
+    spare: Vec<Vec<f64>>,
     /// The last share used (step, values): it stands in for one that does not arrive.
     held: Option<(u64, Vec<f64>)>,
     /// Roster history: (first step, live).
@@ -882,7 +889,10 @@ impl Inbox for AgentInbox {
                             peer.last_token = Some(peer.last_token.map_or(step, |l| l.max(step)));
                         }
                         if share.link == LINK_DATA && !peer.arrived.iter().any(|(s, _)| *s == step) {
-                            peer.arrived.push((step, share.values().to_vec()));
+                            let mut values = peer.spare.pop().unwrap_or_default();
+                            values.clear();
+                            values.extend_from_slice(share.values());
+                            peer.arrived.push((step, values));
                         }
                     }
                     Err(r) => self.rejects.add(r),
@@ -986,6 +996,7 @@ fn agent_loop<T: Transport + ?Sized>(
             .map(|&j| Peer {
                 id: j,
                 arrived: Vec::new(),
+                spare: Vec::new(),
                 held: None,
                 hist: Vec::new(),
                 tokens: Vec::new(),
@@ -1017,6 +1028,7 @@ fn agent_loop<T: Transport + ?Sized>(
     let share_limit = if p.degrade { 2 * p.step_timeout + Duration::from_secs(1) } else { p.step_timeout };
     let mut pending: Vec<(u64, Box<Share>)> = Vec::new();
     let mut last_live: Option<Vec<bool>> = None;
+    let mut live_now: Vec<bool> = Vec::with_capacity(neighbours.len());
     let mut out = ShareOut::default();
     let mut row = Vec::with_capacity(columns.len());
     let mut waiter = Waiter { t, p, me: id, timeouts: 0, typical_wait_us: [0.0; 2], events: Vec::new() };
@@ -1030,21 +1042,32 @@ fn agent_loop<T: Transport + ?Sized>(
         };
         for peer in &mut inbox.peers {
             let live = live_at(&peer.hist, u);
+            let Peer { id, arrived, spare, held, tokens, .. } = peer;
             let mut newest: Option<(u64, Vec<f64>)> = None;
-            peer.tokens.retain(|s| *s > u);
-            peer.arrived.retain_mut(|(s, v)| {
-                let due = plan.arrival(peer.id, *s).is_some_and(|a| a <= u) || *s <= u.saturating_sub(inbox.back);
-                if due && live && newest.as_ref().is_none_or(|(n, _)| *n < *s) {
-                    newest = Some((*s, std::mem::take(v)));
+            tokens.retain(|s| *s > u);
+            arrived.retain_mut(|(s, v)| {
+                let due = plan.arrival(*id, *s).is_some_and(|a| a <= u) || *s <= u.saturating_sub(inbox.back);
+                if due {
+                    let taken = (*s, std::mem::take(v));
+                    let replaced = if live && newest.as_ref().is_none_or(|(n, _)| *n < *s) {
+                        newest.replace(taken)
+                    } else {
+                        Some(taken)
+                    };
+                    spare.extend(replaced.map(|(_, v)| v));
                 }
                 !due
             });
             if !live {
+                spare.extend(newest.map(|(_, v)| v));
                 continue;
             }
             match newest {
-                Some(n) if peer.held.as_ref().is_none_or(|(h, _)| *h < n.0) => peer.held = Some(n),
-                _ => *report.faults.held.entry(Proc::Agent(peer.id).name()).or_default() += 1,
+                Some(n) if held.as_ref().is_none_or(|(h, _)| *h < n.0) => spare.extend(held.replace(n).map(|(_, v)| v)),
+                other => {
+                    spare.extend(other.map(|(_, v)| v));
+                    *report.faults.held.entry(Proc::Agent(*id).name()).or_default() += 1;
+                }
             }
             if let Some((s, _)) = &peer.held {
                 report.faults.max_age_steps = report.faults.max_age_steps.max(u.saturating_sub(*s));
@@ -1058,8 +1081,6 @@ fn agent_loop<T: Transport + ?Sized>(
             .collect();
         algo.step(p.dt_s, &nb);
     };
-    let set_wants = |inbox: &mut AgentInbox, u: Option<u64>| inbox.need_shares = u;
-
     let result = (|| {
         while k < p.n_steps {
             inbox.k = k;
@@ -1067,7 +1088,7 @@ fn agent_loop<T: Transport + ?Sized>(
             // With a link delay the neighbours' shares of step k-1 were sent before the plant
             // could send measurement k: one wait, one wakeup.
             let used = k.checked_sub(delay);
-            set_wants(&mut inbox, if delay > 0 { used } else { None });
+            inbox.need_shares = if delay > 0 { used } else { None };
             // The state at the start of step k (after step k−1), before any fault due at k.
             if p.checkpoint_every > 0 && k % p.checkpoint_every == 0 && restore.is_none_or(|c| c.step != k) {
                 let ck = Checkpoint {
@@ -1113,17 +1134,18 @@ fn agent_loop<T: Transport + ?Sized>(
                 k = back_at;
                 inbox.k = k;
                 let used = k.checked_sub(delay);
-                set_wants(&mut inbox, if delay > 0 { used } else { None });
+                inbox.need_shares = if delay > 0 { used } else { None };
                 if delay > 0 {
                     inbox.want_measurement = false;
                     waiter.until(k, "share", &mut inbox, share_limit)?;
                 }
             }
             let t_s = p.t_s(k);
-            let live: Vec<bool> = inbox.peers.iter().map(|peer| live_at(&peer.hist, k)).collect();
-            if last_live.as_ref() != Some(&live) {
-                algo.roster(&live);
-                last_live = Some(live);
+            live_now.clear();
+            live_now.extend(inbox.peers.iter().map(|peer| live_at(&peer.hist, k)));
+            if last_live.as_ref() != Some(&live_now) {
+                algo.roster(&live_now);
+                last_live = Some(live_now.clone());
             }
             let compute_start = monotonic_ns();
             out.command.clear();
@@ -1183,7 +1205,7 @@ fn agent_loop<T: Transport + ?Sized>(
             let wait_start = monotonic_ns();
             if delay == 0 {
                 inbox.want_measurement = false;
-                set_wants(&mut inbox, Some(k));
+                inbox.need_shares = Some(k);
                 waiter.until(k, "share", &mut inbox, share_limit)?;
             }
             let neighbour_wait_ns = monotonic_ns() - wait_start;
