@@ -69,14 +69,11 @@ pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario,
     s.faults.extend(overrides.faults.iter().cloned());
     // Files a scenario names are relative to the scenario file; the resolved scenario (which the
     // child processes read from the run directory) carries them absolute.
-    if let AlgorithmConfig::TsnrFormation(a) = &mut s.algorithm
-        && let Some(m) = &mut a.mpc
-        && let Some(w) = &mut m.tension_weights
-        && Path::new(w.as_str()).is_relative()
-    {
-        let base = file.parent().unwrap_or(Path::new(""));
-        let joined = base.join(w.as_str());
-        *w = std::fs::canonicalize(&joined).unwrap_or(joined).display().to_string();
+    for path in s.file_paths_mut() {
+        if Path::new(path.as_str()).is_relative() {
+            let joined = file.parent().unwrap_or(Path::new("")).join(path.as_str());
+            *path = std::fs::canonicalize(&joined).unwrap_or(joined).display().to_string();
+        }
     }
     if let Some(x) = &overrides.on_agent_loss {
         s.run.on_agent_loss = x.clone();

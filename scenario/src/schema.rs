@@ -380,6 +380,15 @@ impl Scenario {
     pub fn agent(&self, id: u32) -> &AgentConfig {
         self.agents.iter().find(|a| a.id == id).expect("validated: ids are 1..=N")
     }
+    /// Every file path the scenario names (relative ones are resolved against the scenario file
+    /// when it is parsed).
+    pub fn file_paths_mut(&mut self) -> impl Iterator<Item = &mut String> {
+        let weights = match &mut self.algorithm {
+            AlgorithmConfig::TsnrFormation(a) => a.mpc.as_mut().and_then(|m| m.tension_weights.as_mut()),
+            _ => None,
+        };
+        weights.into_iter()
+    }
     /// The messaging graph.
     pub fn topology(&self) -> cohort_wire::transport::Topology {
         cohort_wire::transport::Topology {
