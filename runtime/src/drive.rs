@@ -254,6 +254,12 @@ impl<T: Transport + ?Sized> Waiter<'_, T> {
             // While spinning, look at the control service only now and then: it is not free.
             if !spinning || spins.is_multiple_of(1024) {
                 if self.t.stop_requested() {
+                    // What completes this wait may have come in with the stop (the run's last
+                    // step): look once more before giving up.
+                    self.t.drain(&mut |inc| inbox.take(inc))?;
+                    if inbox.complete() {
+                        return Ok(());
+                    }
                     return Err(RunError::Stopped { step, why: "orchestrator" });
                 }
                 if self.p.terminate.load(Ordering::Relaxed) {
@@ -1023,9 +1029,12 @@ fn agent_loop<T: Transport + ?Sized>(
         }
     }
     let hold_steps = plan.hold_steps();
-    let meas_limit = if plan.has_process_faults() { p.step_timeout + p.hold_timeout } else { p.step_timeout };
-    // The plant declares a silent neighbour dead after its step timeout; wait longer than that.
-    let share_limit = if p.degrade { 2 * p.step_timeout + Duration::from_secs(1) } else { p.step_timeout };
+    // The plant declares a silent agent dead after its step timeout (degrade mode), and only then
+    // sends the next measurement or the roster that releases a wait on that agent's share: both
+    // waits must outlast it, or a healthy agent times out in the same instant as the silent one.
+    let degrade_limit = if p.degrade { 2 * p.step_timeout + Duration::from_secs(1) } else { p.step_timeout };
+    let meas_limit = if plan.has_process_faults() { degrade_limit + p.hold_timeout } else { degrade_limit };
+    let share_limit = degrade_limit;
     let mut pending: Vec<(u64, Box<Share>)> = Vec::new();
     let mut last_live: Option<Vec<bool>> = None;
     let mut live_now: Vec<bool> = Vec::with_capacity(neighbours.len());
@@ -1340,7 +1349,10 @@ mod tests {
                     let mut m = ToyPlant { x: vec![1.0, -2.0, 3.5, 0.25], u: vec![0.0; 4] };
                     let mut rng = process_rng(5, Proc::Plant);
                     let r = run_plant(&mut t, &mut m, &mut rng, 4, p);
-                    bus.request_stop();
+                    if r.error.is_some() {
+                        // As the reference run does: the others stop at their next wait.
+                        bus.request_stop();
+                    }
                     r
                 })
             };
