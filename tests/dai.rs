@@ -101,7 +101,7 @@ fn sampled_data_multi_process_run_is_bit_identical_to_the_reference() {
         let s = summary(&mp);
         assert_eq!(s["labels"]["coupling"], "sampled");
         assert_eq!(metric(&s, "control_period_s"), 1e-3);
-        for key in ["tracking_error_mean", "tracking_error_dev", "final_error_ratio"] {
+        for key in ["tracking_error_mean", "tracking_error_dev", "final_error_ratio", "sampling_index_final"] {
             assert!(metric(&s, key).is_finite(), "{file}: {key}");
             assert_eq!(metric(&s, key), metric(&summary(&rf), key), "{file}: {key}");
         }

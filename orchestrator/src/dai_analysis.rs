@@ -11,17 +11,36 @@
 //!   `final_state_error_norm_ratio_eq15` = its square, ‖ω′‖²/‖ω_d‖², the argument of the log in
 //!   the paper's (15), whose orders of magnitude (≈1e−8 specific, ≈1e−3 original) Sec. 4 quotes;
 //! - `param_error_mean`, `param_error_dev`, `param_error_final`: ‖θ̂ − θ‖/‖θ‖ (the code's `nJ`);
-//! - `r`, `original_gain`, `control_period_s`.
+//! - `r`, `original_gain`, `control_period_s`;
+//! - `omega_d_norm_final_rad_s` = ‖ω_d(t_last)‖, `coupling_norm_final` = ‖K_d‖₂ and, for the sampled coupling, `sampling_index_final` =
+//!   ‖K_d‖₂² Δt / λ_min(J) at t_last, with K_d = K(ω̇_d, ω_d, ω_d) the regressor of (9) along the
+//!   desired trajectory (K itself where ω = ω_d). The specific law's proof (12) cancels the cross
+//!   terms Kθ of the rate dynamics and −Kᵀω′ of the learning law exactly; sampled and held, they
+//!   act one period apart, and the energy that lag injects grows like ‖K‖²Δt/λ(J). ‖K‖ grows with
+//!   ‖ω_d‖² (the test torque spins the body up), so this index says when a control period stops
+//!   being short enough (measured: the sampled specific law diverges once it reaches ≈ 100).
 //!
 //! t_last is the last telemetry row: T for the continuous coupling (rows k = 0..=N, the code's
 //! t = 0:dt:T), T − dt_s for the sampled one (rows k = 0..N−1, the state at each measurement).
 
 use std::collections::BTreeMap;
 
+use agent::algorithms::dai_attitude::regressor;
 use cohort_runtime::record::{CsvWriter, RunDirs};
 use cohort_scenario::{AlgorithmConfig, PlantConfig, Scenario};
+use nalgebra::{Matrix3, Vector3};
 
 pub use crate::analysis::Table;
+
+/// ‖K_d‖₂, K_d = K(ω̇_d, ω_d, ω_d): the regressor of (9) along the desired trajectory.
+pub fn coupling_norm(wd: &Vector3<f64>, dwd: &Vector3<f64>) -> f64 {
+    regressor(dwd, wd, wd).svd(false, false).singular_values.max()
+}
+
+/// The unit suffix of an agent telemetry column family.
+fn unit(name: &str) -> &'static str {
+    if name.ends_with("_dot") { "rad_s2" } else { "rad_s" }
+}
 
 fn strings(xs: &[&str]) -> Vec<String> {
     xs.iter().map(|x| x.to_string()).collect()
@@ -59,6 +78,8 @@ pub fn analyse(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, St
     let jt = p.inertia_kg_m2;
     let truth = [jt[0][0], jt[0][1], jt[0][2], jt[1][1], jt[1][2], jt[2][2]];
     let truth_norm = truth.iter().map(|x| x * x).sum::<f64>().sqrt();
+    // Validated positive definite.
+    let j_min = Matrix3::from_fn(|r, c| jt[r][c]).symmetric_eigenvalues().min();
     let n = s.n_agents();
     let axes = ["x", "y", "z"];
     let mut want_plant = strings(&["k", "t_s"]);
@@ -71,6 +92,9 @@ pub fn analyse(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, St
     let mut want_agent = strings(&["k"]);
     for ax in axes {
         want_agent.push(format!("omega_d_{ax}_rad_s"));
+    }
+    for ax in axes {
+        want_agent.push(format!("omega_d_dot_{ax}_rad_s2"));
     }
     let elems = ["xx", "xy", "xz", "yy", "yz", "zz"];
     for e in elems {
@@ -148,6 +172,16 @@ pub fn analyse(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, St
         m.insert(format!("{prefix}param_error_dev"), pd);
         m.insert(format!("{prefix}param_error_final"), perr[last]);
         m.insert(format!("{prefix}final_time_s"), t[last]);
+        let col3 = |name: &str| {
+            Vector3::from_iterator(axes.iter().map(|ax| ag.col(&format!("{name}_{ax}_{}", unit(name)))[last]))
+        };
+        let (wd, dwd) = (col3("omega_d"), col3("omega_d_dot"));
+        let k_norm = coupling_norm(&wd, &dwd);
+        m.insert(format!("{prefix}coupling_norm_final"), k_norm);
+        m.insert(format!("{prefix}omega_d_norm_final_rad_s"), wd.norm());
+        if !a.is_continuous() {
+            m.insert(format!("{prefix}sampling_index_final"), k_norm * k_norm * s.scenario.dt_s / j_min);
+        }
     }
     let mut row = Vec::with_capacity(cols.len());
     for r in 0..rows {
@@ -161,4 +195,22 @@ pub fn analyse(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, St
     }
     out.flush().map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coupling_norm_by_hand() {
+        // ω_d = (0, 0, w), ω̇_d = 0: K_dθ = ω_d × Iω_d = w²(−Iyz, Ixz, 0), so K_d has −w² at
+        // (x, Iyz), w² at (y, Ixz) and ‖K_d‖₂ = w².
+        let w = 2.5;
+        let k = coupling_norm(&Vector3::new(0.0, 0.0, w), &Vector3::zeros());
+        assert!((k - w * w).abs() < 1e-12, "{k}");
+        // With ω_d = 0 only ω̇_d acts: K_dθ = Iω̇_d, whose largest singular value for ω̇_d = (a, 0, 0)
+        // (column Ixx, Ixy, Ixz each picking a) is a.
+        let k = coupling_norm(&Vector3::zeros(), &Vector3::new(3.0, 0.0, 0.0));
+        assert!((k - 3.0).abs() < 1e-12, "{k}");
+    }
 }

@@ -24,11 +24,11 @@ const T2_PARAM_DEV: [f64; 3] = [0.0032, 0.0037, 0.0064];
 const T2_TRACK_MEAN: [f64; 3] = [0.0401, -0.0094, -0.00037];
 const T2_TRACK_DEV: [f64; 3] = [0.1518, 0.0138, 0.0065];
 /// Table 4 (Sec. 3.3): original, then specific at r = 0.5, 1, 2, 4.
-const T4_R: [f64; 4] = [0.5, 1.0, 2.0, 4.0];
+pub(crate) const T4_R: [f64; 4] = [0.5, 1.0, 2.0, 4.0];
 const T4_PARAM_MEAN: [f64; 5] = [0.0247, 0.0351, 0.0348, 0.0345, 0.0341];
 const T4_PARAM_DEV: [f64; 5] = [0.0124, 0.0306, 0.0272, 0.0239, 0.0217];
-const T4_TRACK_MEAN: [f64; 5] = [-0.0401, -0.0033, -0.0033, -0.0033, -0.0034];
-const T4_TRACK_DEV: [f64; 5] = [0.1761, 0.0296, 0.0246, 0.0189, 0.0143];
+pub(crate) const T4_TRACK_MEAN: [f64; 5] = [-0.0401, -0.0033, -0.0033, -0.0033, -0.0034];
+pub(crate) const T4_TRACK_DEV: [f64; 5] = [0.1761, 0.0296, 0.0246, 0.0189, 0.0143];
 /// Sec. 4: final state-error norm ratio, "rough order ×1e−8" (specific) vs "×1e−3" (original).
 const FINAL_SPECIFIC: f64 = 1e-8;
 const FINAL_ORIGINAL: f64 = 1e-3;
@@ -43,10 +43,10 @@ pub struct Options {
 
 /// One measured run.
 #[derive(Clone)]
-struct Run {
+pub(crate) struct Run {
     label: String,
-    law: String,
-    r: f64,
+    pub(crate) law: String,
+    pub(crate) r: f64,
     period_s: Option<f64>,
     dir: PathBuf,
     metrics: BTreeMap<String, f64>,
@@ -57,12 +57,12 @@ struct Run {
 }
 
 impl Run {
-    fn m(&self, k: &str) -> f64 {
+    pub(crate) fn m(&self, k: &str) -> f64 {
         self.metrics.get(k).copied().unwrap_or(f64::NAN)
     }
 }
 
-fn variant(base: &Scenario, name: &str, law: &str, r: f64, dt_s: Option<f64>) -> Result<Scenario, String> {
+pub(crate) fn variant(base: &Scenario, name: &str, law: &str, r: f64, dt_s: Option<f64>) -> Result<Scenario, String> {
     let mut s = base.clone();
     s.scenario.name = name.to_string();
     if let Some(dt) = dt_s {
@@ -82,7 +82,7 @@ fn variant(base: &Scenario, name: &str, law: &str, r: f64, dt_s: Option<f64>) ->
     cohort_scenario::parse(&s.to_toml(), Path::new(name), &Overrides::default()).map_err(|e| e.to_string())
 }
 
-fn run(s: &Scenario, root: &Path, label: &str, multi_process: bool) -> Result<Run, String> {
+pub(crate) fn run(s: &Scenario, root: &Path, label: &str, multi_process: bool) -> Result<Run, String> {
     let dir = root.join("runs").join(&s.scenario.name);
     if dir.exists() {
         std::fs::remove_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
@@ -123,7 +123,7 @@ fn run(s: &Scenario, root: &Path, label: &str, multi_process: bool) -> Result<Ru
     })
 }
 
-fn g(x: f64) -> String {
+pub(crate) fn g(x: f64) -> String {
     if x.is_nan() {
         "—".into()
     } else if x == 0.0 {
@@ -136,7 +136,7 @@ fn g(x: f64) -> String {
 }
 
 /// "+12 %" relative difference of measured to published.
-fn rel(measured: f64, published: f64) -> String {
+pub(crate) fn rel(measured: f64, published: f64) -> String {
     if published == 0.0 || !measured.is_finite() {
         return "—".into();
     }
@@ -168,6 +168,7 @@ pub fn run_all(o: &Options) -> Result<String, String> {
         let s = variant(&cont, &format!("dai-t4-r{}", r.to_string().replace('.', "_")), "specific", r, None)?;
         t4.push(run(&s, &o.out, &format!("specific r = {r}"), false)?);
     }
+    let (readings_md, readings_csv) = crate::dai_readings::study(&cont, &o.out)?;
     let mut sampled_runs = Vec::new();
     if !o.periods_s.is_empty() {
         eprintln!(
@@ -306,9 +307,11 @@ pub fn run_all(o: &Options) -> Result<String, String> {
         within.join(", ")
     );
 
+    md.push_str(&readings_md);
+
     // Sampled-data study.
     let mut csv_s = String::from(
-        "control_period_s,law,tracking_error_mean,tracking_error_dev,final_error_ratio,final_state_error_norm_ratio,final_state_error_norm_ratio_eq15,param_error_mean,param_error_final,final_time_s,wall_s,outcome\n",
+        "control_period_s,law,tracking_error_mean,tracking_error_dev,final_error_ratio,final_state_error_norm_ratio,final_state_error_norm_ratio_eq15,param_error_mean,param_error_final,final_time_s,sampling_index_final,wall_s,outcome\n",
     );
     if !sampled_runs.is_empty() {
         let _ = writeln!(
@@ -328,14 +331,14 @@ pub fn run_all(o: &Options) -> Result<String, String> {
         );
         let _ = writeln!(
             md,
-            "| period | law | tracking mean (rad/s) | tracking dev (rad/s) | final ‖e‖/‖e(0)‖ | final ‖ω′‖²/‖ω_d‖² | param error mean | param error final | wall (s) | outcome |"
+            "| period | law | tracking mean (rad/s) | tracking dev (rad/s) | final ‖e‖/‖e(0)‖ | final ‖ω′‖²/‖ω_d‖² | param error mean | param error final | ‖K_d‖²Δt/λ_min(J) at the end | wall (s) | outcome |"
         );
-        let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|");
         for run in &sampled_runs {
             let p = run.period_s.unwrap_or(f64::NAN);
             let _ = writeln!(
                 md,
-                "| {} ms | {} | {} | {} | {} | {} | {} | {} | {:.2} | {} |",
+                "| {} ms | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {} |",
                 p * 1e3,
                 run.law,
                 g(run.m("tracking_error_mean")),
@@ -344,12 +347,13 @@ pub fn run_all(o: &Options) -> Result<String, String> {
                 g(run.m("final_state_error_norm_ratio_eq15")),
                 g(run.m("param_error_mean")),
                 g(run.m("param_error_final")),
+                g(run.m("sampling_index_final")),
                 run.wall_s,
                 run.failed.as_deref().unwrap_or("ok (5 s)")
             );
             let _ = writeln!(
                 csv_s,
-                "{p:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{:.3},{}",
+                "{p:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{:e},{:.3},{}",
                 run.law,
                 run.m("tracking_error_mean"),
                 run.m("tracking_error_dev"),
@@ -359,6 +363,7 @@ pub fn run_all(o: &Options) -> Result<String, String> {
                 run.m("param_error_mean"),
                 run.m("param_error_final"),
                 run.m("final_time_s"),
+                run.m("sampling_index_final"),
                 run.wall_s,
                 run.failed.as_deref().unwrap_or("ok")
             );
@@ -395,6 +400,38 @@ pub fn run_all(o: &Options) -> Result<String, String> {
             }
         }
         let _ = writeln!(md, "\nSpecific vs original: {}.\n", verdict.join("; "));
+        // Why: the index of `dai_analysis` where each specific run ended.
+        let ended = |diverged: bool| {
+            sampled_runs
+                .iter()
+                .filter(|r| r.law == "specific" && r.failed.is_some() == diverged)
+                .map(|r| {
+                    format!(
+                        "{} ms: {} at t = {:.2} s",
+                        r.period_s.unwrap_or(f64::NAN) * 1e3,
+                        g(r.m("sampling_index_final")),
+                        r.m("final_time_s")
+                    )
+                })
+                .collect::<Vec<_>>()
+        };
+        let (diverged, completed) = (ended(true), ended(false));
+        if !diverged.is_empty() {
+            let _ = writeln!(
+                md,
+                "Sampling index ‖K_d‖²Δt/λ_min(J) where each sampled specific run ended — diverged: {}; \
+                 completed: {}. The proof (12) of the specific law rests on the exact cancellation of Kθ \
+                 in the rate dynamics (9) by −Kᵀω′ in the learning law (10); with the torque held over a \
+                 period the two act Δt apart and the cancellation leaves a residual that injects energy \
+                 at a rate that grows like ‖K‖²Δt/λ(J). ‖K‖ grows with ‖ω_d‖², and the test torque spins \
+                 the body up to ‖ω_d‖ = {:.1} rad/s at t = {:.0} s (continuous run), so every period diverges \
+                 once the index is large enough; the original law has no such cross term.\n",
+                diverged.join(", "),
+                if completed.is_empty() { "none".to_string() } else { completed.join(", ") },
+                t2[2].m("omega_d_norm_final_rad_s"),
+                t2[2].m("final_time_s"),
+            );
+        }
         let _ = writeln!(
             md,
             "{}\n",
@@ -414,6 +451,7 @@ pub fn run_all(o: &Options) -> Result<String, String> {
 
     std::fs::write(o.out.join("table2.csv"), csv2).map_err(|e| format!("table2.csv: {e}"))?;
     std::fs::write(o.out.join("table4.csv"), csv4).map_err(|e| format!("table4.csv: {e}"))?;
+    std::fs::write(o.out.join("readings.csv"), readings_csv).map_err(|e| format!("readings.csv: {e}"))?;
     if !sampled_runs.is_empty() {
         std::fs::write(o.out.join("sampled.csv"), csv_s).map_err(|e| format!("sampled.csv: {e}"))?;
     }

@@ -8,6 +8,7 @@ mod analysis;
 mod bench;
 mod continuous;
 mod dai_analysis;
+mod dai_readings;
 mod dai_tables;
 mod progress;
 mod reference;

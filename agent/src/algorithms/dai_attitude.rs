@@ -14,6 +14,20 @@
 //!   (9), Kθ = i ω̇_d + ω_d × i ω; by default with the modified torque (8) u = Îω̇_d + ω_d × Îω,
 //!   for which (12) holds exactly.
 //!
+//! Where the appendix code and the printed equations disagree we follow the equations, because
+//! the code as printed cannot have produced the paper's figures:
+//! - z0 has 15 entries for 16 states (q, ω, ω_d, θ̂): ω(0) = [.02, .03, .01] from Table 3,
+//!   ω_d(0) = [.08, .08, .04] from z0 (`orchestrator dai-tables` runs Table 4 under the other
+//!   readings too: none brings the published deviations within reach);
+//! - `zdot(8:10) = sddwd = 0` freezes ω_d, and `[sddwd,sddwd] = traj_gen(...)` in the specific and
+//!   original functions overwrites ω̇_d with the zero second output (so their torque would have no
+//!   ω̇_d term): ω_d evolves by (14) and the torque is (2), as the text says;
+//! - the original law's gain is 1 as in (3) (`algorithm.original_gain`; the code has 1.5);
+//! - the code's `-K*(w-wd)` is −Kᵀω′ (K is 3×6), and its K has ω_d × iω_d + ω_d × iω where (9)
+//!   has ω_d × iω_d + ω_d × iω′: we take (9), i.e. Kθ = iω̇_d + ω_d × iω;
+//! - the code's general update `(th'*ph)*(A+B)'` is (A + B)ᵀϕθ̂ (the printed form does not
+//!   multiply out).
+//!
 //! [`regression`] and [`theta_rate`] are the only place these laws are written: the sampled-data
 //! agent below integrates them between measurements, and the orchestrator's coupled continuous
 //! integration (`coupling = "continuous"`) calls them with the true rates and accelerations.
