@@ -37,11 +37,6 @@ pub fn coupling_norm(wd: &Vector3<f64>, dwd: &Vector3<f64>) -> f64 {
     regressor(dwd, wd, wd).svd(false, false).singular_values.max()
 }
 
-/// The unit suffix of an agent telemetry column family.
-fn unit(name: &str) -> &'static str {
-    if name.ends_with("_dot") { "rad_s2" } else { "rad_s" }
-}
-
 fn strings(xs: &[&str]) -> Vec<String> {
     xs.iter().map(|x| x.to_string()).collect()
 }
@@ -172,10 +167,10 @@ pub fn analyse(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, St
         m.insert(format!("{prefix}param_error_dev"), pd);
         m.insert(format!("{prefix}param_error_final"), perr[last]);
         m.insert(format!("{prefix}final_time_s"), t[last]);
-        let col3 = |name: &str| {
-            Vector3::from_iterator(axes.iter().map(|ax| ag.col(&format!("{name}_{ax}_{}", unit(name)))[last]))
+        let at_last = |name: &str, unit: &str| {
+            Vector3::from_iterator(axes.iter().map(|ax| ag.col(&format!("{name}_{ax}_{unit}"))[last]))
         };
-        let (wd, dwd) = (col3("omega_d"), col3("omega_d_dot"));
+        let (wd, dwd) = (at_last("omega_d", "rad_s"), at_last("omega_d_dot", "rad_s2"));
         let k_norm = coupling_norm(&wd, &dwd);
         m.insert(format!("{prefix}coupling_norm_final"), k_norm);
         m.insert(format!("{prefix}omega_d_norm_final_rad_s"), wd.norm());

@@ -168,7 +168,7 @@ pub fn run_all(o: &Options) -> Result<String, String> {
         let s = variant(&cont, &format!("dai-t4-r{}", r.to_string().replace('.', "_")), "specific", r, None)?;
         t4.push(run(&s, &o.out, &format!("specific r = {r}"), false)?);
     }
-    let (readings_md, readings_csv) = crate::dai_readings::study(&cont, &o.out)?;
+    let (readings_md, readings_csv) = crate::dai_readings::study(&cont, &t4, &o.out)?;
     let mut sampled_runs = Vec::new();
     if !o.periods_s.is_empty() {
         eprintln!(

@@ -186,6 +186,17 @@ fn axis_columns<'t>(table: &'t Table, prefix: &str, unit: &str) -> Option<[&'t [
     Some([x?, y?, z?])
 }
 
+/// One series per axis, `"<who> T_<axis>"`, of a tension's three columns.
+fn xyz_series(who: &str, t: &[f64], cols: &[&[f64]; 3]) -> Vec<Series> {
+    (0..3)
+        .map(|a| Series {
+            label: format!("{who} T_{}", AXES[a]),
+            color: axis_color(a),
+            points: downsample_min_max(t, cols[a], MAX_POINTS),
+        })
+        .collect()
+}
+
 /// The MU ids `i` of a plant table with all three `mu<i>_<quantity>_{x,y,z}_<unit>`, ascending.
 fn mu_ids(table: &Table, quantity: &str, unit: &str) -> Vec<u32> {
     let mut ids: Vec<u32> = table
@@ -218,13 +229,7 @@ fn tension_figure(plant: &Table, agents: &[(u32, Table)], label: Option<&str>) -
         .into_iter()
         .map(|i| {
             let truth_cols = axis_columns(plant, &format!("mu{i}_tension"), "n").unwrap_or([&[]; 3]);
-            let truth = (0..3)
-                .map(|a| Series {
-                    label: format!("true T_{}", AXES[a]),
-                    color: axis_color(a),
-                    points: downsample_min_max(&plant.t, truth_cols[a], MAX_POINTS),
-                })
-                .collect();
+            let truth = xyz_series("true", &plant.t, &truth_cols);
             let agent = agents.iter().find(|(id, _)| *id == i).map(|(_, t)| t);
             // Controllers without a forecast (SMC) compensate the measured tension: that is what
             // they used.
@@ -236,13 +241,7 @@ fn tension_figure(plant: &Table, agents: &[(u32, Table)], label: Option<&str>) -
                 Some((table, cols, forecast)) => {
                     uses_forecast |= forecast;
                     uses_measured |= !forecast;
-                    let controller = (0..3)
-                        .map(|a| Series {
-                            label: format!("controller T_{}", AXES[a]),
-                            color: axis_color(a),
-                            points: downsample_min_max(&table.t, cols[a], MAX_POINTS),
-                        })
-                        .collect();
+                    let controller = xyz_series("controller", &table.t, &cols);
                     let what = if forecast { "used" } else { "measured" };
                     let caption = match rms_vector_difference(&table.t, &cols, &plant.t, &truth_cols) {
                         Some(rms_n) => format!("MU {i} — RMS ‖{what} − true‖ = {} N", format_tick(&rms_n)),
