@@ -140,18 +140,16 @@ pub fn summary(run_dir: &std::path::Path) -> serde_json::Value {
     read_json(&run_dir.join("summary.json"))
 }
 
-/// Column `name` of a CSV's text, as numbers.
+/// Column `name` (or `t_s`) of a telemetry CSV's text, as numbers (read by the one telemetry
+/// reader, `cohort_report::Table`).
 pub fn csv_column(csv: &str, name: &str) -> Vec<f64> {
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
-    let i = header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"));
-    lines.map(|l| l.split(',').nth(i).expect("a full row").parse().expect("a number")).collect()
+    let table = cohort_report::Table::parse(csv, std::path::Path::new("(csv text)")).expect("a telemetry CSV");
+    table.get(name).unwrap_or_else(|| panic!("no column {name}")).to_vec()
 }
 
-/// `topologies/tsnr-case{case}.toml` to be written elsewhere: the files it names are relative to
-/// it, so they are made absolute.
-pub fn tsnr_scenario_text(case: u32) -> String {
-    let text = std::fs::read_to_string(repo_root().join(format!("topologies/tsnr-case{case}.toml"))).unwrap();
-    let weights = repo_root().join("tsnr/weights/");
-    text.replace("\"../tsnr/weights/", &format!("\"{}", weights.display()))
+/// `topologies/<file>` to be written elsewhere: the files it names are relative to it (`"../…"`),
+/// so they are made absolute.
+pub fn scenario_text_with_absolute_paths(file: &str) -> String {
+    let text = std::fs::read_to_string(repo_root().join("topologies").join(file)).unwrap();
+    text.replace("\"../", &format!("\"{}/", repo_root().display()))
 }

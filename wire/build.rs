@@ -1,7 +1,10 @@
-//! Computes `COHORT_BUILD_ID`: a hash of the package version and of every source file of the
-//! workspace's crates. The orchestrator refuses to launch a `plant` or `agent` binary whose build
-//! id differs from its own, so a stale binary left beside a fresh orchestrator is caught in the
-//! handshake instead of producing a run with mismatched message layouts or algorithms.
+//! Computes `COHORT_BUILD_ID`: a hash of the package version and of every source file of every
+//! workspace member (read from the root `Cargo.toml`'s `[workspace] members`, globs expanded, so a
+//! new paper is covered without an edit here). The orchestrator refuses to launch a `plant` or
+//! `agent` binary whose build id differs from its own, so a stale binary left beside a fresh
+//! orchestrator is caught in the handshake instead of producing a run with mismatched message
+//! layouts or algorithms. `COHORT_BUILD_ID_MEMBERS` lists the member directories it covered (a
+//! test compares it with `cargo metadata`).
 use std::path::{Path, PathBuf};
 
 fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
@@ -16,17 +19,58 @@ fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
+/// The `[workspace] members` entries of the root manifest (a small reader: one `members = [...]`
+/// array of strings, possibly over several lines).
+fn members(manifest: &str) -> Vec<String> {
+    let Some(start) = manifest.find("\nmembers") else { return Vec::new() };
+    let rest = &manifest[start..];
+    let (Some(open), Some(close)) = (rest.find('['), rest.find(']')) else { return Vec::new() };
+    rest[open + 1..close].split(',').map(|m| m.trim().trim_matches('"').to_string()).filter(|m| !m.is_empty()).collect()
+}
+
+/// A member entry as directories: `papers/*` is every directory of `papers/` with a Cargo.toml.
+fn expand(root: &Path, member: &str) -> Vec<PathBuf> {
+    match member.strip_suffix("/*") {
+        Some(parent) => {
+            let Ok(rd) = std::fs::read_dir(root.join(parent)) else { return Vec::new() };
+            let mut dirs: Vec<PathBuf> =
+                rd.flatten().map(|e| e.path()).filter(|p| p.join("Cargo.toml").is_file()).collect();
+            dirs.sort();
+            dirs
+        }
+        None => vec![root.join(member)],
+    }
+}
+
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let root_manifest = root.join("Cargo.toml");
+    println!("cargo:rerun-if-changed={}", root_manifest.display());
+    let text = std::fs::read_to_string(&root_manifest).unwrap_or_default();
     let mut files = Vec::new();
-    for krate in ["wire", "scenario", "runtime", "plant", "agent", "orchestrator"] {
-        let src = root.join(krate).join("src");
-        println!("cargo:rerun-if-changed={}", src.display());
-        collect(&src, &mut files);
-        let manifest = root.join(krate).join("Cargo.toml");
-        println!("cargo:rerun-if-changed={}", manifest.display());
-        files.push(manifest);
+    let mut covered = Vec::new();
+    for member in members(&text) {
+        if let Some(parent) = member.strip_suffix("/*") {
+            // A new paper folder changes the expansion.
+            println!("cargo:rerun-if-changed={}", root.join(parent).display());
+        }
+        for dir in expand(&root, &member) {
+            let src = dir.join("src");
+            println!("cargo:rerun-if-changed={}", src.display());
+            collect(&src, &mut files);
+            let manifest = dir.join("Cargo.toml");
+            println!("cargo:rerun-if-changed={}", manifest.display());
+            files.push(manifest);
+            let rel = dir.strip_prefix(&root).unwrap_or(&dir).to_string_lossy().into_owned();
+            covered.push(if rel.is_empty() { ".".to_string() } else { rel });
+        }
     }
+    // The root package (the process tests' helpers) is a member too.
+    let root_src = root.join("src");
+    println!("cargo:rerun-if-changed={}", root_src.display());
+    collect(&root_src, &mut files);
+    files.push(root_manifest.clone());
+    covered.push(".".to_string());
     files.sort();
     // FNV-1a 64: stable across Rust versions (unlike DefaultHasher).
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
@@ -42,4 +86,7 @@ fn main() {
         eat(&std::fs::read(f).unwrap_or_default());
     }
     println!("cargo:rustc-env=COHORT_BUILD_ID={}-{h:016x}", env!("CARGO_PKG_VERSION"));
+    covered.sort();
+    covered.dedup();
+    println!("cargo:rustc-env=COHORT_BUILD_ID_MEMBERS={}", covered.join(","));
 }

@@ -1,12 +1,13 @@
 //! The `agent` process: one spacecraft's estimator, controller and learner. Launched by the
-//! orchestrator; see `cohort_runtime::process` for exit codes.
+//! orchestrator; see `cohort_runtime::process` for exit codes. The algorithm comes from the paper
+//! that registered the scenario's algorithm kind (`papers/registry`).
 
 use std::process::ExitCode;
 
 use clap::Parser;
 use cohort_runtime::checkpoint::{AgentState, Checkpoint, path_for};
 use cohort_runtime::process::{CommonArgs, child_main};
-use cohort_runtime::record::ProcessReport;
+use cohort_runtime::record::{ErrorKind, ProcessError, ProcessReport};
 use cohort_wire::transport::Proc;
 
 /// Cohort agent process (launched by `orchestrator launch`, not by hand).
@@ -27,9 +28,9 @@ struct Args {
 fn main() -> ExitCode {
     let a = Args::parse();
     let (id, restore) = (a.id, a.restore);
-    child_main(a.common.into_spec(Proc::Agent(id)), |scenario, transport, params| {
-        let mut algo = agent::build(scenario, id);
-        let neighbours = scenario.agent(id).neighbours.clone();
+    child_main(a.common.into_spec(Proc::Agent(id)), cohort_registry::PAPERS, |setup, transport, params| {
+        let mut algo = setup.algorithm.build(setup, id);
+        let neighbours = setup.agent(id).neighbours.clone();
         let checkpoint = if restore {
             match load(&params.dirs.root, id, &params.algorithm_kind, algo.as_mut()) {
                 Ok(c) => Some(c),
@@ -72,6 +73,6 @@ fn failed(id: u32, e: String) -> ProcessReport {
         "error": null
     }))
     .expect("a valid report");
-    r.error = Some(e);
+    r.error = Some(ProcessError::new(ErrorKind::Checkpoint, e));
     r
 }

@@ -2,7 +2,8 @@
 //! interleaved repetitions (the machine is shared and noisy: medians, min–max, and ratios taken
 //! within the same invocation). Writes `bench/results.json` and `bench/results.md`.
 //!
-//! Cases: fig1 (360 s) multi-process vs in-process reference; the consensus ring at
+//! Cases: each paper's headline scenario (`PaperHost::bench_scenarios`, e.g. the Lb-DNN
+//! servicing case, 360 s) multi-process vs in-process reference; the consensus ring at
 //! N = 6, 20, 50, 100 agent processes with each waiting strategy (event, poll+yield, adaptive),
 //! with a one-step link delay, and as a null round (same processes and message sizes, no
 //! computation); the UDP-loopback transport at N = 6 and 50; N = 100 over 10 000 steps (the
@@ -12,10 +13,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use cohort_scenario::{
-    AgentConfig, AlgorithmConfig, ConsensusFormation, DoubleIntegratorPlant, Meta, NullAlgorithm, NullPlant, Overrides,
-    PlantConfig, RunSettings, Scenario,
-};
+use std::fmt::Write as _;
+
+use cohort_runtime::paper::Setup;
+use cohort_scenario::Overrides;
 use serde::Serialize;
 
 use crate::summary::Summary;
@@ -28,7 +29,9 @@ struct Case {
     group: &'static str,
     n: u32,
     variant: String,
-    scenario: Scenario,
+    /// What the case's section calls it (a headline scenario's name).
+    label: String,
+    scenario: Setup,
     reference: bool,
 }
 
@@ -57,6 +60,7 @@ struct Sample {
 struct Aggregate {
     key: String,
     group: String,
+    label: String,
     n: u32,
     variant: String,
     samples: Vec<Sample>,
@@ -75,107 +79,101 @@ fn median(xs: &mut [f64]) -> f64 {
     if n % 2 == 1 { xs[n / 2] } else { 0.5 * (xs[n / 2 - 1] + xs[n / 2]) }
 }
 
-/// The consensus ring with `n` agents (each hears i−1 and i+1), `steps` steps of 10 ms.
-fn ring(n: u32, steps: u64) -> Scenario {
+/// How a bench scenario differs from the plain consensus ring.
+#[derive(Clone, Copy)]
+struct RingRun<'a> {
+    wait: &'a str,
+    transport: &'a str,
+    link_delay_steps: u32,
+    /// The null plant and algorithm: the same processes and message sizes, no computation.
+    null: bool,
+    dt_s: f64,
+    realtime: bool,
+}
+
+const RING: RingRun<'static> =
+    RingRun { wait: "adaptive", transport: "iceoryx2", link_delay_steps: 0, null: false, dt_s: 0.01, realtime: false };
+
+/// The consensus ring with `n` agents (each hears i−1 and i+1), `steps` steps, as scenario text
+/// (configured like any file, so the bench runs what users run).
+fn ring(n: u32, steps: u64, r: RingRun<'_>) -> Result<Setup, String> {
     let radius = 2.0 * f64::from(n);
-    let agents = (1..=n)
-        .map(|i| {
-            let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
-            AgentConfig {
-                id: i,
-                neighbours: vec![(i + n - 2) % n + 1, i % n + 1],
-                // Start scattered about the slots so there is work to do.
-                r0_m: Some([1.3 * radius * a.cos() + f64::from(i % 3), 0.7 * radius * a.sin(), f64::from(i % 5) - 2.0]),
-                v0_mps: Some([0.0; 3]),
-                offset_lvlh_m: None,
-                mass_kg: None,
-                area_m2: None,
-                output_matrix: None,
-                b: None,
-            }
-        })
-        .collect();
-    Scenario {
-        scenario: Meta {
-            name: format!("bench-ring{n}"),
-            description: String::new(),
-            seed: 7,
-            dt_s: 0.01,
-            duration_s: steps as f64 * 0.01,
-        },
-        run: RunSettings { step_timeout_s: 60.0, startup_timeout_s: 300.0, ..RunSettings::default() },
-        plant: PlantConfig::DoubleIntegrator(DoubleIntegratorPlant { position_noise_std_m: 0.05 }),
-        algorithm: AlgorithmConfig::ConsensusFormation(ConsensusFormation {
-            formation_radius_m: radius,
-            kp_per_s2: 0.5,
-            kd_per_s: 1.5,
-            observer_l1_per_s: 6.0,
-            observer_l2_per_s2: 9.0,
-        }),
-        agents,
-        faults: Vec::new(),
+    let name = if r.null { format!("bench-null{n}") } else { format!("bench-ring{n}") };
+    let mut t = format!(
+        "[scenario]\nname = \"{name}\"\nseed = 7\ndt_s = {:?}\nduration_s = {:?}\n\n[run]\nstep_timeout_s = 60.0\n\
+         startup_timeout_s = 300.0\nwait = \"{}\"\ntransport = \"{}\"\nlink_delay_steps = {}\n",
+        r.dt_s,
+        steps as f64 * r.dt_s,
+        r.wait,
+        r.transport,
+        r.link_delay_steps
+    );
+    if r.realtime {
+        t.push_str("realtime_rate = 1.0\n");
     }
-}
-
-/// The same processes and message sizes as [`ring`], computing nothing.
-fn null_ring(n: u32, steps: u64) -> Scenario {
-    let mut s = ring(n, steps);
-    s.scenario.name = format!("bench-null{n}");
-    s.plant = PlantConfig::Null(NullPlant { readings: 3 });
-    s.algorithm = AlgorithmConfig::Null(NullAlgorithm { share_values: 6 });
-    s
-}
-
-fn with_run(mut s: Scenario, f: impl FnOnce(&mut RunSettings)) -> Scenario {
-    f(&mut s.run);
-    s
+    if r.null {
+        t.push_str("\n[plant]\nkind = \"null\"\nreadings = 3\n\n[algorithm]\nkind = \"null\"\nshare_values = 6\n");
+    } else {
+        let _ = write!(
+            t,
+            "\n[plant]\nkind = \"double-integrator\"\nposition_noise_std_m = 0.05\n\n[algorithm]\n\
+             kind = \"consensus-formation\"\nformation_radius_m = {radius:?}\nkp_per_s2 = 0.5\nkd_per_s = 1.5\n\
+             observer_l1_per_s = 6.0\nobserver_l2_per_s2 = 9.0\n"
+        );
+    }
+    for i in 1..=n {
+        let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
+        let _ = write!(t, "\n[[agents]]\nid = {i}\nneighbours = [{}, {}]\n", (i + n - 2) % n + 1, i % n + 1);
+        if !r.null {
+            // Start scattered about the slots so there is work to do.
+            let r0 = [1.3 * radius * a.cos() + f64::from(i % 3), 0.7 * radius * a.sin(), f64::from(i % 5) - 2.0];
+            let _ = writeln!(t, "r0_m = [{:?}, {:?}, {:?}]\nv0_mps = [0.0, 0.0, 0.0]", r0[0], r0[1], r0[2]);
+        }
+    }
+    let file = PathBuf::from(format!("{name}.toml"));
+    let s = cohort_scenario::parse(&t, &file, &Overrides::default()).map_err(|e| e.to_string())?;
+    cohort_runtime::paper::configure(s, cohort_registry::PAPERS)
+        .map_err(|problems| cohort_scenario::ScenarioError { file, problems }.to_string())
 }
 
 fn cases(quick: bool, repo: &Path) -> Result<Vec<Case>, String> {
     let ns: &[u32] = if quick { &[6, 20] } else { &[6, 20, 50, 100] };
     let steps = if quick { 500 } else { 2000 };
     let mut out = Vec::new();
-    let mut push = |group: &'static str, n: u32, variant: &str, scenario: Scenario, reference: bool| {
-        out.push(Case {
-            key: format!("{group}/N={n}/{variant}"),
-            group,
-            n,
-            variant: variant.into(),
-            scenario,
-            reference,
-        });
+    let mut push = |group: &'static str, n: u32, variant: &str, label: &str, scenario: Setup, reference: bool| {
+        // A headline case is named by its scenario; the others by group alone.
+        let key = if group == "headline" {
+            format!("{group}/{label}/N={n}/{variant}")
+        } else {
+            format!("{group}/N={n}/{variant}")
+        };
+        out.push(Case { key, group, n, variant: variant.into(), label: label.into(), scenario, reference });
     };
-    let fig1 = cohort_scenario::load(
-        &repo.join("topologies/fig1.toml"),
-        &Overrides { duration_s: quick.then_some(20.0), ..Default::default() },
-    )
-    .map_err(|e| e.to_string())?;
-    push("fig1", 6, "multi-process", fig1.clone(), false);
-    push("fig1", 6, "reference", fig1, true);
+    for file in cohort_registry::HOSTS.iter().flat_map(|h| h.bench_scenarios()) {
+        let o = Overrides { duration_s: quick.then_some(20.0), ..Default::default() };
+        let s = crate::load(&repo.join(file), &o).map_err(|e| e.to_string())?;
+        let (name, n) = (s.scenario.name.clone(), s.n_agents());
+        push("headline", n, "multi-process", &name, s.clone(), false);
+        push("headline", n, "reference", &name, s, true);
+    }
     for &n in ns {
         for wait in ["event", "poll", "adaptive"] {
-            push("ring", n, wait, with_run(ring(n, steps), |r| r.wait = wait.into()), false);
+            push("ring", n, wait, "ring", ring(n, steps, RingRun { wait, ..RING })?, false);
         }
-        push("ring", n, "adaptive+link-delay", with_run(ring(n, steps), |r| r.link_delay_steps = 1), false);
-        push("null", n, "adaptive", null_ring(n, steps), false);
+        let delayed = ring(n, steps, RingRun { link_delay_steps: 1, ..RING })?;
+        push("ring", n, "adaptive+link-delay", "ring", delayed, false);
+        push("null", n, "adaptive", "null", ring(n, steps, RingRun { null: true, ..RING })?, false);
         if n == 6 || n == 50 || quick {
             for wait in ["event", "adaptive"] {
-                let s = with_run(ring(n, steps), |r| {
-                    r.wait = wait.into();
-                    r.transport = "udp".into();
-                });
-                push("udp", n, wait, s, false);
+                push("udp", n, wait, "udp", ring(n, steps, RingRun { wait, transport: "udp", ..RING })?, false);
             }
         }
     }
     let (n_long, steps_long) = if quick { (20, 1000) } else { (100, 10_000) };
-    push("long", n_long, "adaptive", ring(n_long, steps_long), false);
+    push("long", n_long, "adaptive", "long", ring(n_long, steps_long, RING)?, false);
     // Agents behind a plant paced at 10 Hz (dt 0.1 s, real time): how much CPU do they burn?
-    let mut idle = ring(6, if quick { 20 } else { 50 });
-    idle.scenario.dt_s = 0.1;
-    idle.scenario.duration_s *= 10.0;
-    idle.run.realtime_rate = Some(1.0);
-    push("idle", 6, "10Hz", idle, false);
+    let idle = ring(6, if quick { 20 } else { 50 }, RingRun { dt_s: 0.1, realtime: true, ..RING })?;
+    push("idle", 6, "10Hz", "idle", idle, false);
     Ok(out)
 }
 
@@ -186,7 +184,7 @@ fn timing_column(path: &Path, col: &str) -> Vec<f64> {
     lines.filter_map(|l| l.split(',').nth(i)?.parse().ok()).collect()
 }
 
-fn sample(s: &Scenario, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
+fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
     let round = summary.latency_ns.get("plant_round");
     let steps = summary.steps_completed.max(1);
     let per_k = |cpu: f64| cpu / steps as f64 * 1000.0;
@@ -274,6 +272,7 @@ pub fn run(quick: bool, reps: u32, out_dir: &Path) -> Result<String, String> {
             Aggregate {
                 key: c.key.clone(),
                 group: c.group.into(),
+                label: c.label.clone(),
                 n: c.n,
                 variant: c.variant.clone(),
                 steps_per_s_median: median(&mut sps.clone()),
@@ -330,7 +329,6 @@ fn f0(x: f64) -> String {
 }
 
 fn markdown(a: &[Aggregate], quick: bool, reps: u32, took_s: f64) -> String {
-    use std::fmt::Write as _;
     let mut md = String::new();
     let _ = writeln!(
         md,
@@ -345,12 +343,20 @@ fn markdown(a: &[Aggregate], quick: bool, reps: u32, took_s: f64) -> String {
     let med = |key: &str, f: &dyn Fn(&Sample) -> f64| -> f64 {
         get(a, key).map_or(f64::NAN, |x| median(&mut x.samples.iter().map(f).collect::<Vec<_>>()))
     };
-    // fig1
-    if let (Some(mp), Some(rf)) = (get(a, "fig1/N=6/multi-process"), get(a, "fig1/N=6/reference")) {
+    // Each paper's headline case, multi-process against the in-process reference.
+    let mut headlines: Vec<(&str, u32)> =
+        a.iter().filter(|x| x.group == "headline").map(|x| (x.label.as_str(), x.n)).collect();
+    headlines.dedup();
+    for (label, n) in headlines {
+        let (mp, rf) = (
+            get(a, &format!("headline/{label}/N={n}/multi-process")),
+            get(a, &format!("headline/{label}/N={n}/reference")),
+        );
+        let (Some(mp), Some(rf)) = (mp, rf) else { continue };
         let ratios: Vec<f64> = mp.samples.iter().zip(&rf.samples).map(|(m, r)| m.wall_s / r.wall_s).collect();
         let _ = writeln!(
             md,
-            "## fig1 (6 servicers, {} steps)\n\n| run | steps/s | wall s |\n|---|---|---|\n| multi-process (iceoryx2, adaptive) | {} [{}–{}] | {:.2} |\n| in-process reference | {} [{}–{}] | {:.2} |\n\nMulti-process wall / reference wall: median {:.2} (per repetition: {}).\n",
+            "## {label} ({n} agents, {} steps)\n\n| run | steps/s | wall s |\n|---|---|---|\n| multi-process (iceoryx2, adaptive) | {} [{}–{}] | {:.2} |\n| in-process reference | {} [{}–{}] | {:.2} |\n\nMulti-process wall / reference wall: median {:.2} (per repetition: {}).\n",
             mp.samples.first().map_or(0, |s| s.steps),
             f0(mp.steps_per_s_median),
             f0(mp.steps_per_s_min),

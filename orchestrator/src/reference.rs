@@ -7,9 +7,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use cohort_runtime::drive::{DriveParams, run_agent, run_plant};
+use cohort_runtime::paper::Setup;
 use cohort_runtime::record::{ProcessReport, RunDirs};
 use cohort_runtime::rng::process_rng;
-use cohort_scenario::Scenario;
 use cohort_wire::msg::{PLANT_ID, STATUS_PROGRESS};
 use cohort_wire::transport::Proc;
 use cohort_wire::transport::memory::MemoryBus;
@@ -17,16 +17,16 @@ use cohort_wire::transport::memory::MemoryBus;
 use crate::progress::Progress;
 use crate::supervise::{LaunchOutcome, SIGNALLED};
 
-fn run_one(s: &Scenario, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) -> ProcessReport {
+fn run_one(s: &Setup, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) -> ProcessReport {
     let mut t = bus.endpoint(p);
     let report = match p {
         Proc::Plant => {
-            let mut model = plant::build(s);
+            let mut model = s.plant.build(s);
             let mut rng = process_rng(s.scenario.seed, Proc::Plant);
             run_plant(&mut t, model.as_mut(), &mut rng, s.n_agents(), params)
         }
         Proc::Agent(id) => {
-            let mut algo = agent::build(s, id);
+            let mut algo = s.algorithm.build(s, id);
             run_agent(&mut t, algo.as_mut(), id, &s.agent(id).neighbours, params, None)
         }
     };
@@ -48,12 +48,12 @@ fn run_one(s: &Scenario, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) ->
     report
 }
 
-pub fn launch(s: &Scenario, dirs: &RunDirs, run_id: u64, progress: &Progress) -> LaunchOutcome {
+pub fn launch(s: &Setup, dirs: &RunDirs, run_id: u64, progress: &Progress) -> LaunchOutcome {
     let started = Instant::now();
     let bus = MemoryBus::new(s.topology());
     let terminate = Arc::new(AtomicBool::new(false));
     // Threads of one process: spinning is as good (or bad) as between processes.
-    let params = DriveParams::from_scenario(s, run_id, dirs.clone(), Arc::clone(&terminate), started);
+    let params = DriveParams::from_setup(s, run_id, dirs.clone(), Arc::clone(&terminate), started);
     let procs: Vec<Proc> = std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)).collect();
     let mut signal = 0usize;
     let reports: Vec<ProcessReport> = std::thread::scope(|sc| {
@@ -98,7 +98,7 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run_id: u64, progress: &Progress) ->
     let failure = reports
         .iter()
         .filter_map(|r| r.error.as_ref().map(|e| (r, e)))
-        .find(|(_, e)| !e.starts_with("stopped"))
+        .find(|(_, e)| !e.is_stop())
         .or_else(|| reports.iter().filter_map(|r| r.error.as_ref().map(|e| (r, e))).next());
     match failure {
         Some((r, e)) => LaunchOutcome {

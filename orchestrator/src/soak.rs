@@ -17,9 +17,10 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+use cohort_runtime::paper::Setup;
 use cohort_runtime::record::LatencyHist;
+use cohort_scenario::Overrides;
 use cohort_scenario::faults::{FAULT_KINDS, FaultSpec};
-use cohort_scenario::{Overrides, Scenario};
 use serde::Serialize;
 
 /// How often RSS and shm entries are sampled.
@@ -180,9 +181,19 @@ fn rss_kb(status: &str) -> Option<u64> {
     text.lines().find(|l| l.starts_with("VmRSS:"))?.split_whitespace().nth(1)?.parse().ok()
 }
 
+/// The soak's scenario, validated once up front (with its first run's settings).
+fn load_for_soak(file: &std::path::Path, o: &Options) -> Result<Setup, String> {
+    let ov = Overrides { seed: o.seed, realtime_rate: o.realtime.then_some(o.rate), ..Default::default() };
+    let s = crate::load(file, &ov).map_err(|e| e.to_string())?;
+    if s.algorithm.coupled().is_some() {
+        return Err(format!("{}: a coupled scenario runs in one process; a soak needs processes", file.display()));
+    }
+    Ok(s)
+}
+
 /// One random fault of each kind for run `seed`: a small deterministic generator, so a soak
 /// can be repeated.
-fn random_faults(kinds: &[String], s: &Scenario, seed: u64) -> Vec<FaultSpec> {
+fn random_faults(kinds: &[String], s: &Setup, seed: u64) -> Vec<FaultSpec> {
     let mut state = seed ^ 0x5EED_50AC;
     let mut next = || {
         state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -258,7 +269,7 @@ fn steady_growth(samples: &[u64]) -> Option<(u64, u64)> {
 }
 
 pub fn run(o: &Options) -> Result<(String, bool), String> {
-    let base = crate::load_for_soak(&o.file, o)?;
+    let base = load_for_soak(&o.file, o)?;
     std::fs::create_dir_all(&o.out).map_err(|e| format!("{}: {e}", o.out.display()))?;
     let started = Instant::now();
     let shm_before = shm_entries();
@@ -287,8 +298,9 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
                 ov.duration_s = Some(fit);
             }
         }
-        let mut s = cohort_scenario::load(&o.file, &ov).map_err(|e| e.to_string())?;
-        s.faults.extend(random_faults(&o.faults, &s, seed));
+        let mut s = crate::load(&o.file, &ov).map_err(|e| e.to_string())?;
+        let extra = random_faults(&o.faults, &s, seed);
+        s.parsed.faults.extend(extra);
         let dirs = crate::prepare(&s, Some(&o.out.join(format!("run-{index:03}"))))
             .map_err(|_| "cannot create the run directory".to_string())?;
         let run_dir = dirs.root.display().to_string();
@@ -508,9 +520,9 @@ fn plots(out: &Path, rss: &[RssSample], shm: &[ShmSample], r: &SoakReport) -> Re
         by_proc.entry(&x.process).or_default().push((x.wall_s, x.rss_kb as f64 / 1024.0));
     }
     let series = by_proc.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
-    crate::report::draw_lines(&out.join("rss.png"), "RSS of every process (soak)", "RSS [MiB]", series)?;
+    cohort_report::chart::draw_lines(&out.join("rss.png"), "RSS of every process (soak)", "RSS [MiB]", series)?;
     let points = shm.iter().map(|x| (x.wall_s, x.entries as f64)).collect();
-    crate::report::draw_lines(
+    cohort_report::chart::draw_lines(
         &out.join("shm.png"),
         "iceoryx2 entries (soak)",
         "entries",
@@ -543,13 +555,13 @@ fn plots(out: &Path, rss: &[RssSample], shm: &[ShmSample], r: &SoakReport) -> Re
         }
         misses.push((run.wall_start_s, run.deadline_misses as f64));
     }
-    crate::report::draw_lines(
+    cohort_report::chart::draw_lines(
         &out.join("latency.png"),
         "Message latency per run, all links (soak)",
         "latency [µs]",
         lat,
     )?;
-    crate::report::draw_lines(
+    cohort_report::chart::draw_lines(
         &out.join("deadline_misses.png"),
         "Deadline misses per run (soak)",
         "misses",

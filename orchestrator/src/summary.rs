@@ -4,6 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use cohort_runtime::paper::Setup;
 use cohort_runtime::record::{ProcessReport, RunDirs};
 use cohort_scenario::Scenario;
 use serde::Serialize;
@@ -47,7 +48,7 @@ pub struct Summary {
     /// Multi-process: from the first spawn to every process ready, s.
     pub startup_s: Option<f64>,
     pub metrics: BTreeMap<String, f64>,
-    /// Non-numeric labels of the run (seed 004: the learning law and the coupling).
+    /// Non-numeric labels of the run (e.g. which learning law ran), from its algorithm.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub labels: BTreeMap<String, String>,
     pub messages_received: u64,
@@ -61,7 +62,7 @@ pub struct Summary {
     pub messages_unaccounted: Vec<String>,
     /// Faults carried out, roster changes and their effect (empty without faults).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub timeline: Vec<crate::supervise::TimelineEvent>,
+    pub timeline: Vec<cohort_runtime::record::TimelineEvent>,
 }
 
 /// Read one column of a timing CSV as integers (missing or malformed files give nothing: timing
@@ -80,10 +81,10 @@ pub struct Outcome {
     pub status: &'static str,
     pub error: Option<String>,
     pub wall_s: f64,
-    pub timeline: Vec<crate::supervise::TimelineEvent>,
+    pub timeline: Vec<cohort_runtime::record::TimelineEvent>,
 }
 
-pub fn build(s: &Scenario, dirs: &RunDirs, outcome: Outcome) -> Summary {
+pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
     let mut processes: Vec<ProcessReport> = Vec::new();
     let names = std::iter::once("plant".to_string()).chain((1..=s.n_agents()).map(|i| format!("agent-{i}")));
     for name in names {
@@ -138,7 +139,7 @@ pub fn build(s: &Scenario, dirs: &RunDirs, outcome: Outcome) -> Summary {
         steps_per_s: if loop_wall > 0.0 { steps_completed as f64 / loop_wall } else { 0.0 },
         startup_s: outcome.startup_s,
         metrics: plant.map(|p| p.metrics.clone()).unwrap_or_default(),
-        labels: crate::dai_analysis::labels(s),
+        labels: s.algorithm.labels(),
         messages_received: processes.iter().map(|p| p.messages_received).sum(),
         messages_rejected: rejected,
         timeouts: processes.iter().map(|p| p.timeouts).sum(),
@@ -162,7 +163,7 @@ pub fn write(dirs: &RunDirs, summary: &Summary) -> std::io::Result<()> {
 pub fn unaccounted(
     s: &Scenario,
     processes: &[ProcessReport],
-    timeline: &[crate::supervise::TimelineEvent],
+    timeline: &[cohort_runtime::record::TimelineEvent],
 ) -> Vec<String> {
     let complete = |name: &str| processes.iter().find(|p| p.process == name && p.error.is_none());
     let disturbed = |id: u32| timeline.iter().any(|e| e.agent == id && e.event != "alive");

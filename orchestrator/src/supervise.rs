@@ -18,9 +18,9 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
+use cohort_runtime::paper::Setup;
 use cohort_runtime::process::{EXIT_BUILD_MISMATCH, EXIT_STOPPED};
-use cohort_runtime::record::RunDirs;
-use cohort_scenario::Scenario;
+use cohort_runtime::record::{RunDirs, TimelineEvent};
 use cohort_scenario::faults::FaultPlan;
 use cohort_wire::msg::{
     PLANT_ID, Roster, STATUS_ALIVE, STATUS_DEAD, STATUS_HOLDING, STATUS_IDLE, STATUS_PROGRESS, STATUS_READY,
@@ -53,21 +53,6 @@ pub struct LaunchOutcome {
     pub exit_code: u8,
     /// Faults carried out and roster changes, in order.
     pub timeline: Vec<TimelineEvent>,
-}
-
-/// One entry of the run's fault timeline (`timeline.json`, folded into `summary.json`).
-#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
-pub struct TimelineEvent {
-    /// Wall time since the launch, s.
-    pub wall_s: f64,
-    /// The step it applies to (the plant's step when it was seen).
-    pub step: u64,
-    pub t_s: f64,
-    pub agent: u32,
-    /// kill, freeze, thaw, relaunch (process faults carried out); dead, alive (roster changes by
-    /// the plant); died (a process ended outside the plan); restore-failed.
-    pub event: String,
-    pub detail: String,
 }
 
 struct Kid {
@@ -194,7 +179,7 @@ fn spawn(
 }
 
 /// Launch and supervise one multi-process run.
-pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> LaunchOutcome {
+pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> LaunchOutcome {
     let started = Instant::now();
     let failed = |error: String| LaunchOutcome {
         status: "failed",
@@ -298,7 +283,7 @@ pub fn launch(s: &Scenario, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -
 
 /// What the supervision loop needs besides the children.
 struct Supervisor<'a> {
-    s: &'a Scenario,
+    s: &'a Setup,
     dirs: &'a RunDirs,
     run: &'a IoxRun,
     services: &'a IoxServices,
@@ -450,7 +435,7 @@ impl Supervisor<'_> {
         startup_s: &mut Option<f64>,
     ) -> (Option<String>, Option<usize>) {
         let s = self.s;
-        let degrade = s.run.on_agent_loss == "degrade";
+        let degrade = s.run.on_agent_loss == cohort_scenario::OnAgentLoss::Degrade;
         let startup_limit = Duration::from_secs_f64(s.run.startup_timeout_s);
         let my_hash = cohort_wire::build_id_hash();
         let mut start_granted = false;
@@ -507,7 +492,7 @@ impl Supervisor<'_> {
                         self.event(st.step, a, if dead { "dead" } else { "alive" }, detail);
                         // What the survivors' graph still satisfies.
                         let live: Vec<bool> = off_roster.iter().skip(1).map(|off| !off).collect();
-                        let now = cohort_scenario::live_graph::warnings(&s.agents, &live);
+                        let now = s.roster_warnings(&live);
                         for w in now.iter().filter(|w| !warned.contains(*w)) {
                             eprintln!(
                                 "warning: from step {} (t = {:.3} s): {w}",
@@ -651,7 +636,7 @@ impl Supervisor<'_> {
 /// The failure message: a process killed by a signal if there is one, else the agent the plant
 /// was stuck waiting for, else the first failed process; each with the step and its log's last
 /// line, followed by the other failures.
-fn blame(s: &Scenario, dirs: &RunDirs, kids: &[Kid], plant_waiting: Option<(u64, u32)>, plant_step: u64) -> String {
+fn blame(s: &Setup, dirs: &RunDirs, kids: &[Kid], plant_waiting: Option<(u64, u32)>, plant_step: u64) -> String {
     let failed: Vec<&Kid> = kids.iter().filter(|k| k.exit.is_some_and(|st| !st.success())).collect();
     let t = |step: u64| step as f64 * s.scenario.dt_s;
     let describe = |k: &Kid| {

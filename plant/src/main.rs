@@ -1,5 +1,6 @@
 //! The `plant` process: integrates the truth, produces every agent's readings, applies their
-//! commands. Launched by the orchestrator; see `cohort_runtime::process` for exit codes.
+//! commands. Launched by the orchestrator; see `cohort_runtime::process` for exit codes. The model
+//! comes from the paper that registered the scenario's plant kind (`papers/registry`).
 
 use std::process::ExitCode;
 
@@ -17,9 +18,9 @@ struct Args {
 
 fn main() -> ExitCode {
     let spec = Args::parse().common.into_spec(Proc::Plant);
-    child_main(spec, |scenario, transport, params| {
-        let mut model = plant::build(scenario);
-        let mut rng = cohort_runtime::rng::process_rng(scenario.scenario.seed, Proc::Plant);
-        cohort_runtime::drive::run_plant(transport, model.as_mut(), &mut rng, scenario.n_agents(), params)
+    child_main(spec, cohort_registry::PAPERS, |setup, transport, params| {
+        let mut model = setup.plant.build(setup);
+        let mut rng = cohort_runtime::rng::process_rng(setup.scenario.seed, Proc::Plant);
+        cohort_runtime::drive::run_plant(transport, model.as_mut(), &mut rng, setup.n_agents(), params)
     })
 }

@@ -52,6 +52,21 @@ pub enum RunError {
     Diverged { step: u64, t_s: f64, who: &'static str, what: String },
 }
 
+impl RunError {
+    /// The report's form of this error.
+    pub fn to_report(&self) -> crate::record::ProcessError {
+        use crate::record::ErrorKind;
+        let kind = match self {
+            RunError::Timeout { .. } => ErrorKind::Timeout,
+            RunError::Stopped { .. } => ErrorKind::Stopped,
+            RunError::Transport(_) => ErrorKind::Transport,
+            RunError::Io { .. } => ErrorKind::Io,
+            RunError::Diverged { .. } => ErrorKind::Diverged,
+        };
+        crate::record::ProcessError::new(kind, self.to_string())
+    }
+}
+
 fn io(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> RunError {
     let what = what.into();
     move |source| RunError::Io { what, source }
@@ -77,7 +92,7 @@ pub struct DriveParams {
     pub realtime_rate: Option<f64>,
     /// The run's fault plan (empty: none), shared by every process.
     pub faults: Arc<FaultPlan>,
-    /// `run.on_agent_loss == "degrade"`: a dead or silent agent is dropped from the roster and
+    /// `run.on_agent_loss = "degrade"`: a dead or silent agent is dropped from the roster and
     /// the run goes on; otherwise it ends the run.
     pub degrade: bool,
     /// `run.checkpoint_every_steps` (0: none).
@@ -110,14 +125,15 @@ impl DriveParams {
         }
     }
 
-    /// The settings a scenario asks for.
-    pub fn from_scenario(
-        s: &cohort_scenario::Scenario,
+    /// The settings a configured scenario asks for.
+    pub fn from_setup(
+        setup: &crate::paper::Setup,
         run_id: u64,
         dirs: RunDirs,
         terminate: Arc<AtomicBool>,
         process_start: Instant,
     ) -> Self {
+        let s = &setup.parsed;
         Self {
             run_id,
             n_steps: s.n_steps(),
@@ -130,9 +146,9 @@ impl DriveParams {
             link_delay_steps: s.run.link_delay_steps,
             realtime_rate: s.run.realtime_rate,
             faults: Arc::new(FaultPlan::from_scenario(s)),
-            degrade: s.run.on_agent_loss == "degrade",
+            degrade: s.run.on_agent_loss == cohort_scenario::OnAgentLoss::Degrade,
             checkpoint_every: s.run.checkpoint_every_steps,
-            algorithm_kind: s.algorithm.kind().to_string(),
+            algorithm_kind: setup.algorithm.kind().to_string(),
             hold_timeout: Duration::from_secs_f64(s.run.startup_timeout_s + 2.0 * s.run.step_timeout_s),
         }
     }
@@ -152,10 +168,10 @@ pub enum SpinPolicy {
 
 /// Spin policy for `run.wait`.
 pub fn spin_budget(run: &cohort_scenario::RunSettings) -> SpinPolicy {
-    match run.wait.as_str() {
-        "event" => SpinPolicy::Fixed(Duration::ZERO),
-        "poll" => SpinPolicy::Fixed(Duration::from_secs_f64(run.step_timeout_s)),
-        _ => match run.spin_us {
+    match run.wait {
+        cohort_scenario::Wait::Event => SpinPolicy::Fixed(Duration::ZERO),
+        cohort_scenario::Wait::Poll => SpinPolicy::Fixed(Duration::from_secs_f64(run.step_timeout_s)),
+        cohort_scenario::Wait::Adaptive => match run.spin_us {
             Some(us) => SpinPolicy::Fixed(Duration::from_secs_f64(us * 1e-6)),
             None => SpinPolicy::Adaptive,
         },
@@ -350,7 +366,7 @@ pub fn run_plant<T: Transport + ?Sized>(
         }
     }
     if let Err(e) = result {
-        report.error = Some(e.to_string());
+        report.error = Some(e.to_report());
     } else {
         t.report(&status(p, PLANT_ID, STATUS_DONE, p.n_steps, 0));
     }
@@ -746,7 +762,7 @@ pub fn run_agent<T: Transport + ?Sized>(
     report.solver = algo.solver_stats();
     (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
     if let Err(e) = result {
-        report.error = Some(e.to_string());
+        report.error = Some(e.to_report());
     } else {
         t.report(&status(p, id, STATUS_DONE, p.n_steps, 0));
     }
@@ -1413,7 +1429,7 @@ mod tests {
         let base = std::env::temp_dir().join(format!("cohort-drive-silent-{}", std::process::id()));
         let started = Instant::now();
         let (pr, _, _) = run(&base, Setup { silent: Some(3), abort: true, ..Default::default() });
-        let err = pr.error.expect("the plant must fail");
+        let err = pr.error.expect("the plant must fail").message;
         assert!(err.contains("timeout at step 0") && err.contains("agent 3"), "{err}");
         assert!(started.elapsed() < Duration::from_secs(30));
         let _ = std::fs::remove_dir_all(&base);

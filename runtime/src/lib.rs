@@ -1,10 +1,12 @@
-//! Cohort's runtime: the traits a plant model and an algorithm implement ([`model`]), the
+//! Cohort's runtime: the traits a plant model and an algorithm implement ([`model`]), how a paper
+//! provides them ([`paper`]), the
 //! lockstep step drivers generic over the transport ([`drive`]), what a process records
 //! ([`record`]), and per-process random generators ([`rng`]).
 
 pub mod checkpoint;
 pub mod drive;
 pub mod model;
+pub mod paper;
 pub mod process;
 pub mod record;
 pub mod rng;

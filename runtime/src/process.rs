@@ -14,12 +14,13 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use cohort_scenario::Scenario;
+use cohort_scenario::TransportKind;
 use cohort_wire::transport::iox::{IoxRun, IoxTransport};
 use cohort_wire::transport::udp::UdpTransport;
 use cohort_wire::transport::{Proc, Transport};
 
 use crate::drive::DriveParams;
+use crate::paper::{Paper, Setup};
 use crate::record::{ProcessReport, RunDirs};
 
 pub const EXIT_OK: u8 = 0;
@@ -71,10 +72,12 @@ fn log(me: Proc, start: Instant, msg: impl std::fmt::Display) {
     eprintln!("[{:9.3} s] {}: {msg}", start.elapsed().as_secs_f64(), me.name());
 }
 
-/// Run one child process to its end. `run` builds the model and calls the driver.
+/// Run one child process to its end. The run directory's resolved scenario is configured with
+/// the kinds of `papers` (the registry's list); `run` builds the model and calls the driver.
 pub fn child_main(
     spec: ChildSpec,
-    run: impl FnOnce(&Scenario, &mut dyn Transport, &DriveParams) -> ProcessReport,
+    papers: &[&'static dyn Paper],
+    run: impl FnOnce(&Setup, &mut dyn Transport, &DriveParams) -> ProcessReport,
 ) -> ExitCode {
     let start = Instant::now();
     let me = spec.me;
@@ -96,7 +99,7 @@ pub fn child_main(
     };
     let dirs = RunDirs::new(&spec.run_dir);
     let overrides = cohort_scenario::Overrides { step_timeout_s: spec.step_timeout_s, ..Default::default() };
-    let scenario = match cohort_scenario::load(&spec.run_dir.join("scenario.toml"), &overrides) {
+    let scenario = match crate::paper::load(&spec.run_dir.join("scenario.toml"), &overrides, papers) {
         Ok(s) => s,
         Err(e) => {
             log(me, start, e);
@@ -120,12 +123,12 @@ pub fn child_main(
     }
     let topo = scenario.topology();
     let iox_run = IoxRun::new(run_id);
-    let opened: Result<Box<dyn Transport>, _> = match scenario.run.transport.as_str() {
-        "udp" => {
+    let opened: Result<Box<dyn Transport>, _> = match scenario.run.transport {
+        TransportKind::Udp => {
             let timeout = Duration::from_secs_f64(scenario.run.startup_timeout_s);
             UdpTransport::open(&iox_run, &topo, me, &spec.run_dir.join("udp"), timeout).map(|t| Box::new(t) as _)
         }
-        _ => IoxTransport::open(&iox_run, &topo, me).map(|t| Box::new(t) as _),
+        TransportKind::Iceoryx2 => IoxTransport::open(&iox_run, &topo, me).map(|t| Box::new(t) as _),
     };
     let mut transport = match opened {
         Ok(t) => t,
@@ -134,7 +137,7 @@ pub fn child_main(
             return ExitCode::from(EXIT_RUN_FAILED);
         }
     };
-    let params = DriveParams::from_scenario(&scenario, run_id, dirs.clone(), terminate, start);
+    let params = DriveParams::from_setup(&scenario, run_id, dirs.clone(), terminate, start);
     log(me, start, format!("ready ({} steps of {} s)", params.n_steps, params.dt_s));
     let report = run(&scenario, transport.as_mut(), &params);
     drop(transport); // release the ports before exiting
@@ -146,7 +149,7 @@ pub fn child_main(
             log(me, start, format!("done: {} steps in {:.3} s", report.steps_completed, report.wall_s));
             ExitCode::from(EXIT_OK)
         }
-        Some(e) if e.starts_with("stopped") => {
+        Some(e) if e.is_stop() => {
             log(me, start, e);
             ExitCode::from(EXIT_STOPPED)
         }

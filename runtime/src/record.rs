@@ -99,6 +99,62 @@ pub fn reject_map(c: &RejectCounts) -> std::collections::BTreeMap<String, u64> {
     Rejection::ALL.iter().map(|r| (r.name().to_string(), c.get(*r))).collect()
 }
 
+/// One entry of the run's fault timeline (`timeline.json`, folded into `summary.json`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TimelineEvent {
+    /// Wall time since the launch, s.
+    pub wall_s: f64,
+    /// The step it applies to (the plant's step when it was seen).
+    pub step: u64,
+    pub t_s: f64,
+    pub agent: u32,
+    /// kill, freeze, thaw, relaunch (process faults carried out); dead, alive (roster changes by
+    /// the plant); died (a process ended outside the plan); restore-failed.
+    pub event: String,
+    pub detail: String,
+}
+
+/// Why a process ended before its last step, by kind: the exit code and the orchestrator's
+/// diagnosis go by the kind, never by the wording.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ErrorKind {
+    /// Stopped on request (a stop message, SIGTERM, or another process's failure).
+    Stopped,
+    /// A peer stayed silent past the step timeout.
+    Timeout,
+    /// The messaging failed.
+    Transport,
+    /// Writing telemetry, timing or a checkpoint failed.
+    Io,
+    /// The model produced a non-finite number.
+    Diverged,
+    /// A relaunched agent could not restore its checkpoint.
+    Checkpoint,
+}
+
+/// A process's error: its kind and the message, which names who, what and the step.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProcessError {
+    pub kind: ErrorKind,
+    pub message: String,
+}
+
+impl ProcessError {
+    pub fn new(kind: ErrorKind, message: impl Into<String>) -> Self {
+        Self { kind, message: message.into() }
+    }
+    pub fn is_stop(&self) -> bool {
+        self.kind == ErrorKind::Stopped
+    }
+}
+
+impl std::fmt::Display for ProcessError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
 /// Written by every process at exit (success or failure) to `status/<proc>.json`; the
 /// orchestrator folds them into `summary.json`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -121,7 +177,7 @@ pub struct ProcessReport {
     /// Headline metrics (plant only).
     pub metrics: std::collections::BTreeMap<String, f64>,
     /// Why the process ended early, if it did.
-    pub error: Option<String>,
+    pub error: Option<ProcessError>,
     /// Faults injected by and seen by this process.
     #[serde(default)]
     pub faults: FaultReport,

@@ -13,3 +13,7 @@ pub const BUILD_ID: &str = env!("COHORT_BUILD_ID");
 pub fn build_id_hash() -> u64 {
     BUILD_ID.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
 }
+
+/// The workspace member directories [`BUILD_ID`] covers (relative to the root, `.` for the root
+/// package), comma-separated: every member, or a stale binary could pass the handshake.
+pub const BUILD_ID_MEMBERS: &str = env!("COHORT_BUILD_ID_MEMBERS");

@@ -1,0 +1,184 @@
+//! The host side of a paper: what it adds to the orchestrator, and what the orchestrator offers it.
+//! A paper implements [`PaperHost`] (on the same value that implements the runtime's `Paper`) to
+//! add summary metrics computed from a run's telemetry, its own figures, and its own subcommand
+//! (`orchestrator <paper> …`: comparison tables, training, campaigns). Paper crates never import
+//! the orchestrator: a command gets a [`Launcher`] that validates and runs scenarios for it.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use cohort_runtime::paper::{Paper, Setup};
+use cohort_runtime::record::{RunDirs, TimelineEvent};
+use cohort_scenario::{Overrides, Scenario, ScenarioError};
+
+pub use cohort_report::{FigureSource, PaperFigure, ReportError};
+
+/// Summary metrics by name (units in the names).
+pub type Metrics = BTreeMap<String, f64>;
+
+/// A finished (or partial) run as a paper's analysis sees it.
+pub struct RunView<'a> {
+    pub setup: &'a Setup,
+    pub dirs: &'a RunDirs,
+}
+
+/// What a paper adds on the host side. Every method has a default that adds nothing, so a paper
+/// implements only what it has.
+pub trait PaperHost: Paper {
+    /// Summary metrics computed after a run from its telemetry alone (so they are the same for
+    /// the multi-process and the reference run), for a run of this paper's kinds; a paper may
+    /// also write joined series to `derived/`. Called also after a failed run, on what was
+    /// written.
+    fn analyse(&self, _run: &RunView<'_>) -> Result<Metrics, String> {
+        Ok(Metrics::new())
+    }
+    /// The effect of each fault of `timeline` on the paper's headline metric (called after
+    /// [`PaperHost::analyse`], only when faults were carried out).
+    fn fault_effects(&self, _run: &RunView<'_>, _timeline: &[TimelineEvent]) -> Result<Metrics, String> {
+        Ok(Metrics::new())
+    }
+    /// The paper's figures of the run of `setup` in `run_dir` (drawn before the generic ones), if
+    /// it has any.
+    fn figures(&self, _setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
+        None
+    }
+    /// Offline training jobs, `orchestrator train <trainer> …`: each a subcommand named for what
+    /// it trains (unique across papers; the registry's test checks).
+    fn trainers(&self) -> Vec<clap::Command> {
+        Vec::new()
+    }
+    /// Run trainer `name` (one of [`PaperHost::trainers`]) with its own `matches`. Returns what
+    /// to print on stdout.
+    fn run_trainer(&self, name: &str, _matches: &clap::ArgMatches) -> Result<String, CommandError> {
+        Err(CommandError::invalid(format!("{} has no trainer {name:?}", self.name())))
+    }
+    /// Scenario files (relative to the repository root) that `orchestrator bench` measures
+    /// multi-process against the in-process reference: the paper's headline case.
+    fn bench_scenarios(&self) -> Vec<&'static str> {
+        Vec::new()
+    }
+    /// The paper's subcommand, `orchestrator <name> …` (named [`Paper::name`]).
+    fn command(&self) -> Option<clap::Command> {
+        None
+    }
+    /// Run the subcommand; `matches` are the subcommand's own. Returns what to print on stdout.
+    fn run_command(&self, _matches: &clap::ArgMatches, _launcher: &dyn Launcher) -> Result<String, CommandError> {
+        Err(CommandError::invalid(format!("{} has no subcommand", self.name())))
+    }
+}
+
+/// How a paper command failed: the message and the exit code (2 bad input, 1 failed, 128 + n
+/// interrupted by signal n).
+#[derive(Debug, Clone)]
+pub struct CommandError {
+    pub message: String,
+    pub exit_code: u8,
+}
+
+impl CommandError {
+    /// Bad input (exit 2): a wrong argument, an invalid scenario.
+    pub fn invalid(message: impl Into<String>) -> Self {
+        Self { message: message.into(), exit_code: 2 }
+    }
+    /// The work failed (exit 1).
+    pub fn failed(message: impl Into<String>) -> Self {
+        Self { message: message.into(), exit_code: 1 }
+    }
+}
+
+impl std::fmt::Display for CommandError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl From<ScenarioError> for CommandError {
+    fn from(e: ScenarioError) -> Self {
+        Self::invalid(e.to_string())
+    }
+}
+
+/// Where a run's processes run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// One process per plant and agent (or a coupled run, for scenarios that have one).
+    MultiProcess,
+    /// Threads of the orchestrator over the in-memory transport (bit-identical, faster).
+    Reference,
+}
+
+/// How a paper command wants a run made.
+#[derive(Debug, Clone, Copy)]
+pub struct RunOptions {
+    pub mode: Mode,
+    /// Draw the run's plots after a successful run.
+    pub plots: bool,
+}
+
+/// A run's outcome, as a paper command sees it.
+#[derive(Debug, Clone)]
+pub struct RunResult {
+    pub dir: PathBuf,
+    /// "ok", "failed", "degraded" or "interrupted".
+    pub status: String,
+    /// How the run was made: "multi-process", "reference" or a coupled mode's name.
+    pub mode: String,
+    pub error: Option<String>,
+    pub exit_code: u8,
+    pub wall_s: f64,
+    pub steps_completed: u64,
+    pub metrics: Metrics,
+    /// Messages rejected by every reader, by reason.
+    pub messages_rejected: BTreeMap<String, u64>,
+}
+
+impl RunResult {
+    /// A metric, NaN when the run did not produce it.
+    pub fn metric(&self, name: &str) -> f64 {
+        self.metrics.get(name).copied().unwrap_or(f64::NAN)
+    }
+}
+
+/// What the orchestrator does for a paper command.
+pub trait Launcher {
+    /// Read, validate and configure a scenario file with every registered paper.
+    fn load(&self, file: &Path, overrides: &Overrides) -> Result<Setup, ScenarioError>;
+    /// Validate and configure a scenario a command built or edited (its sections raw, e.g. an
+    /// algorithm table replaced with `table_of` a changed typed configuration); `name` stands in
+    /// for the file in messages.
+    fn configure(&self, scenario: Scenario, name: &str) -> Result<Setup, ScenarioError>;
+    /// Run a configured scenario into `dir` (absent or empty), write its summary, and return it.
+    /// Err only when nothing could be run (the directory); a run that failed is an Ok with an
+    /// error.
+    fn run(&self, setup: &Setup, dir: &Path, options: RunOptions) -> Result<RunResult, String>;
+    /// Draw a run directory's plots.
+    fn report(&self, run_dir: &Path) -> Result<Vec<PathBuf>, String>;
+    /// The signal that interrupted the orchestrator (Ctrl-C, SIGTERM), if one did: a long command
+    /// stops between runs.
+    fn interrupted(&self) -> Option<i32>;
+}
+
+/// `YYYYMMDDTHHMMSS.mmmZ` for the current UTC time (names default output directories).
+pub fn utc_stamp() -> String {
+    use std::time::{SystemTime, UNIX_EPOCH};
+    let d = SystemTime::now().duration_since(UNIX_EPOCH).unwrap_or_default();
+    let secs = d.as_secs() as i64;
+    let (days, sod) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Civil date from days since 1970-01-01 (H. Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}{month:02}{day:02}T{:02}{:02}{:02}.{:03}Z",
+        sod / 3600,
+        (sod / 60) % 60,
+        sod % 60,
+        d.subsec_millis()
+    )
+}

@@ -1,0 +1,181 @@
+//! One run from a configured scenario to its summary (multi-process, reference, or a paper's
+//! coupled mode), the papers' analyses folded in; the report of a run directory; and the
+//! [`Launcher`] the papers' commands run scenarios through.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
+
+use cohort_host::{Launcher, Mode, RunOptions, RunResult, RunView};
+use cohort_runtime::paper::{CoupledCtx, Setup};
+use cohort_runtime::record::RunDirs;
+use cohort_scenario::{Overrides, Scenario, ScenarioError};
+use cohort_wire::transport::iox::IoxRun;
+
+use crate::supervise::{LaunchOutcome, SIGNALLED};
+use crate::{EXIT_FAILED, EXIT_INVALID, progress, reference, rundir, summary, supervise};
+
+/// Read, validate and configure a scenario file with every registered paper.
+pub fn load(file: &Path, o: &Overrides) -> Result<Setup, ScenarioError> {
+    cohort_registry::load(file, o)
+}
+
+/// A fresh run id: random, so concurrent runs never share iceoryx2 resources.
+fn new_run_id() -> u64 {
+    let mut b = [0u8; 8];
+    if std::fs::File::open("/dev/urandom").and_then(|mut f| std::io::Read::read_exact(&mut f, &mut b)).is_ok() {
+        return u64::from_le_bytes(b);
+    }
+    let t = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+    (t.as_nanos() as u64) ^ (u64::from(std::process::id()) << 32)
+}
+
+/// The signal that interrupted the orchestrator, if one did.
+fn signalled() -> Option<i32> {
+    match SIGNALLED.load(Ordering::SeqCst) {
+        0 => None,
+        sig => Some(sig as i32),
+    }
+}
+
+/// A paper's coupled in-process run (see `AlgorithmSetup::coupled`), as a launch outcome with the
+/// mode's name.
+fn coupled(s: &Setup, dirs: &RunDirs, progress: &progress::Progress) -> Option<(LaunchOutcome, &'static str)> {
+    let run = s.algorithm.coupled()?;
+    let ctx = CoupledCtx { progress: &|k| progress.set(k), interrupted: &signalled };
+    let out = run.run(s, dirs, &ctx);
+    let (status, exit_code) = match (out.interrupted, &out.error) {
+        (Some(sig), _) => ("interrupted", 128 + sig as u8),
+        (None, Some(_)) => ("failed", 1),
+        (None, None) => ("ok", 0),
+    };
+    let outcome = LaunchOutcome {
+        status,
+        error: out.error,
+        wall_s: out.wall_s,
+        startup_s: None,
+        exit_code,
+        timeline: Vec::new(),
+    };
+    Some((outcome, run.name()))
+}
+
+/// One run, start to summary: the run directory must exist with its scenario.toml written.
+pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool) -> (LaunchOutcome, summary::Summary) {
+    let run_id = new_run_id();
+    let progress = progress::Progress::new(s.n_steps(), s.scenario.dt_s, &s.scenario.name, show_progress);
+    let (outcome, mode) = match coupled(s, dirs, &progress) {
+        Some(o) => o,
+        None if reference => (reference::launch(s, dirs, run_id, &progress), "reference"),
+        None => (supervise::launch(s, dirs, &IoxRun::new(run_id), &progress), "multi-process"),
+    };
+    progress.finish();
+    let mut summary = summary::build(
+        s,
+        dirs,
+        summary::Outcome {
+            startup_s: outcome.startup_s,
+            mode,
+            run_id: format!("{run_id:016x}"),
+            status: outcome.status,
+            error: outcome.error.clone(),
+            wall_s: outcome.wall_s,
+            timeline: outcome.timeline.clone(),
+        },
+    );
+    // Derived quantities come from the telemetry alone, so a partial run gets them too.
+    let view = RunView { setup: s, dirs };
+    for host in cohort_registry::hosts_of(s) {
+        match host.analyse(&view) {
+            Ok(extra) => summary.metrics.extend(extra),
+            Err(e) => eprintln!("warning: {} analysis skipped: {e}", host.name()),
+        }
+        if !outcome.timeline.is_empty() {
+            match host.fault_effects(&view, &outcome.timeline) {
+                Ok(extra) => summary.metrics.extend(extra),
+                Err(e) => eprintln!("warning: {} fault effects skipped: {e}", host.name()),
+            }
+        }
+    }
+    if let Err(e) = summary::write(dirs, &summary) {
+        eprintln!("error: cannot write {}: {e}", dirs.root.join("summary.json").display());
+    }
+    (outcome, summary)
+}
+
+/// Create the run directory and write the resolved scenario into it.
+pub fn prepare(s: &Setup, out: Option<&Path>) -> Result<RunDirs, ExitCode> {
+    let dirs = rundir::create(out, &s.scenario.name).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(EXIT_INVALID)
+    })?;
+    let path = dirs.root.join("scenario.toml");
+    let text = s.to_toml().map_err(|e| {
+        eprintln!("error: {}: the resolved scenario does not serialise: {e}", path.display());
+        ExitCode::from(EXIT_INVALID)
+    })?;
+    std::fs::write(&path, text).map_err(|e| {
+        eprintln!("error: {}: {e}", path.display());
+        ExitCode::from(EXIT_FAILED)
+    })?;
+    Ok(dirs)
+}
+
+/// The plots of a run directory: the papers' figures of its scenario, then the generic ones. A
+/// run directory whose scenario no longer validates (an older version's) gets the generic ones.
+pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, String> {
+    let setup = match load(&run_dir.join("scenario.toml"), &Overrides::default()) {
+        Ok(s) => Some(s),
+        Err(e) => {
+            eprintln!("warning: the run's scenario does not load, so only the generic figures are drawn: {e}");
+            None
+        }
+    };
+    let sources: Vec<Box<dyn cohort_host::FigureSource>> = setup
+        .as_ref()
+        .map(|s| cohort_registry::hosts_of(s).into_iter().filter_map(|h| h.figures(s, run_dir)).collect())
+        .unwrap_or_default();
+    let refs: Vec<&dyn cohort_host::FigureSource> = sources.iter().map(|b| b.as_ref()).collect();
+    cohort_report::report(run_dir, &refs).map_err(|e| e.to_string())
+}
+
+/// The [`Launcher`] of the papers' commands.
+pub struct Orchestrator;
+
+impl Launcher for Orchestrator {
+    fn load(&self, file: &Path, overrides: &Overrides) -> Result<Setup, ScenarioError> {
+        load(file, overrides)
+    }
+    fn configure(&self, scenario: Scenario, name: &str) -> Result<Setup, ScenarioError> {
+        cohort_runtime::paper::configure(scenario, cohort_registry::PAPERS)
+            .map_err(|problems| ScenarioError { file: PathBuf::from(name), problems })
+    }
+    fn run(&self, setup: &Setup, dir: &Path, options: RunOptions) -> Result<RunResult, String> {
+        let dirs =
+            prepare(setup, Some(dir)).map_err(|_| format!("{}: cannot prepare the run directory", dir.display()))?;
+        let (outcome, summary) = run_once(setup, &dirs, options.mode == Mode::Reference, false);
+        if options.plots
+            && outcome.error.is_none()
+            && let Err(e) = report(&dirs.root)
+        {
+            eprintln!("warning: {}: plots not drawn: {e}", dirs.root.display());
+        }
+        Ok(RunResult {
+            dir: dirs.root.clone(),
+            status: summary.status.to_string(),
+            mode: summary.mode.to_string(),
+            error: outcome.error,
+            exit_code: outcome.exit_code,
+            wall_s: outcome.wall_s,
+            steps_completed: summary.steps_completed,
+            metrics: summary.metrics,
+            messages_rejected: summary.messages_rejected,
+        })
+    }
+    fn report(&self, run_dir: &Path) -> Result<Vec<PathBuf>, String> {
+        report(run_dir)
+    }
+    fn interrupted(&self) -> Option<i32> {
+        signalled()
+    }
+}

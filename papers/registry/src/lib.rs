@@ -1,0 +1,134 @@
+//! The registry: the only list of papers. The binaries look a scenario's kinds up in [`PAPERS`]
+//! (the plant and agent processes) and a paper's analysis, figures and commands up in [`HOSTS`]
+//! (the orchestrator). Adding a paper is one line in [`registry!`]'s list below, its dependency in
+//! this crate's `Cargo.toml`, and its folder under `papers/` (see `papers/README.md`).
+
+use std::path::Path;
+
+use cohort_host::PaperHost;
+use cohort_runtime::paper::{Paper, Setup};
+use cohort_scenario::{Overrides, ScenarioError};
+
+/// Declares [`PAPERS`] and [`HOSTS`] from one list of paper values, each of which implements both
+/// traits.
+macro_rules! registry {
+    ($($paper:path),* $(,)?) => {
+        /// Every paper's kinds, for configuring a scenario.
+        pub static PAPERS: &[&dyn Paper] = &[$(&$paper),*];
+        /// Every paper's host side (analysis, figures, commands), in the same order.
+        pub static HOSTS: &[&dyn PaperHost] = &[$(&$paper),*];
+    };
+}
+
+registry! {
+    cohort_paper_common::Common,
+    cohort_paper_fig1::Fig1,
+    cohort_paper_tsnr::Tsnr,
+    cohort_paper_dai::Dai,
+}
+
+/// Read, parse, validate and configure a scenario file with every registered paper.
+pub fn load(file: &Path, overrides: &Overrides) -> Result<Setup, ScenarioError> {
+    cohort_runtime::paper::load(file, overrides, PAPERS)
+}
+
+/// The host sides of the papers a setup uses (its plant's paper first).
+pub fn hosts_of(setup: &Setup) -> Vec<&'static dyn PaperHost> {
+    setup.papers.iter().filter_map(|name| HOSTS.iter().find(|h| h.name() == *name).copied()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::{Path, PathBuf};
+
+    use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
+
+    use super::*;
+
+    fn topologies() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies")
+    }
+
+    fn scenario(file: &str) -> Setup {
+        load(&topologies().join(file), &Default::default()).unwrap()
+    }
+
+    #[test]
+    fn kinds_and_names_are_unique_and_hosts_match_papers() {
+        let problems = cohort_runtime::paper::registry_problems(PAPERS);
+        assert!(problems.is_empty(), "{problems:?}");
+        let papers: Vec<&str> = PAPERS.iter().map(|p| p.name()).collect();
+        let hosts: Vec<&str> = HOSTS.iter().map(|h| h.name()).collect();
+        assert_eq!(papers, hosts);
+        let mut trainers: Vec<String> =
+            HOSTS.iter().flat_map(|h| h.trainers()).map(|t| t.get_name().to_string()).collect();
+        let n = trainers.len();
+        trainers.sort();
+        trainers.dedup();
+        assert_eq!(trainers.len(), n, "two papers register a trainer of the same name: {trainers:?}");
+    }
+
+    /// Every valid scenario file configures, and its resolved TOML (what the child processes
+    /// read from the run directory) configures to the same resolved TOML again.
+    #[test]
+    fn every_scenario_round_trips_through_its_resolved_toml() {
+        let mut n = 0;
+        for entry in std::fs::read_dir(topologies()).unwrap() {
+            let path = entry.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            if !name.ends_with(".toml") || name.starts_with("invalid-") {
+                continue;
+            }
+            let s = load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}"));
+            let resolved = s.to_toml().unwrap();
+            let again = cohort_scenario::parse(&resolved, Path::new("resolved.toml"), &Default::default())
+                .map_err(|e| e.to_string())
+                .and_then(|raw| {
+                    cohort_runtime::paper::configure(raw, PAPERS)
+                        .map_err(|p| p.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("; "))
+                })
+                .unwrap_or_else(|e| panic!("{name}: the resolved scenario does not configure: {e}"));
+            assert_eq!(again.to_toml().unwrap(), resolved, "{name}");
+            n += 1;
+        }
+        assert!(n >= 10, "only {n} scenarios found");
+    }
+
+    /// Run `steps` steps with made-up readings and neighbour values.
+    fn drive(a: &mut dyn Algorithm, n_readings: usize, from: u64, steps: u64, out: &mut Vec<f64>) {
+        let mut share = ShareOut::default();
+        for k in from..from + steps {
+            let readings: Vec<f64> = (0..n_readings).map(|r| ((k * 7 + r as u64) % 13) as f64 * 0.1 - 0.6).collect();
+            share.command.clear();
+            share.values.clear();
+            a.share(&AgentInput { k, t_s: k as f64 * 0.01, readings: &readings }, &mut share);
+            out.extend(&share.command);
+            out.extend(&share.values);
+            let nb_values = share.values.clone();
+            a.step(0.01, &[Neighbour { id: 2, values: &nb_values }]);
+        }
+    }
+
+    /// Checkpoints of several algorithm kinds: restoring a saved state into a freshly built agent
+    /// gives back the same state, bit for bit, and the same behaviour afterwards.
+    #[test]
+    fn every_algorithm_restores_its_checkpoint_exactly() {
+        for (file, id, n_readings) in [("fig1.toml", 1, 7), ("consensus-ring.toml", 1, 3), ("dai.toml", 1, 3)] {
+            let s = scenario(file);
+            let mut a = s.algorithm.build(&s, id);
+            let mut trace = Vec::new();
+            drive(a.as_mut(), n_readings, 0, 20, &mut trace);
+            let saved = a.save_state();
+            let mut b = s.algorithm.build(&s, id);
+            assert_ne!(b.save_state(), saved, "{file}: a fresh agent already equals the stepped one");
+            b.restore_state(&saved).unwrap();
+            assert_eq!(b.save_state(), saved, "{file}: restored state differs");
+            let (mut ta, mut tb) = (Vec::new(), Vec::new());
+            drive(a.as_mut(), n_readings, 20, 10, &mut ta);
+            drive(b.as_mut(), n_readings, 20, 10, &mut tb);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&ta), bits(&tb), "{file}: behaviour after the restore differs");
+            assert!(b.restore_state(&saved[..saved.len() / 2]).is_err(), "{file}: half a state must be refused");
+        }
+    }
+}

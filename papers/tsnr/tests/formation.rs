@@ -1,0 +1,112 @@
+//! Seed 001's formation controllers (AEMC, DMPC, SMC) on the net plant through the orchestrator:
+//! each closes the net on its target in both cases without exceeding the thrust bound, every QP
+//! is solved, and the multi-process run is bit-identical to its in-process reference. Build the
+//! binaries first (`scripts/test` does).
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use cohort::{
+    csv_column, describe_output, launch_scenario, orchestrator_command, read_json, repo_root,
+    scenario_text_with_absolute_paths, scratch_dir,
+};
+
+static HEAVY: Mutex<()> = Mutex::new(());
+
+fn heavy() -> std::sync::MutexGuard<'static, ()> {
+    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// `topologies/tsnr-case{case}.toml` with `method` selected, written into `dir`.
+fn scenario(case: u32, method: &str, dir: &Path) -> PathBuf {
+    let text = scenario_text_with_absolute_paths(&format!("tsnr-case{case}.toml"));
+    let line = "\nmethod = \"aemc\"\n";
+    assert_eq!(text.matches(line).count(), 1, "tsnr-case{case}.toml selects AEMC on one line");
+    let path = dir.join(format!("case{case}-{method}.toml"));
+    std::fs::write(&path, text.replace(line, &format!("\nmethod = \"{method}\"\n"))).unwrap();
+    path
+}
+
+#[test]
+fn every_method_closes_the_net_within_the_thrust_bound_in_both_cases() {
+    let _g = heavy();
+    let dir = scratch_dir("tsnr-formation");
+    for case in [1, 2] {
+        for method in ["aemc", "dmpc", "smc"] {
+            let what = format!("case {case}, {method}");
+            let out = dir.join(format!("run-{case}-{method}"));
+            let o = launch_scenario(&scenario(case, method, &dir), &out, &["--reference"]);
+            assert!(o.status.success(), "{what}: {}", describe_output(&o));
+            let s = read_json(&out.join("summary.json"));
+            assert_eq!(s["metrics"]["thrust_bound_violations"].as_f64(), Some(0.0), "{what}");
+            for id in 1..=4 {
+                let csv = std::fs::read_to_string(out.join(format!("telemetry/agent-{id}.csv"))).unwrap();
+                // At the end the net must be closed on the target: every MU within 5 cm (a tenth
+                // of the 0.5 m mesh) of its desired position in the last row (t = 29.9 s).
+                let err: f64 = ["x", "y", "z"]
+                    .iter()
+                    .map(|ax| csv_column(&csv, &format!("err_{ax}_m")).last().copied().unwrap().powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                assert!(err < 0.05, "{what}: MU {id} is {err} m off at the end");
+                for ax in ["x", "y", "z"] {
+                    let u = csv_column(&csv, &format!("u_{ax}_n"));
+                    assert!(u.iter().all(|u| u.abs() <= 5.0), "{what}: MU {id} thrust {ax} beyond 5 N");
+                }
+                let report = read_json(&out.join(format!("status/agent-{id}.json")));
+                if method == "smc" {
+                    assert!(report.get("solver").is_none(), "{what}: SMC solves no QP");
+                } else {
+                    assert!(csv_column(&csv, "qp_status").iter().all(|s| *s == 0.0), "{what}: MU {id} QP status");
+                    let st = &report["solver"];
+                    assert_eq!(st["solves"].as_u64(), Some(300), "{what}: {st}");
+                    assert_eq!(st["solved"].as_u64(), Some(300), "{what}: {st}");
+                    let (p50, max) =
+                        (st["solve_time_p50_s"].as_f64().unwrap(), st["solve_time_max_s"].as_f64().unwrap());
+                    assert!(p50 > 0.0 && p50 <= max, "{what}: {st}");
+                }
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn aemc_multi_process_run_is_bit_identical_to_the_reference() {
+    let _g = heavy();
+    let dir = scratch_dir("tsnr-aemc-mp");
+    let file = repo_root().join("topologies/tsnr-case2.toml");
+    let (mp, rf) = (dir.join("mp"), dir.join("ref"));
+    let o = launch_scenario(&file, &mp, &[]);
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let o = launch_scenario(&file, &rf, &["--reference"]);
+    assert!(o.status.success(), "--reference: {}", describe_output(&o));
+    assert_eq!(read_json(&mp.join("summary.json"))["mode"], "multi-process");
+    for f in ["plant.csv", "agent-1.csv", "agent-2.csv", "agent-3.csv", "agent-4.csv"] {
+        let a = std::fs::read(mp.join("telemetry").join(f)).unwrap();
+        let b = std::fs::read(rf.join("telemetry").join(f)).unwrap();
+        assert!(a == b, "telemetry/{f} differs between the multi-process run and the reference");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A launch with plots (the default) draws the seed-001 figures: Figs. 8/9's tension panels and
+/// the 3-D net at the snapshot times.
+#[test]
+fn launch_draws_the_tension_and_net_figures() {
+    let _g = heavy();
+    let dir = scratch_dir("tsnr-figures");
+    let out = dir.join("run");
+    // Not `launch_scenario`: it passes --no-plots.
+    let o =
+        orchestrator_command().arg("launch").arg(scenario(1, "aemc", &dir)).arg("--out").arg(&out).output().unwrap();
+    assert!(o.status.success(), "{}", describe_output(&o));
+    for name in ["tsnr_tension.png", "tsnr_net_3d.png"] {
+        let path = out.join("plots").join(name);
+        let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "{} is not a PNG", path.display());
+        // A blank canvas compresses to a few kB; these figures are a few hundred kB.
+        assert!(bytes.len() > 20_000, "{}: only {} bytes", path.display(), bytes.len());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

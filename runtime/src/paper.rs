@@ -1,0 +1,333 @@
+//! How a paper plugs into the runtime. The runtime knows no paper: a paper crate (under
+//! `papers/<name>/`) declares the plant kinds and algorithm kinds it provides ([`Paper`]), and the
+//! registry crate lists the papers. A scenario's `[plant]` and `[algorithm]` tables name a kind;
+//! [`configure`] hands each table to the kind that registered it, which parses and validates it
+//! (every problem with its key path, through the scenario crate's [`Checker`]) and returns a
+//! configured object ([`PlantSetup`], [`AlgorithmSetup`]) that builds the models. The result, with
+//! the generic part of the scenario, is a [`Setup`]: what every binary runs.
+//!
+//! Kinds compose across papers: a plant kind of one paper can run an algorithm kind of another
+//! (a coasting agent flies any plant); an algorithm that needs a particular plant checks
+//! `ctx.scenario.plant.kind` and downcasts the plant's setup ([`PlantSetup::as_any`]) to read its
+//! typed configuration.
+
+use std::any::Any;
+use std::collections::BTreeMap;
+use std::ops::Deref;
+use std::path::Path;
+use std::sync::Arc;
+
+use cohort_scenario::{Checker, MessageSizes, Overrides, Problem, Scenario, ScenarioError};
+
+use crate::model::{Algorithm, PlantModel};
+use crate::record::RunDirs;
+
+/// A paper (or a library of kinds shared by several): its name and the kinds it provides.
+pub trait Paper: Sync {
+    /// Short name: the folder under `papers/`, and the name of its orchestrator subcommand.
+    fn name(&self) -> &'static str;
+    /// The plant kinds this paper provides (`[plant] kind = ...`).
+    fn plants(&self) -> &'static [&'static dyn PlantKind];
+    /// The algorithm kinds this paper provides (`[algorithm] kind = ...`).
+    fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind];
+}
+
+/// What a kind sees while it configures itself.
+pub struct ConfigureCtx<'a> {
+    /// The scenario with its paper sections raw (generic sections parsed, maybe invalid).
+    pub scenario: &'a Scenario,
+    /// Whether agent ids are exactly 1..=N, so `scenario.agent(id)` may be used.
+    pub ids_ok: bool,
+}
+
+/// A plant kind: parses `[plant]` and every agent's per-agent keys.
+pub trait PlantKind: Sync {
+    /// The `kind` string.
+    fn kind(&self) -> &'static str;
+    /// Parse and validate `ctx.scenario.plant.body` and the agents' extra keys; every problem
+    /// goes to `c` with its key path (`plant.…`, `agents[k].…`). None when it cannot be built.
+    fn configure(&self, ctx: &ConfigureCtx<'_>, c: &mut Checker) -> Option<Arc<dyn PlantSetup>>;
+}
+
+/// A configured plant.
+pub trait PlantSetup: Send + Sync + Any {
+    fn kind(&self) -> &'static str;
+    /// The section as resolved (defaults filled in, paths absolute), without `kind`: what the
+    /// run directory's `scenario.toml` says, which the child processes read. Usually
+    /// [`table_of`] the typed configuration.
+    fn resolved(&self) -> Result<toml::Table, String>;
+    /// Readings per measurement of agent `id`.
+    fn readings(&self, s: &Scenario, id: u32) -> usize;
+    /// Components of every agent's command.
+    fn command_len(&self) -> usize;
+    /// The truth model (the plant process's, or the reference run's plant thread).
+    fn build(&self, setup: &Setup) -> Box<dyn PlantModel>;
+    /// What the plant's paper needs of the live agents that no longer holds, in words (checked
+    /// whenever the roster changes; the generic graph checks come on top).
+    fn roster_warnings(&self, _s: &Scenario, _live: &[bool]) -> Vec<String> {
+        Vec::new()
+    }
+    fn as_any(&self) -> &dyn Any;
+}
+
+/// An algorithm kind: parses `[algorithm]`.
+pub trait AlgorithmKind: Sync {
+    fn kind(&self) -> &'static str;
+    /// Parse and validate `ctx.scenario.algorithm.body` (and check that it can fly `plant`, the
+    /// configured plant, absent when the plant section has problems of its own).
+    fn configure(
+        &self,
+        ctx: &ConfigureCtx<'_>,
+        plant: Option<&dyn PlantSetup>,
+        c: &mut Checker,
+    ) -> Option<Arc<dyn AlgorithmSetup>>;
+}
+
+/// A configured algorithm.
+pub trait AlgorithmSetup: Send + Sync + Any {
+    /// The `kind` string (it also names checkpoints).
+    fn kind(&self) -> &'static str;
+    /// The section as resolved, without `kind` (see [`PlantSetup::resolved`]).
+    fn resolved(&self) -> Result<toml::Table, String>;
+    /// Values per share.
+    fn share_values(&self, s: &Scenario) -> usize;
+    /// Agent `id`'s algorithm.
+    fn build(&self, setup: &Setup, id: u32) -> Box<dyn Algorithm>;
+    /// A mode that runs plant and agents as one coupled integration in the orchestrator's
+    /// process, instead of the lockstep processes (None: the scenario runs in lockstep).
+    fn coupled(&self) -> Option<&dyn CoupledRun> {
+        None
+    }
+    /// Non-numeric labels for the run's summary (e.g. which learning law ran).
+    fn labels(&self) -> BTreeMap<String, String> {
+        BTreeMap::new()
+    }
+    fn as_any(&self) -> &dyn Any;
+}
+
+/// A coupled in-process run (see [`AlgorithmSetup::coupled`]): it writes the same telemetry files
+/// as a lockstep run would.
+pub trait CoupledRun: Sync {
+    /// The mode's name in the run's summary (`mode`), e.g. "continuous".
+    fn name(&self) -> &'static str;
+    /// One line for the launch banner: what runs, and where.
+    fn describe(&self) -> &'static str;
+    /// Run to the end (or until `ctx.interrupted` says a signal came) into the run directory.
+    fn run(&self, setup: &Setup, dirs: &RunDirs, ctx: &CoupledCtx<'_>) -> CoupledOutcome;
+}
+
+/// What the orchestrator gives a coupled run.
+pub struct CoupledCtx<'a> {
+    /// Takes the steps done so far.
+    pub progress: &'a dyn Fn(u64),
+    /// The signal that asked the orchestrator to stop (Ctrl-C, SIGTERM), if one did.
+    pub interrupted: &'a dyn Fn() -> Option<i32>,
+}
+
+/// How a coupled run ended.
+#[derive(Debug, Clone)]
+pub struct CoupledOutcome {
+    /// None: every step was done.
+    pub error: Option<String>,
+    /// The signal it stopped on, if it was interrupted.
+    pub interrupted: Option<i32>,
+    pub wall_s: f64,
+}
+
+/// A scenario with its paper sections configured: what a run is made of.
+#[derive(Clone)]
+pub struct Setup {
+    /// The scenario as parsed (its generic sections typed, the paper sections raw). `Setup`
+    /// derefs to it, so `setup.scenario.seed`, `setup.run`, `setup.agents` read as in a file.
+    pub parsed: Scenario,
+    pub plant: Arc<dyn PlantSetup>,
+    pub algorithm: Arc<dyn AlgorithmSetup>,
+    /// Names of the papers whose kinds it uses (the plant's first), for the host side.
+    pub papers: Vec<&'static str>,
+}
+
+impl Deref for Setup {
+    type Target = Scenario;
+    fn deref(&self) -> &Scenario {
+        &self.parsed
+    }
+}
+
+impl std::fmt::Debug for Setup {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Setup")
+            .field("scenario", &self.parsed.scenario.name)
+            .field("plant", &self.plant.kind())
+            .field("algorithm", &self.algorithm.kind())
+            .finish()
+    }
+}
+
+impl Setup {
+    /// Message sizes this setup needs.
+    pub fn message_sizes(&self) -> MessageSizes {
+        let s = &self.parsed;
+        MessageSizes {
+            readings: (1..=s.n_agents()).map(|i| self.plant.readings(s, i)).max().unwrap_or(0),
+            command: self.plant.command_len(),
+            share_values: self.algorithm.share_values(s),
+        }
+    }
+
+    /// The resolved scenario as TOML (what `launch` writes into the run directory): every section
+    /// with its defaults, paper sections as their kinds resolved them.
+    pub fn to_toml(&self) -> Result<String, String> {
+        let s = &self.parsed;
+        let mut t = toml::Table::new();
+        let ser = |what: &str, v: Result<toml::Table, toml::ser::Error>| v.map_err(|e| format!("{what}: {e}"));
+        t.insert("scenario".into(), ser("scenario", toml::Table::try_from(&s.scenario))?.into());
+        t.insert("run".into(), ser("run", toml::Table::try_from(&s.run))?.into());
+        let plant = self.plant.resolved().map_err(|e| format!("plant: {e}"))?;
+        t.insert("plant".into(), cohort_scenario::section_table(self.plant.kind(), plant).into());
+        let algorithm = self.algorithm.resolved().map_err(|e| format!("algorithm: {e}"))?;
+        t.insert("algorithm".into(), cohort_scenario::section_table(self.algorithm.kind(), algorithm).into());
+        let agents: Vec<toml::Value> = s
+            .agents
+            .iter()
+            .map(|a| ser("agents", toml::Table::try_from(a)).map(toml::Value::Table))
+            .collect::<Result<_, _>>()?;
+        t.insert("agents".into(), toml::Value::Array(agents));
+        if !s.faults.is_empty() {
+            let faults: Vec<toml::Value> = s
+                .faults
+                .iter()
+                .map(|f| ser("faults", toml::Table::try_from(f)).map(toml::Value::Table))
+                .collect::<Result<_, _>>()?;
+            t.insert("faults".into(), toml::Value::Array(faults));
+        }
+        toml::to_string(&t).map_err(|e| e.to_string())
+    }
+
+    /// The plant's typed setup, when it is a `T`.
+    pub fn plant_as<T: 'static>(&self) -> Option<&T> {
+        self.plant.as_any().downcast_ref()
+    }
+    /// The algorithm's typed setup, when it is a `T`.
+    pub fn algorithm_as<T: 'static>(&self) -> Option<&T> {
+        self.algorithm.as_any().downcast_ref()
+    }
+    /// Every roster warning: the graph's, then the plant's.
+    pub fn roster_warnings(&self, live: &[bool]) -> Vec<String> {
+        let mut w = cohort_scenario::live_graph::warnings(&self.parsed.agents, live);
+        w.extend(self.plant.roster_warnings(&self.parsed, live));
+        w
+    }
+}
+
+/// A typed configuration as a TOML table (for [`PlantSetup::resolved`]).
+pub fn table_of<T: serde::Serialize>(config: &T) -> Result<toml::Table, String> {
+    toml::Table::try_from(config).map_err(|e| e.to_string())
+}
+
+/// Deserialise every agent's per-agent keys (`[[agents]]` beyond `id` and `neighbours`) as a `T`,
+/// in file order, each problem at `agents[k].…`. None if any agent's keys do not parse.
+pub fn agent_keys<T: serde::de::DeserializeOwned>(s: &Scenario, c: &mut Checker) -> Option<Vec<T>> {
+    let mut out = Vec::with_capacity(s.agents.len());
+    let mut ok = true;
+    for (k, a) in s.agents.iter().enumerate() {
+        match cohort_scenario::section::<T>(
+            toml::Value::Table(a.extra.clone()),
+            &format!("agents[{k}]"),
+            &mut c.problems,
+        ) {
+            Some(t) => out.push(t),
+            None => ok = false,
+        }
+    }
+    ok.then_some(out)
+}
+
+/// Deserialise a paper section's body as a `T` at key path `path` (`plant`, `algorithm`).
+pub fn section_as<T: serde::de::DeserializeOwned>(body: &toml::Table, path: &str, c: &mut Checker) -> Option<T> {
+    cohort_scenario::section::<T>(toml::Value::Table(body.clone()), path, &mut c.problems)
+}
+
+/// Every plant kind and algorithm kind of `papers`, with the paper providing it.
+fn plant_kinds(papers: &[&'static dyn Paper]) -> Vec<(&'static str, &'static dyn PlantKind)> {
+    papers.iter().flat_map(|p| p.plants().iter().map(move |k| (p.name(), *k))).collect()
+}
+
+fn algorithm_kinds(papers: &[&'static dyn Paper]) -> Vec<(&'static str, &'static dyn AlgorithmKind)> {
+    papers.iter().flat_map(|p| p.algorithms().iter().map(move |k| (p.name(), *k))).collect()
+}
+
+/// Two papers registering the same kind, or one name twice (the registry's own test calls it).
+pub fn registry_problems(papers: &[&'static dyn Paper]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut seen = std::collections::BTreeMap::new();
+    for p in papers {
+        if let Some(other) = seen.insert(format!("paper {}", p.name()), p.name()) {
+            out.push(format!("paper name {} registered twice ({other})", p.name()));
+        }
+    }
+    let mut kinds = std::collections::BTreeMap::new();
+    for (paper, k) in plant_kinds(papers) {
+        if let Some(other) = kinds.insert(format!("plant kind {:?}", k.kind()), paper) {
+            out.push(format!("plant kind {:?} registered by {other} and {paper}", k.kind()));
+        }
+    }
+    for (paper, k) in algorithm_kinds(papers) {
+        if let Some(other) = kinds.insert(format!("algorithm kind {:?}", k.kind()), paper) {
+            out.push(format!("algorithm kind {:?} registered by {other} and {paper}", k.kind()));
+        }
+    }
+    out
+}
+
+/// Validate a parsed scenario and configure its paper sections with the kinds of `papers`:
+/// every problem of the file at once (generic, plant, algorithm, message bounds).
+pub fn configure(scenario: Scenario, papers: &[&'static dyn Paper]) -> Result<Setup, Vec<Problem>> {
+    let (ids_ok, generic) = cohort_scenario::validate::validate(&scenario);
+    let mut c = Checker::new();
+    c.problems = generic;
+    let ctx = ConfigureCtx { scenario: &scenario, ids_ok };
+    let plants = plant_kinds(papers);
+    let algorithms = algorithm_kinds(papers);
+    let plant_kind = plants.iter().find(|(_, k)| k.kind() == scenario.plant.kind);
+    let algorithm_kind = algorithms.iter().find(|(_, k)| k.kind() == scenario.algorithm.kind);
+    let list = |kinds: Vec<&str>| {
+        let mut kinds = kinds;
+        kinds.sort_unstable();
+        kinds.join(", ")
+    };
+    if plant_kind.is_none() {
+        c.fail(
+            "plant.kind",
+            format!("{:?}", scenario.plant.kind),
+            format!("unknown kind (expected one of: {})", list(plants.iter().map(|(_, k)| k.kind()).collect())),
+        );
+    }
+    if algorithm_kind.is_none() {
+        c.fail(
+            "algorithm.kind",
+            format!("{:?}", scenario.algorithm.kind),
+            format!("unknown kind (expected one of: {})", list(algorithms.iter().map(|(_, k)| k.kind()).collect())),
+        );
+    }
+    let plant = plant_kind.and_then(|(_, k)| k.configure(&ctx, &mut c));
+    let algorithm = algorithm_kind.and_then(|(_, k)| k.configure(&ctx, plant.as_deref(), &mut c));
+    let (Some(plant), Some(algorithm)) = (plant, algorithm) else {
+        return Err(c.problems);
+    };
+    let mut names = vec![plant_kind.map_or("", |(p, _)| *p)];
+    let algorithm_paper = algorithm_kind.map_or("", |(p, _)| *p);
+    if !names.contains(&algorithm_paper) {
+        names.push(algorithm_paper);
+    }
+    let setup = Setup { parsed: scenario, plant, algorithm, papers: names };
+    if ids_ok {
+        setup.message_sizes().check(&mut c);
+    }
+    if c.problems.is_empty() { Ok(setup) } else { Err(c.problems) }
+}
+
+/// Read, parse, validate and configure a scenario file.
+pub fn load(file: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -> Result<Setup, ScenarioError> {
+    let scenario = cohort_scenario::load(file, overrides)?;
+    configure(scenario, papers).map_err(|problems| ScenarioError { file: file.to_path_buf(), problems })
+}
