@@ -15,8 +15,8 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use cohort_scenario::TransportKind;
-use cohort_wire::transport::iox::{IoxRun, IoxTransport};
-use cohort_wire::transport::udp::UdpTransport;
+use cohort_wire::transport::iox::{IoxData, IoxRun};
+use cohort_wire::transport::udp;
 use cohort_wire::transport::{Proc, Transport};
 
 use crate::drive::DriveParams;
@@ -126,9 +126,9 @@ pub fn child_main(
     let opened: Result<Box<dyn Transport>, _> = match scenario.run.transport {
         TransportKind::Udp => {
             let timeout = Duration::from_secs_f64(scenario.run.startup_timeout_s);
-            UdpTransport::open(&iox_run, &topo, me, &spec.run_dir.join("udp"), timeout).map(|t| Box::new(t) as _)
+            udp::open(&iox_run, &topo, me, &spec.run_dir.join("udp"), timeout).map(|t| Box::new(t) as _)
         }
-        TransportKind::Iceoryx2 => IoxTransport::open(&iox_run, &topo, me).map(|t| Box::new(t) as _),
+        TransportKind::Iceoryx2 => IoxData::open(&iox_run, &topo, me).map(|t| Box::new(t) as _),
     };
     let mut transport = match opened {
         Ok(t) => t,

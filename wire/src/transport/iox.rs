@@ -23,7 +23,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{event as ev_factory, publish_subscribe as ps_factory};
 
-use super::{Incoming, Proc, Topology, Transport, TransportError, monotonic_ns};
+use super::{DataPath, Incoming, Proc, RunControlPort, Split, Topology, TransportError, monotonic_ns};
 use crate::msg::{
     CONTROL_DEAD, CONTROL_RESUME, CONTROL_START, CONTROL_STOP, Measurement, Roster, RunControl, SCHEMA_VERSION, Share,
     Status,
@@ -387,31 +387,37 @@ impl IoxControl {
             }
         }
     }
+}
 
+impl RunControlPort for IoxControl {
     /// Best effort: a full status queue must never stall a step.
-    pub fn report(&mut self, s: &Status) {
+    fn report(&mut self, s: &Status) {
         let _ = self.status_pub.send_copy(*s);
     }
-    pub fn stop_requested(&mut self) -> bool {
+    fn stop_requested(&mut self) -> bool {
         if !self.stop {
             self.poll();
         }
         self.stop
     }
-    pub fn start_granted(&mut self) -> bool {
+    fn start_granted(&mut self) -> bool {
         if !self.started {
             self.poll();
         }
         self.started
     }
-    pub fn take_events(&mut self, out: &mut Vec<RunControl>) {
+    fn control_events(&mut self, out: &mut Vec<RunControl>) {
         self.poll();
         out.append(&mut self.events);
     }
 }
 
-/// One plant or agent process's endpoint.
-pub struct IoxTransport {
+/// One plant or agent process's iceoryx2 endpoint: data ports, then the run-control ports (which
+/// own the node, so they are dropped last).
+pub type IoxTransport = Split<IoxData, IoxControl>;
+
+/// The data ports of one plant or agent process.
+pub struct IoxData {
     me: Proc,
     meas_pubs: Vec<Publisher<Svc, Measurement, ()>>,
     meas_sub: Option<Subscriber<Svc, Measurement, ()>>,
@@ -421,12 +427,11 @@ pub struct IoxTransport {
     /// Plant: notifier of agent i at index i-1. Agent: plant first, then its readers.
     notifiers: Vec<Notifier<Svc>>,
     listener: Listener<Svc>,
-    control: IoxControl,
 }
 
-impl IoxTransport {
+impl IoxData {
     /// Open this process's ports on the services the orchestrator created.
-    pub fn open(run: &IoxRun, topo: &Topology, me: Proc) -> Result<Self, TransportError> {
+    pub fn open(run: &IoxRun, topo: &Topology, me: Proc) -> Result<IoxTransport, TransportError> {
         let node = run.node(&me.name())?;
         let ps_open = |what: String| -> Result<ServiceName, TransportError> { run.service(&what) };
         let open_meas = |i: u32| {
@@ -502,9 +507,9 @@ impl IoxTransport {
         }
         let listener = open_wake(me)?.listener_builder().create().map_err(|e| TransportError::iox("listener", e))?;
         // Ports hold their own references to the node's shared state; the node moves into the
-        // control part, which is dropped after the data ports (field order).
+        // control part, which is dropped after the data ports (field order of `Split`).
         let control = IoxControl::with_node(run, node)?;
-        Ok(Self { me, meas_pubs, meas_sub, share_pub, share_subs, notifiers, listener, control })
+        Ok(Split { data: Self { me, meas_pubs, meas_sub, share_pub, share_subs, notifiers, listener }, control })
     }
 
     fn notify(n: &Notifier<Svc>) -> Result<(), TransportError> {
@@ -512,7 +517,7 @@ impl IoxTransport {
     }
 }
 
-impl Transport for IoxTransport {
+impl DataPath for IoxData {
     fn send_measurement(&mut self, to: u32, m: &Measurement) -> Result<(), TransportError> {
         let idx = (to as usize).checked_sub(1).filter(|&i| i < self.meas_pubs.len());
         let Some(idx) = idx else {
@@ -560,21 +565,5 @@ impl Transport for IoxTransport {
             Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => Ok(()),
             r => r.map(|_| ()).map_err(|e| TransportError::iox("wait", e)),
         }
-    }
-
-    fn report(&mut self, s: &Status) {
-        self.control.report(s);
-    }
-
-    fn stop_requested(&mut self) -> bool {
-        self.control.stop_requested()
-    }
-
-    fn start_granted(&mut self) -> bool {
-        self.control.start_granted()
-    }
-
-    fn control_events(&mut self, out: &mut Vec<RunControl>) {
-        self.control.take_events(out);
     }
 }

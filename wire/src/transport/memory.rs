@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
 
-use super::{Incoming, Proc, Topology, Transport, TransportError, monotonic_ns};
+use super::{DataPath, Incoming, Proc, RunControlPort, Topology, TransportError, monotonic_ns};
 use crate::msg::{Measurement, RunControl, Share, Status};
 
 #[derive(Default)]
@@ -90,7 +90,7 @@ pub struct MemoryTransport {
     readers: Vec<u32>,
 }
 
-impl Transport for MemoryTransport {
+impl DataPath for MemoryTransport {
     fn send_measurement(&mut self, to: u32, m: &Measurement) -> Result<(), TransportError> {
         let mut m = *m;
         m.header.sent_wall_ns = monotonic_ns();
@@ -135,7 +135,9 @@ impl Transport for MemoryTransport {
         ib.woken = false;
         Ok(())
     }
+}
 
+impl RunControlPort for MemoryTransport {
     fn report(&mut self, s: &Status) {
         let mut q = self.bus.status.lock().unwrap_or_else(|p| p.into_inner());
         if q.len() > 1024 {

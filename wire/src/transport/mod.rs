@@ -1,8 +1,12 @@
 //! The `Transport` abstraction: what a plant or agent process needs of messaging, and nothing
-//! more. Two implementations sit behind it: [`iox::IoxTransport`] (iceoryx2 zero-copy
-//! publish–subscribe between processes) and [`memory::MemoryTransport`] (threads of one process).
-//! The step drivers in `cohort-runtime` are generic over it, so the multi-process run and the
-//! in-process reference run execute the same code.
+//! more, in two parts: the [`DataPath`] (measurements and shares, and waiting for them) and the
+//! [`RunControlPort`] (the orchestrator's start, stop and roster notices in, this process's status
+//! out). A [`Transport`] is both; [`Split`] joins a data path and a control port of different
+//! kinds. Implementations: iceoryx2 zero-copy publish–subscribe ([`iox`], both parts), UDP
+//! loopback datagrams ([`udp`], data path only, with iceoryx2 run control) and in-memory inboxes
+//! for threads of one process ([`memory`], both parts). The step drivers in `cohort-runtime` are
+//! generic over it, so the multi-process run and the in-process reference run execute the same
+//! code; `tests/conformance.rs` runs one suite against every implementation.
 
 pub mod iox;
 pub mod memory;
@@ -84,8 +88,8 @@ impl TransportError {
     }
 }
 
-/// One process's messaging endpoint.
-pub trait Transport {
+/// The data path of one process: measurements plant → agent, shares agent → plant and readers.
+pub trait DataPath {
     /// Plant only: publish agent `to`'s measurement and wake it.
     fn send_measurement(&mut self, to: u32, m: &Measurement) -> Result<(), TransportError>;
     /// Agent only: publish this agent's share and wake the plant and every reader of it.
@@ -94,8 +98,12 @@ pub trait Transport {
     fn drain(&mut self, f: &mut dyn FnMut(Incoming<'_>)) -> Result<(), TransportError>;
     /// Block until a wakeup arrives or `timeout` passes; may return early. Callers re-poll with
     /// [`Transport::drain`] after every return, because a wakeup can be lost under heavy
-    /// preemption (iceoryx2-notes.md): waits are always short and repeated, never one long one.
+    /// preemption: waits are always short and repeated, never one long one.
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError>;
+}
+
+/// The run-control port of one process: the orchestrator's requests in, its status out.
+pub trait RunControlPort {
     /// Best-effort status to the orchestrator (progress, waiting, done).
     fn report(&mut self, s: &Status);
     /// Whether the orchestrator asked this process to stop.
@@ -107,6 +115,49 @@ pub trait Transport {
     /// The plant only: the orchestrator's resume and dead-agent notices received so far
     /// (`CONTROL_RESUME`, `CONTROL_DEAD`), appended to `out`.
     fn control_events(&mut self, out: &mut Vec<RunControl>);
+}
+
+/// One process's messaging endpoint: a data path and a run-control port.
+pub trait Transport: DataPath + RunControlPort {}
+
+impl<T: DataPath + RunControlPort + ?Sized> Transport for T {}
+
+/// A data path and a run-control port of different kinds as one [`Transport`] (UDP data with
+/// iceoryx2 run control). `data` is dropped before `control`, which may own what the data ports
+/// were opened on (an iceoryx2 node).
+pub struct Split<D, C> {
+    pub data: D,
+    pub control: C,
+}
+
+impl<D: DataPath, C> DataPath for Split<D, C> {
+    fn send_measurement(&mut self, to: u32, m: &Measurement) -> Result<(), TransportError> {
+        self.data.send_measurement(to, m)
+    }
+    fn send_share(&mut self, s: &Share) -> Result<(), TransportError> {
+        self.data.send_share(s)
+    }
+    fn drain(&mut self, f: &mut dyn FnMut(Incoming<'_>)) -> Result<(), TransportError> {
+        self.data.drain(f)
+    }
+    fn wait(&mut self, timeout: Duration) -> Result<(), TransportError> {
+        self.data.wait(timeout)
+    }
+}
+
+impl<D, C: RunControlPort> RunControlPort for Split<D, C> {
+    fn report(&mut self, s: &Status) {
+        self.control.report(s);
+    }
+    fn stop_requested(&mut self) -> bool {
+        self.control.stop_requested()
+    }
+    fn start_granted(&mut self) -> bool {
+        self.control.start_granted()
+    }
+    fn control_events(&mut self, out: &mut Vec<RunControl>) {
+        self.control.control_events(out);
+    }
 }
 
 /// CLOCK_MONOTONIC in ns: system-wide, so send and receive stamps of two processes compare.

@@ -3,9 +3,10 @@
 //! run control (start, stop, status) stays on the iceoryx2 control services, so only the data
 //! path differs between the two transports.
 //!
-//! Rendezvous: every process binds 127.0.0.1:0, writes its port to `<run dir>/udp/<proc>.port`,
-//! and waits until every other process of the run has done the same. A datagram's source address
-//! tells who sent it (the driver checks it against the header's sender).
+//! Rendezvous: every process binds 127.0.0.1:0, writes its port to `<run dir>/udp/<proc>.port`
+//! ([`UdpData::bind`]), and waits until every other process of the run has done the same
+//! ([`UdpBound::rendezvous`]). A datagram's source address tells who sent it (the driver checks
+//! it against the header's sender).
 
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, UdpSocket};
 use std::os::fd::AsRawFd;
@@ -13,13 +14,17 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use super::iox::{IoxControl, IoxRun};
-use super::{Incoming, Proc, Topology, Transport, TransportError, monotonic_ns};
-use crate::msg::{Measurement, PLANT_ID, Share, Status};
+use super::{DataPath, Incoming, Proc, Split, Topology, TransportError, monotonic_ns};
+use crate::msg::{Measurement, PLANT_ID, Share};
 
 /// Big enough for the largest payload, in u64 words so the buffer is 8-byte aligned.
 const BUF_WORDS: usize = std::mem::size_of::<Share>().div_ceil(8) + 8;
 
-pub struct UdpTransport {
+/// A process's UDP endpoint: datagrams for the data path, iceoryx2 for run control.
+pub type UdpTransport = Split<UdpData, IoxControl>;
+
+/// The data path of one process over UDP loopback.
+pub struct UdpData {
     me: Proc,
     socket: UdpSocket,
     /// Address of the plant (index 0) and of each agent (index i).
@@ -27,7 +32,13 @@ pub struct UdpTransport {
     /// Who gets this agent's share: the plant first, then its readers.
     share_to: Vec<SocketAddr>,
     buf: Box<[u64; BUF_WORDS]>,
-    control: IoxControl,
+}
+
+/// A bound socket whose port is published, waiting for its peers' (see [`UdpBound::rendezvous`]).
+pub struct UdpBound {
+    me: Proc,
+    socket: UdpSocket,
+    dir: PathBuf,
 }
 
 fn port_file(dir: &Path, p: Proc) -> PathBuf {
@@ -54,15 +65,22 @@ fn read_payload<T: Copy>(bytes: &[u8]) -> T {
     unsafe { std::ptr::read_unaligned(bytes.as_ptr().cast::<T>()) }
 }
 
-impl UdpTransport {
-    /// Bind, publish this process's port, wait for every peer's (up to `rendezvous_timeout`).
-    pub fn open(
-        run: &IoxRun,
-        topo: &Topology,
-        me: Proc,
-        dir: &Path,
-        rendezvous_timeout: Duration,
-    ) -> Result<Self, TransportError> {
+/// A process's endpoint: bind, publish this process's port, wait for every peer's (up to
+/// `rendezvous_timeout`), and open the run's iceoryx2 control ports.
+pub fn open(
+    run: &IoxRun,
+    topo: &Topology,
+    me: Proc,
+    dir: &Path,
+    rendezvous_timeout: Duration,
+) -> Result<UdpTransport, TransportError> {
+    let data = UdpData::bind(dir, me)?.rendezvous(topo, rendezvous_timeout)?;
+    Ok(Split { data, control: IoxControl::open(run, me)? })
+}
+
+impl UdpData {
+    /// Bind 127.0.0.1:0 and publish the port in `dir` (the run directory's `udp/`).
+    pub fn bind(dir: &Path, me: Proc) -> Result<UdpBound, TransportError> {
         let socket = UdpSocket::bind(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0)).map_err(io("bind"))?;
         socket.set_nonblocking(true).map_err(io("set_nonblocking"))?;
         // The plant receives every agent's share (≈ 4 kB each) per step before it drains: at
@@ -88,6 +106,18 @@ impl UdpTransport {
         let tmp = dir.join(format!(".{}.port.tmp", me.name()));
         std::fs::write(&tmp, port.to_string()).map_err(io("write port"))?;
         std::fs::rename(&tmp, port_file(dir, me)).map_err(io("publish port"))?;
+        Ok(UdpBound { me, socket, dir: dir.to_path_buf() })
+    }
+
+    fn sender_of(&self, addr: &SocketAddr) -> Option<u32> {
+        self.addrs.iter().position(|a| a == addr).map(|i| i as u32)
+    }
+}
+
+impl UdpBound {
+    /// Wait until every process of `topo` has published its port (up to `rendezvous_timeout`).
+    pub fn rendezvous(self, topo: &Topology, rendezvous_timeout: Duration) -> Result<UdpData, TransportError> {
+        let (me, socket, dir) = (self.me, self.socket, self.dir.as_path());
         let procs: Vec<Proc> = std::iter::once(Proc::Plant).chain((1..=topo.n_agents()).map(Proc::Agent)).collect();
         let started = Instant::now();
         let mut addrs = Vec::with_capacity(procs.len());
@@ -114,16 +144,11 @@ impl UdpTransport {
                 std::iter::once(addrs[0]).chain(topo.readers_of(i).into_iter().map(|j| addrs[j as usize])).collect()
             }
         };
-        let control = IoxControl::open(run, me)?;
-        Ok(Self { me, socket, addrs, share_to, buf: Box::new([0; BUF_WORDS]), control })
-    }
-
-    fn sender_of(&self, addr: &SocketAddr) -> Option<u32> {
-        self.addrs.iter().position(|a| a == addr).map(|i| i as u32)
+        Ok(UdpData { me, socket, addrs, share_to, buf: Box::new([0; BUF_WORDS]) })
     }
 }
 
-impl Transport for UdpTransport {
+impl DataPath for UdpData {
     fn send_measurement(&mut self, to: u32, m: &Measurement) -> Result<(), TransportError> {
         let Some(addr) = self.addrs.get(to as usize).filter(|_| to > 0) else {
             return Err(TransportError::Other(format!("{} cannot send a measurement to agent {to}", self.me.name())));
@@ -185,19 +210,5 @@ impl Transport for UdpTransport {
             }
         }
         Ok(())
-    }
-
-    fn report(&mut self, s: &Status) {
-        self.control.report(s);
-    }
-    fn stop_requested(&mut self) -> bool {
-        self.control.stop_requested()
-    }
-    fn start_granted(&mut self) -> bool {
-        self.control.start_granted()
-    }
-
-    fn control_events(&mut self, out: &mut Vec<crate::msg::RunControl>) {
-        self.control.take_events(out);
     }
 }
