@@ -160,7 +160,7 @@ fn collect(t: &mut dyn Transport, want: usize) -> Vec<Received> {
     loop {
         t.drain(&mut |m| {
             got.push(match m {
-                Incoming::Measurement(m) => Received::Measurement(*m),
+                Incoming::Measurement(m) => Received::Measurement(Box::new(*m)),
                 Incoming::Share { from, share } => Received::Share(from, Box::new(*share)),
             })
         })
@@ -173,7 +173,7 @@ fn collect(t: &mut dyn Transport, want: usize) -> Vec<Received> {
 }
 
 enum Received {
-    Measurement(Measurement),
+    Measurement(Box<Measurement>),
     Share(u32, Box<Share>),
 }
 
