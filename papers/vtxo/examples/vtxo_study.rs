@@ -7,12 +7,13 @@
 //! 2: the same laws with the accelerometer bias off, and the ideal loop without any noise or
 //! actuator error started 1 cm from the target: `ideal`), `mekf` (3σ consistency over 1 h, both filters,
 //! both agents), `science` (the Table 5 analogue: 100 seeds of the science phase, PD and SMC
-//! attitude), `orbit` (the orbit period with and without J2). No section: all of them
+//! attitude), `leader` (both spacecraft controlling, (70) with (66)), `orbit` (the orbit period
+//! with and without J2). No section: all of them
 //! (≈ 12 min on one core). Tables go to stdout as markdown.
 
 use std::time::Instant;
 
-use cohort_paper_vtxo::config_algorithm::{RelativeController, ScienceAttitude, VtxoAlgorithmConfig};
+use cohort_paper_vtxo::config_algorithm::{LeaderControl, RelativeController, ScienceAttitude, VtxoAlgorithmConfig};
 use cohort_paper_vtxo::config_plant::{AttitudeDraw, VtxoPlantConfig};
 use cohort_paper_vtxo::mekf::MekfVariant;
 use cohort_paper_vtxo::metrics::mekf_error_rad;
@@ -368,6 +369,31 @@ fn science() {
     }
 }
 
+fn leader_smc() {
+    println!("\n### Both spacecraft control: leader (70) + follower (66), each with the other's previous command\n");
+    println!("Start r_rel(0) = [10, 20, 1100] m, v_rel(0) = [1, 1, 1] m/s, 200 s at dt 10 ms, seed 1.\n");
+    println!("| switching | first < 1 m (s) | transverse RMS (mm) | peak thrust L / F (N) | Δv L / F (m/s) |");
+    println!("|---|---|---|---|---|");
+    for sw in [Switching::Sign, Switching::Sat] {
+        let mut a = VtxoAlgorithmConfig::default();
+        a.leader.control = LeaderControl::Smc;
+        a.relative.switching = sw;
+        let mut p = VtxoPlantConfig::default();
+        p.orbit.r_rel0_eci_m = [10.0, 20.0, 1100.0];
+        let r = run(&p, &a, 0.01, 200.0, 1);
+        let g = |k: &str| metric(&r.metrics, k);
+        println!(
+            "| {sw:?} | {:.2} | {:.3} | {:.0} / {:.0} | {:.0} / {:.0} |",
+            g("formation_first_within_s"),
+            g("transverse_rms_mm"),
+            g("leader_thrust_peak_n"),
+            g("follower_thrust_peak_n"),
+            g("leader_delta_v_mps"),
+            g("follower_delta_v_mps")
+        );
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let all = args.is_empty();
@@ -392,5 +418,8 @@ fn main() {
     }
     if want("science") {
         science();
+    }
+    if want("leader") {
+        leader_smc();
     }
 }
