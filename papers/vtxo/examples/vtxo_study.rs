@@ -3,8 +3,8 @@
 //!   cargo run --release -p cohort-paper-vtxo --example vtxo_study -- [SECTION...]
 //!
 //! SECTION: `sec7` (the Sec. 7 case, SMC-sign / SMC-sat / PD at dt 10 ms and 1 ms, 9 300 s, all
-//! models), `seeds` (the same at 10 ms for seeds 1–5), `band` (the sliding band of reference item
-//! 2: the same laws with the accelerometer bias off, and the ideal loop without any noise or
+//! models), `seeds` (the same at 10 ms for seeds 1–5), `band` (the sliding band Z·dt/(2k) of the
+//! sign law under a zero-order hold: the same laws with the accelerometer bias off, and the ideal loop without any noise or
 //! actuator error started 1 cm from the target: `ideal`), `mekf` (3σ consistency over 1 h, both filters,
 //! both agents), `science` (the Table 5 analogue: 100 seeds of the science phase, PD and SMC
 //! attitude), `leader` (both spacecraft controlling, (70) with (66)), `orbit` (the orbit period
@@ -180,7 +180,7 @@ fn zero_wheel_errors() -> cohort_paper_vtxo::config_plant::WheelConfig {
 }
 
 fn band() {
-    println!("\n### Sliding band (reference item 2): Sec. 7 case with the accelerometer bias off (seed 1)\n");
+    println!("\n### Sliding band Z·dt/(2k): Sec. 7 case with the accelerometer bias off (seed 1)\n");
     header();
     for dt in [0.01, 0.001] {
         for law in Law::ALL {
@@ -228,9 +228,7 @@ fn ideal_band() {
 }
 
 fn mekf() {
-    println!(
-        "\n### MEKF consistency over 1 h (science phase, initial attitude drawn per reference item 9, dt 10 ms, seed 1)\n"
-    );
+    println!("\n### MEKF consistency over 1 h (science phase, initial attitude drawn per (84), dt 10 ms, seed 1)\n");
     println!("| filter | agent | fraction |δθᵢ| ≤ 3σᵢ (x, y, z) | RMS error (x, y, z) µrad | RMS σ (x, y, z) µrad |");
     println!("|---|---|---|---|---|");
     for variant in [MekfVariant::ModelReplacement, MekfVariant::Full] {
@@ -329,9 +327,7 @@ fn p99(v: &mut [f64]) -> f64 {
 
 fn science() {
     println!("\n### Science phase Monte Carlo (Table 5 analogue): 100 seeds, 0.2 h at dt 10 ms, Table 4 gains\n");
-    println!(
-        "Initial attitude and rate drawn per reference item 9 around q_f; relative control off and r_rel(0) = r_f"
-    );
+    println!("Initial attitude and rate drawn per (84) around q_f; relative control off and r_rel(0) = r_f");
     println!(
         "(no coupling to the attitude). e = mean attitude error over the run, E = Σᵢ∫|τᵢωᵢ|dt; mean and P99 over runs.\n"
     );

@@ -7,7 +7,7 @@
 //! Thrusters (31)–(33): u_in = (I + diag f_u) û_in + b_u + w_u, forces in N along the ECI axes, with
 //! f_u 0.01 drawn once, w_u 1 mN white, b_u an ECRV with stationary 3σ 1 mN (w_bu) and τ_u 1 h.
 //!
-//! Our readings of the table (reference choice 10): "b_u 0.1 mN-m" is a force, 0.1 mN 3σ, and we
+//! Our readings of the table: "b_u 0.1 mN-m" is a force, 0.1 mN 3σ, and we
 //! take it as b_u's initial spread (the ECRV then relaxes to its stationary 1 mN); the table has no
 //! b_τ row, so b_τ starts at 0; ε_u is listed but (31) has no misalignment, so it is unused. The
 //! paper gives no frame for (31): the thrusters act along the ECI axes in which the controllers

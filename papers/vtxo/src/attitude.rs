@@ -8,7 +8,7 @@
 //!
 //! Departures from the print, and why:
 //! - (12) writes J⁻¹ = J̄⁻¹ + δJ⁻¹; δJ⁻¹ does not exist when sin t or cos t is zero, so we use
-//!   J = J̄ + δJ(t) (reference choice 6).
+//!   J = J̄ + δJ(t).
 //! - (14) is kept as printed: no J̇ω term. δJ models an uncertain inertia, not moving mass.
 //! - Over one step τ_in and w_ω are held (zero-order hold), the position r (for τ_g) is held at
 //!   its value at the start of the step (it moves ≈ 10 m of 7.8e7 m in 10 ms), and J(t) and τ_g
@@ -118,7 +118,7 @@ mod tests {
 
     #[test]
     fn quaternion_norm_is_kept_to_1e12_over_an_hour() {
-        // Tumbling at the transient phase's 1σ rate (0.6 rad/s, reference item 9) with δJ(t),
+        // Tumbling at the transient phase's 1σ rate (0.6 rad/s, (87)) with δJ(t),
         // gravity gradient at apogee and a torque: everything the truth integrates.
         let r = V3::new(-7.7e7, 6.0e6, 4.0e5);
         let mut worst: f64 = 0.0;

@@ -6,7 +6,7 @@
 //! - SMC (58)–(60), science, k̂ = [z, k_SMC, ε] (63): ŝ = (ω̂ − ω_f) + k sign(δq₄) δq₁:₃ and
 //!   τ̂ = J̄{(k/2)[|δq₄|(ω_f − ω̂) − sign(δq₄) δq₁:₃ × (ω_f + ω̂)] + ω̇_f − z sat(ŝ, ε)} + ω̂ × J̄ω̂.
 //!
-//! Departures from the print (reference choice 5): (54) as printed,
+//! Departures from the print: (54) as printed,
 //! τ̂ = k_P δq₁:₃ − k_D(ω_f − ω), is positive feedback in both terms; we use the stabilising signs
 //! above, with sign(δq₄) so that the shorter rotation is taken as in (57) and (58). (59) uses the
 //! true J, which no flight computer knows: we use the nominal J̄. sign(0) is taken as +1.

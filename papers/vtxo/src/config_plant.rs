@@ -142,7 +142,7 @@ pub struct InitialAttitudeConfig {
     pub omega0_body_rad_s: [f64; 3],
     /// q_f: the attitude error e = 2 acos|δq₄| is measured from it (and `science` draws around it).
     pub q_target_body_eci: [f64; 4],
-    /// σ of θ₀ per axis for `science` (0.0867°/3, reference item 9), deg.
+    /// σ of θ₀ per axis for `science` (Table 2's DNN P99(e) 0.0867° taken as 3σ), deg.
     pub science_theta_sigma_deg: f64,
     /// σ of ω₀ per axis for `science` (√ of Table 3's variances), deg/s.
     pub science_omega_sigma_deg_s: [f64; 3],

@@ -7,7 +7,7 @@
 //!   the end);
 //! - per spacecraft: thrust peak |F| (N), ∫|F|dt (N·s) and Δv = ∫|F|/m dt (m/s) of the applied
 //!   thrust; attitude error e = 2 acos|δq₄| from q_f (deg) mean and P99; energy
-//!   E = Σᵢ∫|τᵢωᵢ|dt of the applied wheel torque (J) (reference choice 7: (74) signed can be
+//!   E = Σᵢ∫|τᵢωᵢ|dt of the applied wheel torque (J) ((74) signed can be
 //!   negative).
 //!
 //! P99 comes from a log-spaced histogram (1000 bins per decade from 1e-9° to 1e3°: ≤ 0.12 %

@@ -9,8 +9,7 @@
 //!   − k(v̂_LF − v_f^LF) − Z sat(ŝ_LF, ε).
 //!
 //! Departures and choices: the other spacecraft's command in (66) and (70) is its previous-step
-//! command (the one it shared last), since using the current one is an algebraic loop (reference
-//! choice 13); r̂_F = r̂_L + r̂_rel (the follower measures r̂_rel and receives r̂_L). sign(0) = 0
+//! command (the one it shared last), since using the current one is an algebraic loop; r̂_F = r̂_L + r̂_rel (the follower measures r̂_rel and receives r̂_L). sign(0) = 0
 //! here, as in the textbook sliding law (an exact zero never occurs with noisy estimates).
 
 use serde::{Deserialize, Serialize};

@@ -1,4 +1,4 @@
-//! The follower's relative navigation (Sec. 7, reference item 11): "each sensor measures the
+//! The follower's relative navigation (Sec. 7): "each sensor measures the
 //! states of the dynamics individually".
 //!
 //! - r̂_rel is measured every step: ECI x, y by the laser interferometer, z by radio ranging.

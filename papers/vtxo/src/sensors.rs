@@ -9,7 +9,7 @@
 //! - Radio ranging (C.10)–(C.11), follower: r̃_z = r_rel,z + ε_rz + w_rz; 1 m, 1 m, τ 1 h.
 //! - Laser interferometer (Table E.13), follower: r̃_xy = r_rel,xy + ε + w; 0.2 mm, 0.01 mm, τ 1 h.
 //!
-//! Where the print is wrong or silent (reference choices 4, 10, 11):
+//! Where the print is wrong or silent (our choices):
 //! - the gyro's "w_ω micro-N" is 22.5 µrad/s and the accelerometer's "w_br micro-N" is 1 µg;
 //! - the gyro bias has no correlation time in Table E.12: we take 1 h like every other bias;
 //! - the accelerometer senses the non-gravitational acceleration (thrust and the perturbation

@@ -1,5 +1,5 @@
-//! What the two agents exchange every step (reference §4), as flat f64 layouts. New fields (the
-//! supervisor's state, issue 14) are appended after the last one, so the offsets below stay.
+//! What the two agents exchange every step, as flat f64 layouts. New fields (a supervisor's
+//! state) are appended after the last one, so the offsets below stay.
 //!
 //! Leader → follower, [`LEADER_SHARE_LEN`] = 20 values:
 //!
@@ -10,7 +10,7 @@
 //! | 6..9 | v̂_L | m/s, ECI |
 //! | 9..13 | q̂_L (scalar last) | — |
 //! | 13..16 | ω̂_L | rad/s, body |
-//! | 16..19 | ã_L, the leader's accelerometer reading (for the follower's v̂_rel, reference item 11) | m/s², ECI |
+//! | 16..19 | ã_L, the leader's accelerometer reading (for the follower's v̂_rel) | m/s², ECI |
 //! | 19 | 1 when r̂_L, v̂_L are known (the hand-over arrived), else 0 | — |
 //!
 //! Follower → leader, [`FOLLOWER_SHARE_LEN`] = 10 values:
