@@ -17,7 +17,7 @@
 //! Where the appendix code and the printed equations disagree we follow the equations, because
 //! the code as printed cannot have produced the paper's figures:
 //! - z0 has 15 entries for 16 states (q, ω, ω_d, θ̂): ω(0) = [.02, .03, .01] from Table 3,
-//!   ω_d(0) = [.08, .08, .04] from z0 (`orchestrator dai-tables` runs Table 4 under the other
+//!   ω_d(0) = [.08, .08, .04] from z0 (`orchestrator dai tables` runs Table 4 under the other
 //!   readings too: none brings the published deviations within reach);
 //! - `zdot(8:10) = sddwd = 0` freezes ω_d, and `[sddwd,sddwd] = traj_gen(...)` in the specific and
 //!   original functions overwrites ω̇_d with the zero second output (so their torque would have no

@@ -2,7 +2,7 @@
 //! appendix code and the printed text disagree on the initial rates (the code's z0 has 15 entries
 //! for 16 states, Table 3 prints ω(0) = [.02, .03, .01]), on the original law's gain (1 in (3),
 //! 1.5 in the code) and on the specific law's torque (the modified (8) its proof needs, or the
-//! code's feedforward (2)). `dai-tables` runs Table 4 (original law, specific law at r = 0.5, 1,
+//! code's feedforward (2)). `dai tables` runs Table 4 (original law, specific law at r = 0.5, 1,
 //! 2, 4; continuous-time) under each reading, changing one thing from `topologies/dai.toml` at a
 //! time, so the note can say whether any reading brings the published deviations within reach —
 //! none is chosen by this table; `dai.toml` states the reading the project uses and why.

@@ -1,4 +1,4 @@
-//! `orchestrator compare` (seed 001): one multi-process run per method, each in its own run
+//! `orchestrator tsnr compare` (seed 001): one multi-process run per method, each in its own run
 //! directory, and compare.md / compare.csv whose numbers are the runs' summaries (and whose
 //! tracking metrics are the telemetry's); bad method lists and scenarios exit 2 naming the fault.
 //! Build the binaries first (`scripts/test` does).
