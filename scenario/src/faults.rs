@@ -14,7 +14,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::validate::{Checker, fmt_f64};
+use crate::checker::{Checker, fmt_f64};
 
 /// One entry of the fault plan.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

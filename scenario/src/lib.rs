@@ -3,6 +3,7 @@
 //! the papers use for their own sections. The `[plant]` and `[algorithm]` sections stay raw here:
 //! the runtime hands each to the paper that registered its kind.
 
+pub mod checker;
 pub mod error;
 pub mod faults;
 pub mod live_graph;
@@ -10,10 +11,11 @@ pub mod parse;
 pub mod schema;
 pub mod validate;
 
+pub use checker::{Checker, fmt_f64};
 pub use error::{Problem, ScenarioError};
 pub use parse::{Overrides, load, parse, section};
 pub use schema::*;
-pub use validate::{Checker, MessageSizes, fmt_f64};
+pub use validate::MessageSizes;
 
 #[cfg(test)]
 mod tests {

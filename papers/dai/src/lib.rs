@@ -11,6 +11,7 @@
 
 pub mod analysis;
 pub mod attitude;
+mod campaign;
 pub mod config;
 pub mod continuous;
 pub mod readings;
