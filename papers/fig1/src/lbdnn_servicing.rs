@@ -1,7 +1,7 @@
 //! Seed 000 (Nino et al.): one servicer's ρ-filter velocity observer (24)–(26), Lb-DNN controller
 //! (27) and distributed adaptation (28), as a pure `Algorithm`.
 //!
-//! Read as reference.md prescribes:
+//! Read as papers/fig1/README.md sets out:
 //! - ηᵢ = Σⱼ dᵢⱼ + bᵢ Cᵢᵀ yᵢ (12), from this agent's own (noisy) readings.
 //! - Observer state: the estimate η̂ᵢ with dη̂ᵢ/dt = ζ̂ᵢ, η̃ᵢ = ηᵢ − η̂ᵢ; ρᵢ from (25) with the two
 //!   integrator states ∫η̃ᵢ and ∫ρᵢ (both starting at 0).

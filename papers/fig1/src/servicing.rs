@@ -1,7 +1,7 @@
 //! Seed 000's plant: N servicers and one defunct spacecraft in Earth orbit. Truth is integrated in
 //! ECI (two-body + J2 + drag, RK4 with sub-steps, commands held). The agents' coordinates qᵢ are
 //! Cartesian positions in the LVLH frame of a reference point on the defunct's initial
-//! osculating Keplerian orbit (reference.md), so q₀ — the defunct's own drift under J2 and drag —
+//! osculating Keplerian orbit (papers/fig1/README.md), so q₀ — the defunct's own drift under J2 and drag —
 //! is the "unknown f₀" the servicers learn. Commands are thrust accelerations in that frame
 //! (g = I₃), rotated to ECI at every RK4 stage.
 //!

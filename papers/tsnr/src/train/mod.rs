@@ -205,7 +205,7 @@ pub fn run(o: &Options, command: &str) -> Result<String, String> {
                "train_windows": train_w.count, "epochs": o.epochs, "batch": hyper.batch,
                "lr": [hyper.lr_start, hyper.lr_end], "optimiser": "AdamW (no weight decay), cosine lr",
                "final_loss": losses.last().copied().unwrap_or(f64::NAN),
-               "data": "cohort_paper_tsnr::net with reference.md's net (11x11, EA 200 N, c 0.1, 1 ms RK4), random \
+               "data": "cohort_paper_tsnr::net with our net (11x11, EA 200 N, c 0.1, 1 ms RK4), random \
                         three-phase capture paths tracked by a saturated PD (papers/tsnr/src/train/data.rs)"}),
     );
     meta.insert("command".into(), json!(command));
@@ -281,7 +281,7 @@ fn markdown(
     );
     s += "## Set-up\n\n";
     s += &format!(
-        "- Data: {} trajectories of 30 s from our net plant (`cohort_paper_tsnr::net`, reference.md's net, 1 ms \
+        "- Data: {} trajectories of 30 s from our net plant (`cohort_paper_tsnr::net`, our net, 1 ms \
          RK4 sub-steps), random three-phase capture paths flown by a saturated PD tracker \
          (`papers/tsnr/src/train/data.rs`); the last {} are held out. {} training windows \
          (every MU, every step), {} held-out windows. The paper used 1000 MuJoCo trajectories.\n",
@@ -290,7 +290,7 @@ fn markdown(
     s += &format!(
         "- Features (eq. (7)): N_t = {} samples of 27 values (own state, the two adjacent MUs' states, the \
          three thrusts), Δt = {} s; outputs T_i(t_e + nΔt), n = 1…{} (N). Layout: \
-         `tsnr/src/predictor.rs`.\n",
+         `papers/tsnr/src/predictor.rs`.\n",
         o.n_t,
         data::DT_S,
         o.n_t
