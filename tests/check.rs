@@ -243,3 +243,36 @@ fn check_never_panics() {
     }
     assert!(failures.is_empty(), "`orchestrator check` panicked:\n\n{}", failures.join("\n\n"));
 }
+
+/// Three independent defects of one file — a misspelt key and a value of the wrong type in the
+/// same table, and a paper-section value out of range — are all reported in one pass, each at its
+/// line and column, the misspelling with a suggestion.
+#[test]
+fn every_problem_of_a_file_is_reported_in_one_pass_at_its_place() {
+    let dir = cohort::scratch_dir("check-three");
+    let text = std::fs::read_to_string(abs("consensus-ring.toml"))
+        .unwrap()
+        .replace("step_timeout_s = 10.0", "step_timout_s = 10.0\nlink_delay_steps = \"one\"")
+        .replace("kp_per_s2 = 0.5", "kp_per_s2 = -0.5");
+    let file = dir.join("three.toml");
+    std::fs::write(&file, &text).unwrap();
+    let run = check(&[&file.display().to_string()]);
+    assert_eq!(run.code, Some(2), "{}", run.report());
+    let line_of = |text_in: &str| -> usize {
+        text.lines().position(|l| l.contains(text_in)).expect("the defect is in the file") + 1
+    };
+    for (path, line) in [
+        ("run.step_timout_s: unknown key (did you mean \"step_timeout_s\"?)", line_of("step_timout_s")),
+        ("run.link_delay_steps: invalid type: string \"one\", expected an integer", line_of("link_delay_steps")),
+        ("algorithm.kp_per_s2 = -0.5: must be > 0", line_of("kp_per_s2")),
+    ] {
+        let want = format!("three.toml:{line}:");
+        assert!(
+            run.stderr.lines().any(|l| l.contains(&want) && l.contains(path)),
+            "no line with {want:?} and {path:?}\n{}",
+            run.report()
+        );
+    }
+    assert!(run.stderr.contains("(3 problems)"), "{}", run.report());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -216,7 +216,7 @@ fn bad_fault_arguments_are_refused_before_anything_runs() {
     let dir = scratch_dir("fault-args");
     for (args, says) in [
         (vec!["--fault", "kill:agent=x@t=1"], "--fault (#1)"),
-        (vec!["--fault", "kill:agent=2@t=1", "--fault", "drop:agent=2@t=1,p=2"], "faults[1].p = 2.0"),
+        (vec!["--fault", "kill:agent=2@t=1", "--fault", "drop:agent=2@t=1,p=2"], "--fault #2.p = 2.0"),
         (vec!["--fault", "kill:agent=2@t=1", "--reference"], "--reference"),
         (vec!["--on-agent-loss", "maybe"], "run.on_agent_loss"),
     ] {

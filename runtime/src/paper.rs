@@ -328,6 +328,14 @@ pub fn configure(scenario: Scenario, papers: &[&'static dyn Paper]) -> Result<Se
 
 /// Read, parse, validate and configure a scenario file.
 pub fn load(file: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -> Result<Setup, ScenarioError> {
-    let scenario = cohort_scenario::load(file, overrides)?;
-    configure(scenario, papers).map_err(|problems| ScenarioError { file: file.to_path_buf(), problems })
+    let (scenario, mut problems) = cohort_scenario::load_all(file, overrides)?;
+    let source = scenario.source.clone();
+    match configure(scenario, papers) {
+        Ok(setup) if problems.is_empty() => Ok(setup),
+        Ok(_) => Err(ScenarioError { file: file.to_path_buf(), problems }.located(&source)),
+        Err(more) => {
+            problems.extend(more);
+            Err(ScenarioError { file: file.to_path_buf(), problems }.located(&source))
+        }
+    }
 }

@@ -12,11 +12,13 @@ pub struct Problem {
     /// The offending value as written, when there is one.
     pub value: Option<String>,
     pub reason: String,
+    /// Line and column in the file (1-based), once located ([`ScenarioError::located`]).
+    pub at: Option<(usize, usize)>,
 }
 
 impl Problem {
     pub fn new(path: impl Into<String>, value: Option<String>, reason: impl Into<String>) -> Self {
-        Self { path: path.into(), value, reason: reason.into() }
+        Self { path: path.into(), value, reason: reason.into(), at: None }
     }
 }
 
@@ -36,12 +38,29 @@ pub struct ScenarioError {
     pub problems: Vec<Problem>,
 }
 
+impl ScenarioError {
+    /// Every problem given its line and column in `text` (the file's contents), where its key
+    /// path is found.
+    pub fn located(mut self, text: &str) -> Self {
+        for p in &mut self.problems {
+            if p.at.is_none() {
+                p.at = crate::locate::locate(text, &p.path);
+            }
+        }
+        self
+    }
+}
+
 impl fmt::Display for ScenarioError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let n = self.problems.len();
         write!(f, "{}: invalid scenario ({n} problem{})", self.file.display(), if n == 1 { "" } else { "s" })?;
         for p in &self.problems {
-            write!(f, "\n  {}: {p}", self.file.display())?;
+            match p.at {
+                Some((line, col)) => write!(f, "\n  {}:{line}:{col}: {p}", self.file.display())?,
+                None => write!(f, "\n  {}: {p}", self.file.display())?,
+            }
+            // A problem spanning several lines (a TOML syntax error's caret) stays indented.
         }
         Ok(())
     }

@@ -87,10 +87,18 @@ impl FaultSpec {
     }
 }
 
-/// Check the plan against the scenario; `path(k)` names entry k (`faults[k]` or `--fault[k]`).
-pub(crate) fn check(c: &mut Checker, faults: &[FaultSpec], n_agents: u32, dt_s: f64, duration_s: f64) {
+/// How fault `k` is named in messages: `faults[k]` when the file has it, `--fault #n` when the
+/// n-th `--fault` argument added it (the first `in_file` entries are the file's).
+pub fn fault_name(k: usize, in_file: usize) -> String {
+    if k < in_file { format!("faults[{k}]") } else { format!("--fault #{}", k - in_file + 1) }
+}
+
+/// Check the plan against the scenario; the first `in_file` entries are the file's, the rest
+/// the command line's.
+pub(crate) fn check(c: &mut Checker, faults: &[FaultSpec], in_file: usize, n_agents: u32, dt_s: f64, duration_s: f64) {
     for (k, f) in faults.iter().enumerate() {
-        let at = |key: &str| format!("faults[{k}].{key}");
+        let name = fault_name(k, in_file);
+        let at = |key: &str| format!("{name}.{key}");
         if !FAULT_KINDS.contains(&f.kind.as_str()) {
             c.fail(at("kind"), format!("{:?}", f.kind), format!("must be one of: {}", FAULT_KINDS.join(", ")));
             continue;
@@ -157,9 +165,9 @@ pub(crate) fn check(c: &mut Checker, faults: &[FaultSpec], n_agents: u32, dt_s: 
             let both_proc = fa.spec.is_process_fault() && fb.spec.is_process_fault();
             if overlap && ((both_link && fa.spec.kind == fb.spec.kind) || both_proc) {
                 c.fail(
-                    format!("faults[{}]", fb.index),
+                    fault_name(fb.index, in_file),
                     format!("{}:agent={}@t={}", fb.spec.kind, fb.agent, fmt_f64(fb.spec.t_s)),
-                    format!("overlaps faults[{}] ({}) on the same agent", fa.index, fa.spec.kind),
+                    format!("overlaps {} ({}) on the same agent", fault_name(fa.index, in_file), fa.spec.kind),
                 );
             }
         }

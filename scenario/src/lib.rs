@@ -7,13 +7,14 @@ pub mod checker;
 pub mod error;
 pub mod faults;
 pub mod live_graph;
+pub mod locate;
 pub mod parse;
 pub mod schema;
 pub mod validate;
 
 pub use checker::{Checker, fmt_f64};
 pub use error::{Problem, ScenarioError};
-pub use parse::{Overrides, load, parse, section};
+pub use parse::{Overrides, load, load_all, parse, parse_all, section};
 pub use schema::*;
 pub use validate::MessageSizes;
 
@@ -63,6 +64,30 @@ mod tests {
         let o = Overrides { on_agent_loss: Some("maybe".into()), ..Default::default() };
         let e = parse(&ring(), Path::new("x.toml"), &o).unwrap_err();
         assert!(e.to_string().contains("run.on_agent_loss = \"maybe\""), "{e}");
+    }
+
+    #[test]
+    fn problems_carry_line_and_column_and_unknown_keys_hide_nothing() {
+        // Two misspelt keys and a bad type in [run], and a bad dt: four problems, each located.
+        let bad = ring()
+            .replace("step_timeout_s = 10.0", "step_timout_s = 10.0\nwiat = \"poll\"\nlink_delay_steps = \"one\"")
+            .replace("dt_s = 0.01", "dt_s = 0.01\ndt_ss = 3");
+        let e = parse(&bad, Path::new("x.toml"), &Overrides::default()).unwrap_err().to_string();
+        assert!(e.contains("run.step_timout_s: unknown key (did you mean \"step_timeout_s\"?)"), "{e}");
+        assert!(e.contains("run.wiat: unknown key (did you mean \"wait\"?)"), "{e}");
+        assert!(e.contains("run.link_delay_steps: invalid type: string \"one\", expected an integer ≥ 0"), "{e}");
+        assert!(e.contains("scenario.dt_ss: unknown key (did you mean \"dt_s\"?)"), "{e}");
+        assert!(e.lines().all(|l| !l.starts_with("  x.toml: run") || l.contains("x.toml:")), "{e}");
+        let line_of = |key: &str| e.lines().find(|l| l.contains(key)).unwrap().to_string();
+        assert!(line_of("run.wiat").starts_with("  x.toml:16:1:"), "{e}");
+    }
+
+    #[test]
+    fn a_toml_syntax_error_keeps_its_place_and_caret() {
+        let bad = ring().replace("seed = 7", "seed = = 7");
+        let e = parse(&bad, Path::new("x.toml"), &Overrides::default()).unwrap_err().to_string();
+        assert!(e.contains("x.toml:9:8: (file): not valid TOML"), "{e}");
+        assert!(e.contains("| seed = = 7") && e.contains("|        ^"), "{e}");
     }
 
     #[test]

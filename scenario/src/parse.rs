@@ -32,23 +32,62 @@ pub struct Overrides {
 /// Read and parse a scenario file: the generic sections typed and checked for their own form
 /// (not yet validated: see [`crate::validate::validate`]), the paper sections raw.
 pub fn load(file: &Path, overrides: &Overrides) -> Result<Scenario, ScenarioError> {
+    let (s, problems) = load_all(file, overrides)?;
+    if problems.is_empty() {
+        Ok(s)
+    } else {
+        Err(ScenarioError { file: file.to_path_buf(), problems }.located(&s.source))
+    }
+}
+
+/// Like [`load`], but a file whose `[run]` or `[[faults]]` has problems still gives a scenario
+/// (with the defaults there) together with those problems, so the paper sections can be checked
+/// too and every problem of the file reported at once.
+pub fn load_all(file: &Path, overrides: &Overrides) -> Result<(Scenario, Vec<Problem>), ScenarioError> {
     let text = std::fs::read_to_string(file).map_err(|e| ScenarioError {
         file: file.to_path_buf(),
         problems: vec![Problem::new("(file)", None, format!("cannot read: {e}"))],
     })?;
-    parse(&text, file, overrides)
+    parse_all(&text, file, overrides)
 }
 
 /// Parse scenario text; `file` names it in messages, and its directory is the base of relative
 /// paths inside paper sections.
 pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario, ScenarioError> {
-    let err = |problems| ScenarioError { file: file.to_path_buf(), problems };
-    let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-        err(vec![Problem::new("(file)", None, format!("not valid TOML: {}", one_line(&e.to_string())))])
-    })?;
+    let (s, problems) = parse_all(text, file, overrides)?;
+    if problems.is_empty() { Ok(s) } else { Err(ScenarioError { file: file.to_path_buf(), problems }.located(text)) }
+}
+
+/// [`parse`], keeping going past problems of `[run]` and `[[faults]]` (see [`load_all`]).
+pub fn parse_all(text: &str, file: &Path, overrides: &Overrides) -> Result<(Scenario, Vec<Problem>), ScenarioError> {
+    let err = |problems| ScenarioError { file: file.to_path_buf(), problems }.located(text);
+    let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| err(vec![syntax_problem(text, &e)]))?;
+    let faults_in_file = match table.get("faults") {
+        Some(toml::Value::Array(a)) => a.len(),
+        _ => 0,
+    };
     apply_overrides(&mut table, overrides);
     let base_dir = file.parent().unwrap_or(Path::new("")).to_path_buf();
-    parse_table(table, base_dir).map_err(err)
+    let (s, problems) = parse_table(table, base_dir);
+    let Some(mut s) = s else { return Err(err(problems)) };
+    s.source = text.into();
+    s.faults_in_file = faults_in_file;
+    Ok((s, problems))
+}
+
+/// A TOML syntax error as a problem at its line and column, with the offending line and a caret
+/// under the place.
+fn syntax_problem(text: &str, e: &toml::de::Error) -> Problem {
+    let mut p = Problem::new("(file)", None, format!("not valid TOML: {}", one_line(e.message())));
+    if let Some(span) = e.span() {
+        let (line, col) = crate::locate::line_col(text, span.start);
+        p.at = Some((line, col));
+        if let Some(src) = text.lines().nth(line - 1) {
+            let caret = " ".repeat(col.saturating_sub(1));
+            p.reason.push_str(&format!("\n      | {src}\n      | {caret}^"));
+        }
+    }
+    p
 }
 
 /// Write the command line's overrides into the file's table.
@@ -101,14 +140,16 @@ fn apply_overrides(table: &mut toml::Table, o: &Overrides) {
 
 const TOP_KEYS: &[&str] = &["scenario", "run", "plant", "algorithm", "agents", "faults"];
 
-fn parse_table(mut table: toml::Table, base_dir: std::path::PathBuf) -> Result<Scenario, Vec<Problem>> {
+/// The typed scenario, if its meta, paper sections and agents parsed (a bad `[run]` or
+/// `[[faults]]` falls back to the defaults), with every problem found.
+fn parse_table(mut table: toml::Table, base_dir: std::path::PathBuf) -> (Option<Scenario>, Vec<Problem>) {
     let mut problems = Vec::new();
     for k in table.keys() {
         if !TOP_KEYS.contains(&k.as_str()) {
             problems.push(Problem::new(
                 k.clone(),
                 None,
-                format!("unknown key (expected one of: {})", TOP_KEYS.join(", ")),
+                format!("unknown key{} (expected one of: {})", did_you_mean(k, TOP_KEYS), TOP_KEYS.join(", ")),
             ));
         }
     }
@@ -132,14 +173,26 @@ fn parse_table(mut table: toml::Table, base_dir: std::path::PathBuf) -> Result<S
         Some(v) => section::<RunSettings>(v, "run", &mut problems),
         None => Some(RunSettings::default()),
     };
-    match (meta, run, plant, algorithm, agents, faults) {
-        (Some(scenario), Some(run), Some(plant), Some(algorithm), Some(agents), Some(faults))
-            if problems.is_empty() =>
-        {
-            Ok(Scenario { scenario, run, plant, algorithm, agents, faults, base_dir })
+    let s = match (meta, plant, algorithm, agents) {
+        (Some(scenario), Some(plant), Some(algorithm), Some(agents)) => {
+            let faults = faults.unwrap_or_default();
+            let faults_in_file = faults.len();
+            let run = run.unwrap_or_default();
+            Some(Scenario {
+                scenario,
+                run,
+                plant,
+                algorithm,
+                agents,
+                faults,
+                base_dir,
+                source: "".into(),
+                faults_in_file,
+            })
         }
-        _ => Err(problems),
-    }
+        _ => None,
+    };
+    (s, problems)
 }
 
 /// Split a `kind`-tagged table into its kind and the rest.
@@ -168,14 +221,66 @@ fn tagged(v: toml::Value, path: &str, problems: &mut Vec<Problem>) -> Option<Sec
 /// Deserialise one section (or any value inside one) at key path `path`, recording a problem with
 /// its full key path on failure. Papers parse their `[plant]`/`[algorithm]` bodies and per-agent
 /// keys with it.
+///
+/// A bad key does not hide the section's other problems: it is reported, taken out, and the
+/// section read again (a misspelt key is the commonest mistake, and often not the only one). A
+/// required key taken out this way is not reported again as missing.
 pub fn section<T: DeserializeOwned>(v: toml::Value, path: &str, problems: &mut Vec<Problem>) -> Option<T> {
-    match serde_path_to_error::deserialize::<_, T>(v) {
-        Ok(t) => Some(t),
-        Err(e) => {
-            let inner = e.path().to_string();
-            problems.push(problem_of(join(path, &inner), &one_line(&e.inner().to_string())));
-            None
+    let mut v = v;
+    let before = problems.len();
+    let mut removed: Vec<String> = Vec::new();
+    // Each retry removes one key, so this ends; the bound only guards against a surprise.
+    for _ in 0..64 {
+        match serde_path_to_error::deserialize::<_, T>(v.clone()) {
+            // Read without the bad keys: the section still failed, but every problem is out.
+            Ok(t) => return (problems.len() == before).then_some(t),
+            Err(e) => {
+                let inner = e.path().to_string();
+                let message = one_line(&e.inner().to_string());
+                let p = problem_of(join(path, &inner), &message);
+                if removed.contains(&p.path) {
+                    return None;
+                }
+                let rel = strip_prefix_path(&p.path, path);
+                let taken_out = !rel.is_empty() && remove_key(&mut v, &rel);
+                removed.push(p.path.clone());
+                problems.push(p);
+                if !taken_out {
+                    return None;
+                }
+            }
         }
+    }
+    None
+}
+
+/// `path` relative to the section's own path `base` (`plant.foo.bar` under `plant` → `foo.bar`).
+fn strip_prefix_path(path: &str, base: &str) -> String {
+    path.strip_prefix(base).unwrap_or(path).trim_start_matches('.').to_string()
+}
+
+/// Remove the key at relative path `rel` (`a.b[2].c`) from `v`; whether it was there.
+fn remove_key(v: &mut toml::Value, rel: &str) -> bool {
+    let mut parts: Vec<&str> = rel.split('.').collect();
+    let Some(last) = parts.pop() else { return false };
+    let mut cur = v;
+    for part in parts {
+        let (key, idx) = match part.split_once('[') {
+            Some((k, rest)) => (k, rest.trim_end_matches(']').parse::<usize>().ok()),
+            None => (part, None),
+        };
+        if !key.is_empty() {
+            let Some(next) = cur.get_mut(key) else { return false };
+            cur = next;
+        }
+        if let Some(i) = idx {
+            let Some(next) = cur.get_mut(i) else { return false };
+            cur = next;
+        }
+    }
+    match cur {
+        toml::Value::Table(t) => t.remove(last).is_some(),
+        _ => false,
     }
 }
 
@@ -199,7 +304,10 @@ fn problem_of(mut full: String, message: &str) -> Problem {
             full = join(&full, field);
         }
         let expected = tail.trim_start_matches(',').trim();
-        let reason = if expected.is_empty() { "unknown key".into() } else { format!("unknown key ({expected})") };
+        let options: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+        let hint = did_you_mean(field, &options);
+        let reason =
+            if expected.is_empty() { format!("unknown key{hint}") } else { format!("unknown key{hint} ({expected})") };
         return Problem::new(full, None, reason);
     }
     // A choice written as a string that names none of its options (a serde enum).
@@ -209,7 +317,44 @@ fn problem_of(mut full: String, message: &str) -> Problem {
         let options: Vec<String> = tail.split('`').skip(1).step_by(2).map(|o| format!("{o:?}")).collect();
         return Problem::new(full, Some(format!("{value:?}")), format!("must be {}", choice_list(&options)));
     }
-    Problem::new(full, None, reason)
+    Problem::new(full, None, in_toml_words(&reason))
+}
+
+/// ` (did you mean "x"?)` when one of `options` is close to `key`, else nothing.
+pub fn did_you_mean(key: &str, options: &[&str]) -> String {
+    let best = options
+        .iter()
+        .map(|o| (strsim::jaro_winkler(key, o), *o))
+        .filter(|(score, _)| *score >= 0.8)
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    best.map(|(_, o)| format!(" (did you mean {o:?}?)")).unwrap_or_default()
+}
+
+/// serde's type names in the words of a TOML file: a float, an integer, an array, a table.
+fn in_toml_words(reason: &str) -> String {
+    let mut r = reason.to_string();
+    for (rust, toml) in [
+        ("expected f64", "expected a float"),
+        ("expected f32", "expected a float"),
+        ("expected u64", "expected an integer ≥ 0"),
+        ("expected u32", "expected an integer ≥ 0"),
+        ("expected u8", "expected an integer ≥ 0"),
+        ("expected usize", "expected an integer ≥ 0"),
+        ("expected i64", "expected an integer"),
+        ("expected i32", "expected an integer"),
+        ("expected a sequence", "expected an array"),
+        ("expected a map", "expected a table"),
+        ("invalid type: floating point", "invalid type: float"),
+        ("invalid type: sequence", "invalid type: array"),
+        ("invalid type: map", "invalid type: table"),
+    ] {
+        r = r.replace(rust, toml);
+    }
+    // "expected struct Meta" and the like: a table.
+    if let Some(i) = r.find("expected struct ") {
+        r.replace_range(i.., "expected a table");
+    }
+    r.replace('`', "")
 }
 
 /// `"a"`, `"a" or "b"`, `"a", "b" or "c"`; more than four: `one of: "a", "b", …`.

@@ -20,6 +20,10 @@ pub struct Scenario {
     /// The directory of the scenario file: relative file paths inside paper sections (weights,
     /// tables) are relative to it.
     pub base_dir: PathBuf,
+    /// The file's text, to give problems found later (by a paper) their line and column.
+    pub source: std::sync::Arc<str>,
+    /// How many of `faults` the file holds; the rest came from the command line (`--fault`).
+    pub faults_in_file: usize,
 }
 
 /// A `kind`-tagged table (`[plant]`, `[algorithm]`): the kind, and the rest of the table as

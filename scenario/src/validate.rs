@@ -20,7 +20,7 @@ pub fn validate(s: &Scenario) -> (bool, Vec<Problem>) {
     let ids_ok = agents(&mut c, &s.agents);
     let (dt, dur) = (s.scenario.dt_s, s.scenario.duration_s);
     if dt.is_finite() && dt > 0.0 && dur.is_finite() && dur > 0.0 {
-        crate::faults::check(&mut c, &s.faults, s.n_agents(), dt, dur);
+        crate::faults::check(&mut c, &s.faults, s.faults_in_file, s.n_agents(), dt, dur);
     }
     if s.run.checkpoint_every_steps == 0
         && let Some(k) = s.faults.iter().position(|f| f.kind == "restart")
@@ -28,7 +28,10 @@ pub fn validate(s: &Scenario) -> (bool, Vec<Problem>) {
         c.fail(
             "run.checkpoint_every_steps",
             0,
-            format!("faults[{k}] restarts an agent, which resumes from its latest checkpoint: must be > 0"),
+            format!(
+                "{} restarts an agent, which resumes from its latest checkpoint: must be > 0",
+                crate::faults::fault_name(k, s.faults_in_file)
+            ),
         );
     }
     (ids_ok, c.problems)
