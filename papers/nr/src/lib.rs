@@ -4,11 +4,18 @@
 // Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
 #![allow(clippy::needless_range_loop)]
 
+pub mod bound;
 pub mod constants;
+pub mod features;
 pub mod iso_set;
 pub mod lvlh;
 pub mod messages;
+pub mod min_norm;
 pub mod navigation;
 pub mod plant;
+pub mod qp;
 pub mod relative;
+pub mod scp;
+pub mod sn_dnn;
+pub mod tracking;
 pub mod two_body;
