@@ -11,10 +11,18 @@
 //! | 10    | r̂, the ISO's distance from the Sun, m |
 //! | 11    | ḟ̂, the ISO's true-anomaly rate (the dominant element of C in (2)), rad/s |
 //! | 12–14 | ρ_f, desired terminal relative position (LVLH), m |
+//! | 15–17 | ZEM/t_go², the acceleration that nulls the miss (t_go = t_f − t), m/s² |
 //!
 //! Why ZEM: the raw p is ~10⁹ m and hides the miss the guidance must null; the ballistic
 //! terminal position is an (almost affine) function of x through the state-transition matrix,
 //! so the input stays differentiable in x (the training rolls the state through the dynamics).
+//!
+//! Departure from the reference's transform (values 0–14): ZEM/t_go² is added. The MPC's
+//! command is close to −3m·ZEM/t_go² (the minimum-energy command with free terminal velocity),
+//! a product the network would otherwise have to form itself; with ZEM alone (normalised by its
+//! training maximum, ~10⁵ m) the gain it needs late in the approach exceeds what the
+//! spectral normalisation allows (C_sn^L = 16 in normalised units), and the SN-DNN alone missed
+//! by ≈ 12 km (median, training ISOs 0–19, perfect navigation; see the crate README).
 
 use nalgebra::SMatrix;
 
@@ -22,8 +30,8 @@ use crate::lvlh::{OrbitRates, X6, pos, vel};
 use crate::relative::{coast_position, coast_position_jac};
 use crate::two_body::{Inertial, V3};
 
-/// Number of inputs: p (3), ṗ (3), ZEM (3), t_f − t, r, ḟ, ρ_f (3).
-pub const N_FEATURES: usize = 15;
+/// Number of inputs: p (3), ṗ (3), ZEM (3), t_f − t, r, ḟ, ρ_f (3), ZEM/t_go² (3).
+pub const N_FEATURES: usize = 18;
 /// Names, for the weights file.
 pub const NAMES: [&str; N_FEATURES] = [
     "p_x_m",
@@ -41,6 +49,9 @@ pub const NAMES: [&str; N_FEATURES] = [
     "rho_f_x_m",
     "rho_f_y_m",
     "rho_f_z_m",
+    "a_req_x_mps2",
+    "a_req_y_mps2",
+    "a_req_z_mps2",
 ];
 /// Largest RK4 step of the ZEM's coasting propagation (≤ 4 steps over a day; ≈ 0.2 m from the
 /// converged value, see `relative`'s tests), s.
@@ -50,10 +61,35 @@ pub type Features = [f64; N_FEATURES];
 /// ∂features/∂x (only the p, ṗ and ZEM rows are nonzero).
 pub type FeatureJac = SMatrix<f64, N_FEATURES, 6>;
 
+/// 1/t_go², with t_go floored at one second (the input is never used at t_f itself).
+fn inv_tgo2(t_go_s: f64) -> f64 {
+    1.0 / t_go_s.max(1.0).powi(2)
+}
+
 fn assemble(x: &X6, zem: &V3, t_go_s: f64, iso: &Inertial, rho_f_m: &V3) -> Features {
     let o = OrbitRates::of(iso);
     let (p, q) = (pos(x), vel(x));
-    [p.x, p.y, p.z, q.x, q.y, q.z, zem.x, zem.y, zem.z, t_go_s, o.r_m, o.fdot_radps, rho_f_m.x, rho_f_m.y, rho_f_m.z]
+    let a = zem * inv_tgo2(t_go_s);
+    [
+        p.x,
+        p.y,
+        p.z,
+        q.x,
+        q.y,
+        q.z,
+        zem.x,
+        zem.y,
+        zem.z,
+        t_go_s,
+        o.r_m,
+        o.fdot_radps,
+        rho_f_m.x,
+        rho_f_m.y,
+        rho_f_m.z,
+        a.x,
+        a.y,
+        a.z,
+    ]
 }
 
 /// The raw (unnormalised) input at estimate (x, œ), time t.
@@ -71,6 +107,7 @@ pub fn features_jac(x: &X6, iso: &Inertial, t_s: f64, t_f_s: f64, rho_f_m: &V3) 
     let mut j = FeatureJac::zeros();
     j.fixed_view_mut::<6, 6>(0, 0).copy_from(&nalgebra::Matrix6::identity());
     j.fixed_view_mut::<3, 6>(6, 0).copy_from(&dpf);
+    j.fixed_view_mut::<3, 6>(15, 0).copy_from(&(dpf * inv_tgo2(t_go)));
     (f, j)
 }
 

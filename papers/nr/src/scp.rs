@@ -39,7 +39,9 @@ impl ScpInput {
     }
 }
 
+/// The SCP's stopping rule (`algorithm.scp`).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ScpSettings {
     /// Terminal miss of the rolled-out model at which the iteration stops, m.
     pub tol_m: f64,
@@ -162,7 +164,7 @@ pub fn solve(inp: &ScpInput, warm: Option<&[V3]>, s: &ScpSettings, log: &mut Sol
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::constants::{ISO_SET_SEED, T_F_S};
     use crate::iso_set;

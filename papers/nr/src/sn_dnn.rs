@@ -83,6 +83,21 @@ pub fn spectral_norm(w: &[f64], rows: usize, cols: usize) -> f64 {
     sigma
 }
 
+/// Σ aᵢbᵢ in eight interleaved partial sums (a fixed order, so deterministic, and one the
+/// compiler vectorises; a single running sum cannot be reordered and runs ≈ 4× slower).
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut s = [0.0f64; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            s[k] += x[k] * y[k];
+        }
+    }
+    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    ((s[0] + s[4]) + (s[1] + s[5])) + ((s[2] + s[6]) + (s[3] + s[7])) + tail
+}
+
 impl SnDnn {
     /// Check and assemble; the reason names what is wrong.
     pub fn new(
@@ -171,8 +186,7 @@ impl SnDnn {
         for layer in &self.layers {
             for (o, bo) in b.iter_mut().enumerate().take(layer.n_out) {
                 let row = &layer.w[o * layer.n_in..(o + 1) * layer.n_in];
-                let s: f64 = row.iter().zip(&a[..layer.n_in]).map(|(w, x)| w * x).sum();
-                *bo = (s + layer.b[o]).tanh();
+                *bo = (dot(row, &a[..layer.n_in]) + layer.b[o]).tanh();
             }
             std::mem::swap(&mut a, &mut b);
         }
@@ -273,6 +287,18 @@ pub(crate) mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
+    /// A random network with exactly normalised weights and the given scales.
+    pub(crate) fn random_net_scaled(
+        sizes: &[usize],
+        c_sn: f64,
+        seed: u64,
+        input_scale: Vec<f64>,
+        output_scale: Vec<f64>,
+    ) -> SnDnn {
+        let n = random_net(sizes, c_sn, seed);
+        SnDnn::new(n.layers, input_scale, output_scale, c_sn, serde_json::json!({})).unwrap()
+    }
+
     /// A random network with exactly normalised weights.
     pub(crate) fn random_net(sizes: &[usize], c_sn: f64, seed: u64) -> SnDnn {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -307,18 +333,18 @@ pub(crate) mod tests {
 
     #[test]
     fn file_round_trips_exactly_and_the_forward_pass_is_the_documented_network() {
-        let net = random_net(&[15, 64, 64, 64, 3], 2.0, 7);
+        let net = random_net(&[18, 64, 64, 64, 3], 2.0, 7);
         let bytes = net.to_bytes();
         assert_eq!(bytes, net.to_bytes(), "deterministic bytes");
         let back = SnDnn::from_bytes(&bytes, Path::new("x.safetensors")).unwrap();
         assert_eq!(back.layers, net.layers);
-        let input: Vec<f64> = (0..15).map(|i| (i as f64 * 0.37).sin() * 3.0).collect();
+        let input: Vec<f64> = (0..18).map(|i| (i as f64 * 0.37).sin() * 3.0).collect();
         let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
         net.forward(&input, &mut a);
         back.forward(&input, &mut b);
         assert_eq!(a, b);
         // By hand with nalgebra.
-        let mut h = nalgebra::DVector::from_iterator(15, input.iter().zip(net.input_scale()).map(|(x, s)| x / s));
+        let mut h = nalgebra::DVector::from_iterator(18, input.iter().zip(net.input_scale()).map(|(x, s)| x / s));
         for l in net.layers() {
             h = (DMatrix::from_row_slice(l.n_out, l.n_in, &l.w) * h + nalgebra::DVector::from_column_slice(&l.b))
                 .map(|x| x.tanh());
@@ -331,13 +357,13 @@ pub(crate) mod tests {
 
     #[test]
     fn empirical_lipschitz_constant_stays_below_c_sn_to_the_l() {
-        let net = random_net(&[15, 64, 64, 64, 3], 2.0, 8);
+        let net = random_net(&[18, 64, 64, 64, 3], 2.0, 8);
         let mut rng = ChaCha8Rng::seed_from_u64(9);
         let bound = net.lipschitz_normalised();
         assert_eq!(bound, 16.0);
         for _ in 0..2000 {
-            let z: Vec<f64> = (0..15).map(|_| rng.random_range(-1.0..1.0)).collect();
-            let dz: Vec<f64> = (0..15).map(|_| rng.random_range(-1e-3..1e-3)).collect();
+            let z: Vec<f64> = (0..18).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let dz: Vec<f64> = (0..18).map(|_| rng.random_range(-1e-3..1e-3)).collect();
             let z2: Vec<f64> = z.iter().zip(&dz).map(|(a, b)| a + b).collect();
             let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
             net.forward_normalised(&z, &mut a);
