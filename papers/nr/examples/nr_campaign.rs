@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use cohort_paper_nr::campaign::{CampaignOptions, markdown, run_all, summarise};
+use cohort_paper_nr::campaign::{CampaignOptions, comparisons, markdown, run_all, summarise};
 use cohort_paper_nr::config::Method;
 use cohort_paper_nr::sn_dnn::SnDnn;
 
@@ -56,6 +56,7 @@ fn main() -> Result<(), String> {
     let runs = run_all(&o)?;
     let s = summarise(&o, &runs);
     println!("{}", markdown(&s));
+    println!("{}", comparisons(&runs));
     println!(
         "wall {:.1} s, ISOs {:?}, nav_scale {}, dt {} s",
         started.elapsed().as_secs_f64(),

@@ -204,3 +204,35 @@ pub fn markdown(s: &[MethodSummary]) -> String {
     }
     t
 }
+
+/// Per-ISO comparisons of Neural-Rendezvous with every other method of the campaign: the share
+/// of ISOs where NR's delivery error is smaller, and NR's Δv over the other's (median, max, and
+/// how many ISOs exceed 1.25×), as Markdown (empty without NR runs).
+pub fn comparisons(runs: &[RunResult]) -> String {
+    let nr: Vec<&RunResult> = runs.iter().filter(|r| r.method == Method::NeuralRendezvous).collect();
+    if nr.is_empty() {
+        return String::new();
+    }
+    let mut t = String::from(
+        "| NR vs | ISOs | NR error smaller | NR Δv / other's: median | max | ISOs > 1.25× |\n|---|---|---|---|---|---|\n",
+    );
+    for m in Method::ALL.into_iter().filter(|m| *m != Method::NeuralRendezvous) {
+        let pairs: Vec<(&RunResult, &RunResult)> =
+            nr.iter().filter_map(|a| runs.iter().find(|b| b.method == m && b.iso == a.iso).map(|b| (*a, b))).collect();
+        if pairs.is_empty() {
+            continue;
+        }
+        let smaller = pairs.iter().filter(|(a, b)| a.delivery_error_m < b.delivery_error_m).count();
+        let ratios = sorted(pairs.iter().map(|(a, b)| a.dv_mps / b.dv_mps));
+        t += &format!(
+            "| {} | {} | {} | {:.3} | {:.3} | {} |\n",
+            m.name(),
+            pairs.len(),
+            smaller,
+            quantile(&ratios, 0.5),
+            ratios.last().copied().unwrap_or(f64::NAN),
+            ratios.iter().filter(|r| **r > 1.25).count()
+        );
+    }
+    t
+}
