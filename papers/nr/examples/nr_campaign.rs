@@ -1,6 +1,7 @@
 //! `cargo run --release -p cohort-paper-nr --example nr_campaign -- [--methods a,b] [--isos 200..300]
-//! [--weights FILE] [--nav-scale X] [--dt S] [--threads N] [--json FILE]`: the in-process evaluation
-//! of `campaign`, printed as Markdown.
+//! [--weights FILE] [--nav-scale X] [--dt S] [--threads N] [--repeats R] [--seed-base B]
+//! [--rebuild-every S] [--backward replay|policy] [--t-s-fraction F] [--json FILE]`: the in-process
+//! evaluation of `campaign`, printed as Markdown.
 
 use std::sync::Arc;
 
@@ -39,6 +40,9 @@ fn main() -> Result<(), String> {
     }
     if let Some(x) = get("--threads") {
         o.threads = x.parse().map_err(|_| "--threads")?;
+    }
+    if let Some(x) = get("--repeats") {
+        o.timing_repeats = x.parse().map_err(|_| "--repeats")?;
     }
     if let Some(x) = get("--seed-base") {
         o.seed_base = x.parse().map_err(|_| "--seed-base")?;

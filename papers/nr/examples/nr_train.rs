@@ -28,6 +28,9 @@ fn main() -> Result<(), String> {
     if let Some(s) = get("--samples") {
         o.data.samples_per_iso = s.parse().map_err(|_| "--samples")?;
     }
+    if let Some(n) = get("--inputs") {
+        o.inputs = n.parse().map_err(|_| "--inputs")?;
+    }
     if let Some(c) = get("--c-sn") {
         o.c_sn = c.parse().map_err(|_| "--c-sn")?;
     }

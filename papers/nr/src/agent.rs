@@ -27,7 +27,7 @@ use crate::bound::Bound;
 use crate::config::{Method, NrAlgorithmConfig};
 use crate::constants::{DV_BUDGET_MPS, G0_MPS2};
 use crate::desired::{self, Desired};
-use crate::features::{N_FEATURES, features};
+use crate::features::{N_FEATURES, REFERENCE_INPUTS, features};
 use crate::lvlh::{IsoFrame, OrbitRates, X6, pos};
 use crate::messages::{Reading, SHARE_LEN};
 use crate::min_norm::min_norm;
@@ -102,8 +102,12 @@ pub fn load_net(cfg: &NrAlgorithmConfig) -> Result<Option<Arc<SnDnn>>, AgentErro
 
 fn check_net(net: &SnDnn, cfg: &NrAlgorithmConfig, path: &Path) -> Result<(), AgentError> {
     let bad = |reason: String| AgentError::Weights(crate::sn_dnn::WeightsError { file: path.into(), reason });
-    if net.n_in() != N_FEATURES || net.n_out() != 3 {
-        return Err(bad(format!("a network {} → {}, the guidance needs {N_FEATURES} → 3", net.n_in(), net.n_out())));
+    if !(net.n_in() == N_FEATURES || net.n_in() == REFERENCE_INPUTS) || net.n_out() != 3 {
+        return Err(bad(format!(
+            "a network {} → {}, the guidance needs {N_FEATURES} (or the reference's {REFERENCE_INPUTS}) → 3",
+            net.n_in(),
+            net.n_out()
+        )));
     }
     if let Some(c) = cfg.c_sn.filter(|c| *c != net.c_sn()) {
         return Err(bad(format!("C_sn = {}, algorithm.c_sn asks for {c}", net.c_sn())));
@@ -147,7 +151,7 @@ impl NrAgent {
         let net = self.net.as_ref().expect("checked at construction");
         let f = features(x, iso, t_s, r.t_f_s, &r.rho_f_m);
         let mut u = [0.0; 3];
-        net.forward(&f, &mut u);
+        net.forward(&f[..net.n_in()], &mut u);
         V3::from(u)
     }
 

@@ -32,6 +32,9 @@ use crate::two_body::{Inertial, V3};
 
 /// Number of inputs: p (3), ṗ (3), ZEM (3), t_f − t, r, ḟ, ρ_f (3), ZEM/t_go² (3).
 pub const N_FEATURES: usize = 18;
+/// The reference's transform: the first 15 values (a network with 15 inputs reads only these;
+/// kept so the comparison in the crate README can be reproduced).
+pub const REFERENCE_INPUTS: usize = 15;
 /// Names, for the weights file.
 pub const NAMES: [&str; N_FEATURES] = [
     "p_x_m",

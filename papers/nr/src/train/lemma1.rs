@@ -38,7 +38,7 @@ fn normalised(net: &SnDnn, s: &Sample) -> Vec<f64> {
 
 fn err(net: &SnDnn, s: &Sample) -> f64 {
     let mut u = [0.0; 3];
-    net.forward(&s.f0, &mut u);
+    net.forward(&s.f0[..net.n_in()], &mut u);
     (crate::two_body::V3::from(u) - s.u0_n).norm()
 }
 
@@ -60,9 +60,9 @@ pub fn lemma1(net: &SnDnn, train: &[Sample], test: &[Sample]) -> Lemma1 {
         r = r.max(d);
         if d > 0.0 {
             l_mpc = l_mpc.max((s.u0_n - train[j].u0_n).norm() / d);
-            net.forward(&s.f0, &mut out);
+            net.forward(&s.f0[..net.n_in()], &mut out);
             let a = crate::two_body::V3::from(out);
-            net.forward(&train[j].f0, &mut out);
+            net.forward(&train[j].f0[..net.n_in()], &mut out);
             l_ell = l_ell.max((a - crate::two_body::V3::from(out)).norm() / d);
         }
     }

@@ -31,7 +31,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::constants::{ISO_SET_SEED, ISP_S, M0_KG, RHO_F_RADIUS_M, T_F_S, TEST_ISOS, TRAIN_ISOS, U_MAX_N};
-use crate::features::{N_FEATURES, NAMES};
+use crate::features::{N_FEATURES, NAMES, REFERENCE_INPUTS};
 use crate::navigation::NavSigmas;
 use crate::scp::ScpSettings;
 use crate::sn_dnn::SnDnn;
@@ -55,6 +55,8 @@ pub struct TrainOptions {
     /// Threads of the data generation.
     pub threads: usize,
     pub hidden: Vec<usize>,
+    /// Network inputs: the first `inputs` values of the transform (18, or the reference's 15).
+    pub inputs: usize,
     pub c_sn: f64,
     /// γ of C_x = γI.
     pub gamma: f64,
@@ -92,6 +94,7 @@ impl TrainOptions {
             cache_dir: None,
             threads: 2,
             hidden: vec![64, 64, 64],
+            inputs: N_FEATURES,
             c_sn: 2.0,
             // Chosen by the paper's Fig. 9 rule (smallest delivery error and spread without state
             // uncertainty) on held-out training ISOs 180–199 among 0.1, 1, 10 (crate README).
@@ -232,10 +235,10 @@ struct Tensors {
     n_state: usize,
 }
 
-fn tensors(samples: &[Sample], sc: &Scales, dtau: usize, dev: &Device) -> candle_core::Result<Tensors> {
+fn tensors(samples: &[Sample], sc: &Scales, dtau: usize, n_in: usize, dev: &Device) -> candle_core::Result<Tensors> {
     let nc = samples.len();
     let f32s = |it: &mut dyn Iterator<Item = f64>| it.map(|x| x as f32).collect::<Vec<f32>>();
-    let z0 = f32s(&mut samples.iter().flat_map(|s| s.f0.iter().zip(&sc.input).map(|(x, k)| x / k)));
+    let z0 = f32s(&mut samples.iter().flat_map(|s| s.f0.iter().zip(&sc.input).take(n_in).map(|(x, k)| x / k)));
     let y0 = f32s(&mut samples.iter().flat_map(|s| s.u0_n.iter().map(|u| u / sc.u_n).collect::<Vec<_>>()));
     let st: Vec<&Sample> = samples.iter().filter(|s| s.nodes.len() == dtau).collect();
     let ns = st.len();
@@ -250,22 +253,22 @@ fn tensors(samples: &[Sample], sc: &Scales, dtau: usize, dev: &Device) -> candle
         let (mut fj, mut aj, mut bj, mut yj) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for s in &st {
             let n = &s.nodes[j];
-            zj.extend(n.f.iter().zip(&sc.input).map(|(x, k)| (x / k) as f32));
+            zj.extend(n.f.iter().zip(&sc.input).take(n_in).map(|(x, k)| (x / k) as f32));
             // A matrix's column-major values are its transpose's row-major ones: F̃ᵀ (6 × n_in),
             // Ãᵀ (6 × 6), B̃ᵀ (3 × 6) for the row-vector products of the roll-out.
-            fj.extend((inv_in * n.f_jac * d).iter().map(|x| *x as f32));
+            fj.extend((inv_in * n.f_jac * d).rows(0, n_in).iter().map(|x| *x as f32));
             aj.extend((dinv * n.a * d).iter().map(|x| *x as f32));
             bj.extend((dinv * n.b * sc.u_n).iter().map(|x| *x as f32));
             yj.extend(n.u_n.iter().map(|u| (u / sc.u_n) as f32));
         }
-        z.push(Tensor::from_vec(zj, (ns, N_FEATURES), dev)?);
-        ft.push(Tensor::from_vec(fj, (ns, 6, N_FEATURES), dev)?);
+        z.push(Tensor::from_vec(zj, (ns, n_in), dev)?);
+        ft.push(Tensor::from_vec(fj, (ns, 6, n_in), dev)?);
         at.push(Tensor::from_vec(aj, (ns, 6, 6), dev)?);
         bt.push(Tensor::from_vec(bj, (ns, 3, 6), dev)?);
         y.push(Tensor::from_vec(yj, (ns, 3), dev)?);
     }
     Ok(Tensors {
-        z0: Tensor::from_vec(z0, (nc, N_FEATURES), dev)?,
+        z0: Tensor::from_vec(z0, (nc, n_in), dev)?,
         y0: Tensor::from_vec(y0, (nc, 3), dev)?,
         z,
         ft,
@@ -295,7 +298,7 @@ fn batch(t: &Tensors, ctrl: &[u32], state: &[u32], dev: &Device) -> candle_core:
 fn fit(o: &TrainOptions, t: &Tensors, n_ctrl: usize, dev: &Device) -> Result<(SnMlp, Vec<(f64, f64)>), TrainError> {
     let mut rng = ChaCha8Rng::seed_from_u64(o.seed ^ 0x4e52_5f53_4e44_4e4e);
     rng.set_stream(1);
-    let mut sizes = vec![N_FEATURES];
+    let mut sizes = vec![o.inputs];
     sizes.extend(&o.hidden);
     sizes.push(3);
     let mut net = SnMlp::new(&sizes, o.c_sn, &mut rng, dev)?;
@@ -340,6 +343,9 @@ pub fn train(o: &TrainOptions) -> Result<TrainReport, TrainError> {
     {
         return Err(TrainError::Options("epochs, batch and layers must be ≥ 1, C_sn > 0, γ ≥ 0".into()));
     }
+    if o.inputs != N_FEATURES && o.inputs != REFERENCE_INPUTS {
+        return Err(TrainError::Options(format!("inputs = {}: {N_FEATURES} or {REFERENCE_INPUTS}", o.inputs)));
+    }
     if o.data.isos.start >= o.data.isos.end || o.data.samples_per_iso == 0 {
         return Err(TrainError::Options("no training ISOs or samples".into()));
     }
@@ -360,12 +366,12 @@ pub fn train(o: &TrainOptions) -> Result<TrainReport, TrainError> {
     let started = Instant::now();
     let dev = Device::Cpu;
     let sc = Scales::of(&samples, o);
-    let t = tensors(&samples, &sc, o.data.dtau_steps, &dev)?;
+    let t = tensors(&samples, &sc, o.data.dtau_steps, o.inputs, &dev)?;
     let (mlp, history) = fit(o, &t, samples.len(), &dev)?;
     let train_s = started.elapsed().as_secs_f64();
 
     let meta = serde_json::json!({
-        "features": NAMES,
+        "features": &NAMES[..o.inputs],
         "outputs": ["u_x_n", "u_y_n", "u_z_n"],
         "output_frame": "LVLH of the estimated ISO at the decision time; held in inertial axes over the control interval",
         "activation": "tanh (every layer, the output's included)",
@@ -374,7 +380,7 @@ pub fn train(o: &TrainOptions) -> Result<TrainReport, TrainError> {
             "lr": [o.lr_start, o.lr_end], "data_hash": format!("{:016x}", o.data.hash()), "data": o.data,
         },
     });
-    let net = mlp.export(sc.input.to_vec(), vec![sc.u_n; 3], meta).map_err(TrainError::Options)?;
+    let net = mlp.export(sc.input[..o.inputs].to_vec(), vec![sc.u_n; 3], meta).map_err(TrainError::Options)?;
     let write_err = |reason: String| TrainError::Write { path: o.out.clone(), reason };
     if let Some(dir) = o.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| write_err(e.to_string()))?;
@@ -395,7 +401,7 @@ pub fn train(o: &TrainOptions) -> Result<TrainReport, TrainError> {
         data_s,
         test_data_s,
         train_s,
-        input_scale: sc.input.to_vec(),
+        input_scale: sc.input[..o.inputs].to_vec(),
         u_scale_n: sc.u_n,
         first_epoch: history[0],
         last_epoch: *history.last().expect("≥ 1 epoch"),
