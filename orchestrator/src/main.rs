@@ -190,8 +190,8 @@ fn command_line() -> clap::Command {
 fn main() -> ExitCode {
     let matches = command_line().get_matches();
     // Commands that run things stop them in order on Ctrl-C or SIGTERM and exit 128 + signal;
-    // `check` and `report` only read, and die on the signal as usual.
-    if !matches!(matches.subcommand_name(), Some("check" | "report"))
+    // `check` and `report` only read and `train` only computes: they die on the signal as usual.
+    if !matches!(matches.subcommand_name(), Some("check" | "report" | "train"))
         && let Err(e) = supervise::install_signal_handlers()
     {
         eprintln!("error: {e}");

@@ -1,0 +1,85 @@
+//! Closed-loop checks of seed 003 on test ISOs, in-process (the crate's lockstep loop): the global
+//! solution with perfect navigation, a smoke case of Neural-Rendezvous with the committed
+//! weights, and bit-for-bit determinism of a run.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use cohort_paper_nr::agent::NrAgent;
+use cohort_paper_nr::config::{IsoEncounterConfig, Method, NrAlgorithmConfig, build_plant};
+use cohort_paper_nr::sim;
+use cohort_paper_nr::sn_dnn::SnDnn;
+
+fn weights() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("weights/sn-dnn.safetensors")
+}
+
+/// (delivery error, Δv, b_e(t_f), record) of one run.
+fn fly(method: Method, iso: u32, nav_scale: f64, record: bool) -> (f64, f64, Option<f64>, sim::SimRecord) {
+    let plant_cfg = IsoEncounterConfig { iso_index: Some(iso), nav_scale, ..IsoEncounterConfig::default() };
+    let mut plant = build_plant(&plant_cfg, 1, 600.0, u64::from(iso)).unwrap();
+    let mut cfg = NrAlgorithmConfig::new(method);
+    cfg.weights = Some(weights());
+    let net = method.needs_weights().then(|| Arc::new(SnDnn::load(&weights()).unwrap()));
+    let mut agents = [NrAgent::new(cfg, 600.0, net).unwrap()];
+    let rec = sim::run(&mut plant, &mut agents, 144, 600.0, u64::from(iso), record);
+    (plant.delivery_error_m(0).unwrap(), plant.dv_mps(0), agents[0].bound_m(), rec)
+}
+
+#[test]
+fn nmpc_with_perfect_navigation_delivers_within_a_metre() {
+    for iso in [200, 233, 266, 299] {
+        let (e, dv, _, _) = fly(Method::Nmpc, iso, 0.0, false);
+        assert!(e <= 1.0, "ISO {iso}: {e} m");
+        assert!(dv < 20.0, "ISO {iso}: Δv {dv} m/s");
+    }
+}
+
+#[test]
+fn neural_rendezvous_with_the_committed_weights_delivers_within_its_bound() {
+    for iso in [200, 250] {
+        let (e, dv, b, _) = fly(Method::NeuralRendezvous, iso, 1.0, false);
+        let b = b.expect("NR keeps a bound");
+        assert!(e <= 200.0 && e <= b, "ISO {iso}: error {e} m, bound {b} m");
+        assert!(dv < 20.0, "ISO {iso}: Δv {dv} m/s");
+    }
+}
+
+#[test]
+fn a_run_is_bit_identical_when_repeated() {
+    let bits = |r: &sim::SimRecord| -> Vec<u64> {
+        r.plant_rows
+            .iter()
+            .flatten()
+            .chain(r.agent_rows.iter().flatten().flatten())
+            .chain(r.shares.iter().flatten().flatten())
+            .map(|x| x.to_bits())
+            .collect()
+    };
+    for m in [Method::NeuralRendezvous, Method::RobustNmpc] {
+        let (e1, _, _, r1) = fly(m, 211, 1.0, true);
+        let (e2, _, _, r2) = fly(m, 211, 1.0, true);
+        assert_eq!(e1.to_bits(), e2.to_bits());
+        assert_eq!(bits(&r1), bits(&r2), "{m:?}");
+        assert_eq!(r1.plant_rows.len(), 144);
+    }
+}
+
+#[test]
+fn four_spacecraft_share_one_plant_and_each_delivers() {
+    let plant_cfg = IsoEncounterConfig { iso_index: Some(240), ..IsoEncounterConfig::default() };
+    let mut plant = build_plant(&plant_cfg, 4, 600.0, 240).unwrap();
+    let net = Arc::new(SnDnn::load(&weights()).unwrap());
+    let mut cfg = NrAlgorithmConfig::new(Method::NeuralRendezvous);
+    cfg.weights = Some(weights());
+    let mut agents: Vec<NrAgent> =
+        (0..4).map(|_| NrAgent::new(cfg.clone(), 600.0, Some(net.clone())).unwrap()).collect();
+    sim::run(&mut plant, &mut agents, 144, 600.0, 240, false);
+    let targets: Vec<_> = (0..4).map(|j| plant.truth(j).1).collect();
+    for j in 0..4 {
+        let e = plant.delivery_error_m(j).unwrap();
+        assert!(e <= 200.0, "spacecraft {j}: {e} m");
+        // Each has its own ρ_f (its own draw of the set).
+        assert!(targets.iter().filter(|t| **t == targets[j]).count() == 1);
+    }
+}
