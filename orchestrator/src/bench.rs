@@ -7,7 +7,10 @@
 //! N = 6, 20, 50, 100 agent processes with each waiting strategy (event, poll+yield, adaptive),
 //! with a one-step link delay, and as a null round (same processes and message sizes, no
 //! computation); the UDP-loopback transport at N = 6 and 50; N = 100 over 10 000 steps (the
-//! no-stall target); and agents idling behind a plant paced at 10 Hz (their CPU share).
+//! no-stall target); agents idling behind a plant paced at 10 Hz (their CPU share); the N = 6 ring
+//! with two busy-loop hogs the bench starts and stops itself ("loaded": `event` against the
+//! default, goal ≤ 1.2× the time of `event`); and the cost of `run.authenticate` (the N = 6 ring
+//! with it, and ns to seal and check one share).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

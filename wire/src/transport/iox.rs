@@ -18,6 +18,17 @@
 //! file for the run's life ([`IoxRun::claim`]) so the stale-run sweep ([`IoxRun::sweep_stale`])
 //! never needs a pid it would have to trust, and iceoryx2's world-writable management segment is
 //! replaced by an owner-only copy before any child starts.
+//!
+//! What permissions cannot stop: a process of the same user that writes into a run's data
+//! segments. iceoryx2 0.10 keeps its pool allocator's free list in the publisher's data segment
+//! and follows the relocatable offsets stored there without a bounds check: random bytes written
+//! over every `.data` segment of a running consensus ring made the plant and an agent SIGSEGV in
+//! `UniqueIndexSet::release_raw_index` (iceoryx2-bb-lock-free `unique_index_set.rs:452`), called
+//! from `Sender::retrieve_returned_chunks` (`sender.rs:530`) on the next `loan`. That is
+//! iceoryx2's (it trusts its peers by design); the orchestrator reports the crash by process and
+//! signal. Nothing of ours uses a number read from shared memory as an index or a bound before
+//! `validate` has checked it, and `run.authenticate` makes a damaged or forged payload a counted
+//! rejection instead of a wrong value.
 
 use std::path::{Path as StdPath, PathBuf};
 use std::time::Duration;
