@@ -2,6 +2,7 @@
 //! orchestrator; see `cohort_runtime::process` for exit codes. The algorithm comes from the paper
 //! that registered the scenario's algorithm kind (`papers/registry`).
 
+use std::io::Write;
 use std::process::ExitCode;
 
 use clap::Parser;
@@ -19,20 +20,21 @@ struct Args {
     id: u32,
     /// Relaunched by a `restart` fault: resume from the agent's latest checkpoint in the run
     /// directory (refused if it is damaged, of another version, agent or algorithm).
+    /// Relaunched at this step: resume from the agent's latest checkpoint, which must be older.
     #[arg(long)]
-    restore: bool,
+    restore_at: Option<u64>,
     #[command(flatten)]
     common: CommonArgs,
 }
 
 fn main() -> ExitCode {
     let a = Args::parse();
-    let (id, restore) = (a.id, a.restore);
+    let (id, restore_at) = (a.id, a.restore_at);
     child_main(a.common.into_spec(Proc::Agent(id)), cohort_registry::PAPERS, |setup, transport, params| {
         let mut algo = setup.algorithm.build(setup, id);
         let neighbours = setup.agent(id).neighbours.clone();
-        let checkpoint = if restore {
-            match load(&params.dirs.root, id, &params.algorithm_kind, algo.as_mut()) {
+        let checkpoint = if let Some(at) = restore_at {
+            match load(&params.dirs.root, id, &params.algorithm_kind, algo.as_mut(), (at, params.n_steps)) {
                 Ok(c) => Some(c),
                 Err(e) => return failed(id, e),
             }
@@ -51,9 +53,12 @@ fn load(
     id: u32,
     kind: &str,
     algo: &mut dyn cohort_runtime::model::Algorithm,
+    (relaunch_step, n_steps): (u64, u64),
 ) -> Result<Checkpoint, String> {
     let path = path_for(run_dir, id);
     let c = Checkpoint::read(&path, id, kind).map_err(|e| format!("cannot restore: {e}"))?;
+    c.check_resume(relaunch_step, n_steps)
+        .map_err(|e| format!("cannot restore: checkpoint {}: {e}", path.display()))?;
     algo.restore_state(&c.state.algorithm)
         .map_err(|e| format!("cannot restore: checkpoint {}: algorithm state: {e}", path.display()))?;
     let dir = path.parent().expect("checkpoints live in a directory");
@@ -62,7 +67,7 @@ fn load(
     let again =
         Checkpoint { state: AgentState { algorithm: algo.save_state(), held: c.state.held.clone() }, ..c.clone() };
     again.write(&dir.join(format!("agent-{id}.restored.ckpt"))).map_err(|e| format!("{}: {e}", dir.display()))?;
-    eprintln!("agent-{id}: restored from checkpoint step {} ({})", c.step, path.display());
+    let _ = writeln!(std::io::stderr(), "agent-{id}: restored from checkpoint step {} ({})", c.step, path.display());
     Ok(c)
 }
 

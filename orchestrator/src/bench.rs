@@ -7,7 +7,10 @@
 //! N = 6, 20, 50, 100 agent processes with each waiting strategy (event, poll+yield, adaptive),
 //! with a one-step link delay, and as a null round (same processes and message sizes, no
 //! computation); the UDP-loopback transport at N = 6 and 50; N = 100 over 10 000 steps (the
-//! no-stall target); and agents idling behind a plant paced at 10 Hz (their CPU share).
+//! no-stall target); agents idling behind a plant paced at 10 Hz (their CPU share); the N = 6 ring
+//! with two busy-loop hogs the bench starts and stops itself ("loaded": `event` against the
+//! default, goal ≤ 1.2× the time of `event`); and the cost of `run.authenticate` (the N = 6 ring
+//! with it, and ns to seal and check one share).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -33,6 +36,8 @@ struct Case {
     label: String,
     scenario: Setup,
     reference: bool,
+    /// Run with two busy-loop hogs on the machine (the "loaded" rows).
+    hogs: bool,
 }
 
 /// What one run of a case measured.
@@ -89,10 +94,19 @@ struct RingRun<'a> {
     null: bool,
     dt_s: f64,
     realtime: bool,
+    /// run.authenticate: every message sealed and checked with the run's key.
+    authenticate: bool,
 }
 
-const RING: RingRun<'static> =
-    RingRun { wait: "adaptive", transport: "iceoryx2", link_delay_steps: 0, null: false, dt_s: 0.01, realtime: false };
+const RING: RingRun<'static> = RingRun {
+    wait: "adaptive",
+    transport: "iceoryx2",
+    link_delay_steps: 0,
+    null: false,
+    dt_s: 0.01,
+    realtime: false,
+    authenticate: false,
+};
 
 /// The consensus ring with `n` agents (each hears i−1 and i+1), `steps` steps, as scenario text
 /// (configured like any file, so the bench runs what users run).
@@ -110,6 +124,9 @@ fn ring(n: u32, steps: u64, r: RingRun<'_>) -> Result<Setup, String> {
     );
     if r.realtime {
         t.push_str("realtime_rate = 1.0\n");
+    }
+    if r.authenticate {
+        t.push_str("authenticate = true\n");
     }
     if r.null {
         t.push_str("\n[plant]\nkind = \"null\"\nreadings = 3\n\n[algorithm]\nkind = \"null\"\nshare_values = 6\n");
@@ -147,7 +164,8 @@ fn cases(quick: bool, repo: &Path) -> Result<Vec<Case>, String> {
         } else {
             format!("{group}/N={n}/{variant}")
         };
-        out.push(Case { key, group, n, variant: variant.into(), label: label.into(), scenario, reference });
+        let hogs = group == "loaded";
+        out.push(Case { key, group, n, variant: variant.into(), label: label.into(), scenario, reference, hogs });
     };
     for file in cohort_registry::HOSTS.iter().flat_map(|h| h.bench_scenarios()) {
         let o = Overrides { duration_s: quick.then_some(20.0), ..Default::default() };
@@ -169,12 +187,77 @@ fn cases(quick: bool, repo: &Path) -> Result<Vec<Case>, String> {
             }
         }
     }
+    // The cost of run.authenticate at N = 6.
+    let sealed = ring(6, steps, RingRun { authenticate: true, ..RING })?;
+    push("mac", 6, "adaptive+authenticate", "mac", sealed, false);
+    // A loaded machine: two busy-loop hogs the bench starts and stops around each of these runs.
+    for wait in ["event", "adaptive"] {
+        push("loaded", 6, wait, "loaded", ring(6, steps, RingRun { wait, ..RING })?, false);
+    }
     let (n_long, steps_long) = if quick { (20, 1000) } else { (100, 10_000) };
     push("long", n_long, "adaptive", "long", ring(n_long, steps_long, RING)?, false);
     // Agents behind a plant paced at 10 Hz (dt 0.1 s, real time): how much CPU do they burn?
     let idle = ring(6, if quick { 20 } else { 50 }, RingRun { dt_s: 0.1, realtime: true, ..RING })?;
     push("idle", 6, "10Hz", "idle", idle, false);
     Ok(out)
+}
+
+/// Two threads that burn a core each until dropped: a machine busy with other work (the
+/// "loaded" rows). As threads of the bench itself they end with it, whatever happens.
+struct Hogs {
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    threads: Vec<std::thread::JoinHandle<()>>,
+}
+
+impl Hogs {
+    fn start() -> Self {
+        let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let threads = (0..2)
+            .map(|_| {
+                let stop = std::sync::Arc::clone(&stop);
+                std::thread::spawn(move || {
+                    let mut x = 0u64;
+                    while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                        x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+                    }
+                })
+            })
+            .collect();
+        Self { stop, threads }
+    }
+}
+
+impl Drop for Hogs {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+/// ns per message to seal and check a share of `values` values (what `run.authenticate` adds to
+/// every message, once at its sender and once at each reader).
+fn mac_ns(values: usize) -> (f64, f64) {
+    use cohort_wire::msg::{Header, Share};
+    let key = cohort_wire::auth::MacKey::from_bytes([7; 32]);
+    let vals: Vec<f64> = (0..values).map(|i| i as f64 * 0.5).collect();
+    let mut s = Share::new(Header::new(1, 2, 3, 0.03), &[1.0, 2.0, 3.0], &vals);
+    let n = 200_000u32;
+    let t0 = Instant::now();
+    for k in 0..n {
+        s.header.step = u64::from(k);
+        key.seal_share(std::hint::black_box(&mut s));
+    }
+    let seal = t0.elapsed().as_secs_f64() * 1e9 / f64::from(n);
+    let t1 = Instant::now();
+    let mut ok = 0u32;
+    for _ in 0..n {
+        ok += u32::from(key.check_share(std::hint::black_box(&s)));
+    }
+    let check = t1.elapsed().as_secs_f64() * 1e9 / f64::from(n);
+    assert_eq!(ok, n, "a sealed share always checks");
+    (seal, check)
 }
 
 fn timing_column(path: &Path, col: &str) -> Vec<f64> {
@@ -243,13 +326,15 @@ pub fn run(quick: bool, reps: u32, out_dir: &Path) -> Result<String, String> {
             let dir = scratch.join(format!("{}-{rep}", c.key.replace(['/', '='], "_")));
             let dirs =
                 crate::prepare(&c.scenario, Some(&dir)).map_err(|_| format!("{}: cannot prepare", dir.display()))?;
+            let hogs = c.hogs.then(Hogs::start);
             let (outcome, summary) = crate::run_once(&c.scenario, &dirs, c.reference, false);
+            drop(hogs);
             if let Some(e) = outcome.error {
                 let _ = std::fs::remove_dir_all(&scratch);
                 return Err(format!("{} (repetition {}): {e}", c.key, rep + 1));
             }
             let smp = sample(&c.scenario, &dir, &summary, outcome.wall_s);
-            eprintln!(
+            errln!(
                 "[{:6.1} s] rep {}/{reps} {:32} {:9.0} steps/s  round p50 {:8.1} µs  max {:7.2} ms",
                 started.elapsed().as_secs_f64(),
                 rep + 1,
@@ -286,13 +371,16 @@ pub fn run(quick: bool, reps: u32, out_dir: &Path) -> Result<String, String> {
             }
         })
         .collect();
-    let md = markdown(&aggregates, quick, reps, started.elapsed().as_secs_f64());
+    let mac = [6usize, 106, 512].map(|v| (v, mac_ns(v)));
+    let mut md = markdown(&aggregates, quick, reps, started.elapsed().as_secs_f64());
+    md.push_str(&mac_markdown(&aggregates, &mac));
     std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let json = serde_json::json!({
         "machine": machine(),
         "quick": quick,
         "repetitions": reps,
         "cases": aggregates,
+        "mac_seal_check_ns": mac.iter().map(|(v, (s, c))| serde_json::json!({"values": v, "seal_ns": s, "check_ns": c})).collect::<Vec<_>>(),
         "adaptive_spin_floor_us": cohort_runtime::drive::ADAPTIVE_FLOOR_US,
         "adaptive_spin_cap_us": cohort_runtime::drive::ADAPTIVE_CAP_US,
     });
@@ -304,6 +392,47 @@ pub fn run(quick: bool, reps: u32, out_dir: &Path) -> Result<String, String> {
     write("results.json", serde_json::to_string_pretty(&json).map_err(|e| e.to_string())? + "\n")?;
     write("results.md", md.clone())?;
     Ok(md)
+}
+
+/// The loaded rows (goal: adaptive under load within 1.2× the time of event under load) and the
+/// cost of `run.authenticate`.
+fn mac_markdown(a: &[Aggregate], mac: &[(usize, (f64, f64))]) -> String {
+    let mut md = String::new();
+    let wall = |k: &str| get(a, k).map_or(f64::NAN, |x| x.wall_s_median);
+    let sps = |k: &str| get(a, k).map_or(f64::NAN, |x| x.steps_per_s_median);
+    if let (Some(ev), Some(ad)) = (get(a, "loaded/N=6/event"), get(a, "loaded/N=6/adaptive")) {
+        let ratios: Vec<f64> = ad.samples.iter().zip(&ev.samples).map(|(x, y)| x.wall_s / y.wall_s).collect();
+        let ratio = median(&mut ratios.clone());
+        let _ = writeln!(
+            md,
+            "\n## Loaded machine: consensus ring N = 6 with two busy-loop hogs\n\n| wait | steps/s | wall s |\n|---|---|---|\n\
+             | event | {} | {:.2} |\n| adaptive (default) | {} | {:.2} |\n| adaptive, no hogs (ring row above) | {} | {:.2} |\n\n\
+             Adaptive wall / event wall under load: median {ratio:.2} (per repetition: {}); goal ≤ 1.2: {}.",
+            f0(ev.steps_per_s_median),
+            ev.wall_s_median,
+            f0(ad.steps_per_s_median),
+            ad.wall_s_median,
+            f0(sps("ring/N=6/adaptive")),
+            wall("ring/N=6/adaptive"),
+            ratios.iter().map(|r| format!("{r:.2}")).collect::<Vec<_>>().join(", "),
+            if ratio <= 1.2 { "met" } else { "not met" }
+        );
+    }
+    let _ = writeln!(md, "\n## run.authenticate (keyed BLAKE3 MAC on every message)\n");
+    if let (Some(off), Some(on)) = (get(a, "ring/N=6/adaptive"), get(a, "mac/N=6/adaptive+authenticate")) {
+        let _ = writeln!(
+            md,
+            "Consensus ring N = 6, adaptive: {} steps/s without, {} steps/s with (×{:.2}).\n",
+            f0(off.steps_per_s_median),
+            f0(on.steps_per_s_median),
+            on.steps_per_s_median / off.steps_per_s_median
+        );
+    }
+    md.push_str("| share values | seal ns | check ns |\n|---|---|---|\n");
+    for (v, (seal, check)) in mac {
+        let _ = writeln!(md, "| {v} | {seal:.0} | {check:.0} |");
+    }
+    md
 }
 
 fn machine() -> String {

@@ -10,6 +10,7 @@ use cohort_host::{Launcher, Mode, RunOptions, RunResult, RunView};
 use cohort_runtime::paper::{CoupledCtx, Setup};
 use cohort_runtime::record::RunDirs;
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
+use cohort_wire::auth::MacKey;
 use cohort_wire::transport::iox::IoxRun;
 
 use crate::supervise::{LaunchOutcome, SIGNALLED};
@@ -61,13 +62,39 @@ fn coupled(s: &Setup, dirs: &RunDirs, progress: &progress::Progress) -> Option<(
 }
 
 /// One run, start to summary: the run directory must exist with its scenario.toml written.
+/// Analysis warnings of a failed run are kept in the summary's `warnings` for the caller to print
+/// after the run's error (the root cause first); a successful run's are printed here.
 pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool) -> (LaunchOutcome, summary::Summary) {
     let run_id = new_run_id();
     let progress = progress::Progress::new(s.n_steps(), s.scenario.dt_s, &s.scenario.name, show_progress);
+    // run.authenticate: a fresh key per run, from the kernel's generator.
+    let key = match s.run.authenticate.then(MacKey::generate).transpose() {
+        Ok(k) => k,
+        Err(e) => {
+            let outcome = LaunchOutcome {
+                status: "failed",
+                error: Some(format!("run.authenticate: cannot draw a key from /dev/urandom: {e}")),
+                wall_s: 0.0,
+                startup_s: None,
+                exit_code: EXIT_FAILED,
+                timeline: Vec::new(),
+            };
+            let o = summary::Outcome {
+                startup_s: None,
+                mode: "multi-process",
+                run_id: format!("{run_id:016x}"),
+                status: outcome.status,
+                error: outcome.error.clone(),
+                wall_s: 0.0,
+                timeline: Vec::new(),
+            };
+            return (outcome, summary::build(s, dirs, o));
+        }
+    };
     let (outcome, mode) = match coupled(s, dirs, &progress) {
         Some(o) => o,
-        None if reference => (reference::launch(s, dirs, run_id, &progress), "reference"),
-        None => (supervise::launch(s, dirs, &IoxRun::new(run_id), &progress), "multi-process"),
+        None if reference => (reference::launch(s, dirs, run_id, key, &progress), "reference"),
+        None => (supervise::launch(s, dirs, &IoxRun::new(run_id).with_key(key), &progress), "multi-process"),
     };
     progress.finish();
     let mut summary = summary::build(
@@ -88,17 +115,25 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
     for host in cohort_registry::hosts_of(s) {
         match host.analyse(&view) {
             Ok(extra) => summary.metrics.extend(extra),
-            Err(e) => eprintln!("warning: {} analysis skipped: {e}", host.name()),
+            Err(e) => summary.warnings.push(format!("{} analysis skipped: {e}", host.name())),
         }
         if !outcome.timeline.is_empty() {
             match host.fault_effects(&view, &outcome.timeline) {
                 Ok(extra) => summary.metrics.extend(extra),
-                Err(e) => eprintln!("warning: {} fault effects skipped: {e}", host.name()),
+                Err(e) => summary.warnings.push(format!("{} fault effects skipped: {e}", host.name())),
             }
         }
     }
+    if outcome.error.is_none() {
+        for w in &summary.warnings {
+            errln!("warning: {w}");
+        }
+    }
     if let Err(e) = summary::write(dirs, &summary) {
-        eprintln!("error: cannot write {}: {e}", dirs.root.join("summary.json").display());
+        summary.warnings.push(format!("cannot write {}: {e}", dirs.root.join("summary.json").display()));
+        if outcome.error.is_none() {
+            errln!("error: cannot write {}: {e}", dirs.root.join("summary.json").display());
+        }
     }
     (outcome, summary)
 }
@@ -106,16 +141,16 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
 /// Create the run directory and write the resolved scenario into it.
 pub fn prepare(s: &Setup, out: Option<&Path>) -> Result<RunDirs, ExitCode> {
     let dirs = rundir::create(out, &s.scenario.name).map_err(|e| {
-        eprintln!("error: {e}");
+        errln!("error: {e}");
         ExitCode::from(EXIT_INVALID)
     })?;
     let path = dirs.root.join("scenario.toml");
     let text = s.to_toml().map_err(|e| {
-        eprintln!("error: {}: the resolved scenario does not serialise: {e}", path.display());
+        errln!("error: {}: the resolved scenario does not serialise: {e}", path.display());
         ExitCode::from(EXIT_INVALID)
     })?;
-    std::fs::write(&path, text).map_err(|e| {
-        eprintln!("error: {}: {e}", path.display());
+    cohort_runtime::record::write_atomic(&path, text.as_bytes()).map_err(|e| {
+        errln!("error: {}: {e}", path.display());
         ExitCode::from(EXIT_FAILED)
     })?;
     Ok(dirs)
@@ -127,7 +162,7 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, String> {
     let setup = match load(&run_dir.join("scenario.toml"), &Overrides::default()) {
         Ok(s) => Some(s),
         Err(e) => {
-            eprintln!("warning: the run's scenario does not load, so only the generic figures are drawn: {e}");
+            errln!("warning: the run's scenario does not load, so only the generic figures are drawn: {e}");
             None
         }
     };
@@ -158,7 +193,7 @@ impl Launcher for Orchestrator {
             && outcome.error.is_none()
             && let Err(e) = report(&dirs.root)
         {
-            eprintln!("warning: {}: plots not drawn: {e}", dirs.root.display());
+            errln!("warning: {}: plots not drawn: {e}", dirs.root.display());
         }
         Ok(RunResult {
             dir: dirs.root.clone(),

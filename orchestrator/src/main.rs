@@ -6,6 +6,23 @@
 //! Exit codes: 0 success; 1 the run failed; 2 invalid input (scenario, arguments, run
 //! directory); 128 + signal when interrupted (130 for Ctrl-C).
 
+/// `println!` that never panics: a closed stdout (`| head`, `| true`, `> /dev/full`) must not
+/// end a run early or change its exit code, so a failed write is ignored.
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// `eprintln!` that never panics (a closed or full stderr), for the same reason.
+macro_rules! errln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 mod bench;
 mod launcher;
 mod progress;
@@ -69,7 +86,7 @@ enum Cmd {
         #[arg(long)]
         out: Option<PathBuf>,
         /// First run's seed (then +1 per run); default the scenario's.
-        #[arg(long)]
+        #[arg(long, value_parser = seed_arg)]
         seed: Option<u64>,
     },
     /// Run a scenario once per seed (in-process reference runs by default) and write the
@@ -107,8 +124,8 @@ struct LaunchArgs {
     /// Run directory (absent or empty); default runs/<scenario>-<UTC time>/.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Override scenario.seed.
-    #[arg(long)]
+    /// Override scenario.seed (0 to 2^63 − 1).
+    #[arg(long, value_parser = seed_arg)]
     seed: Option<u64>,
     /// Override scenario.duration_s, in seconds.
     #[arg(long)]
@@ -145,6 +162,10 @@ struct LaunchArgs {
     /// end if the loss was not planned) or abort (sets run.on_agent_loss).
     #[arg(long, value_name = "degrade|abort")]
     on_agent_loss: Option<String>,
+    /// Seal every message with a keyed MAC and reject any without a valid tag (sets
+    /// run.authenticate).
+    #[arg(long)]
+    authenticate: bool,
     /// Inject a fault (repeatable): KIND:agent=ID@t=SECONDS[,for=SECONDS][,p=PROB][,steps=N],
     /// KIND one of kill, freeze, restart, delay, drop, corrupt (see topologies/README.md).
     #[arg(long, value_name = "SPEC")]
@@ -153,11 +174,11 @@ struct LaunchArgs {
 
 #[derive(Args)]
 struct SweepArgs {
-    /// Number of seeds.
-    #[arg(long, default_value_t = 10)]
+    /// Number of seeds (1 to 100 000).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=100_000))]
     seeds: u64,
     /// First seed; the sweep uses first-seed, first-seed + 1, ...
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = seed_arg)]
     first_seed: u64,
     /// Directory for the runs and the results; default runs/<scenario>-sweep-<UTC time>/.
     #[arg(long)]
@@ -174,6 +195,15 @@ struct SweepArgs {
     keep_telemetry: bool,
 }
 
+/// A seed: 0 to 2^63 − 1 (the resolved scenario stores it as a TOML integer).
+fn seed_arg(s: &str) -> Result<u64, String> {
+    let max = cohort_scenario::validate::MAX_SEED;
+    match s.parse::<u64>() {
+        Ok(v) if v <= max => Ok(v),
+        _ => Err(format!("must be a whole number from 0 to {max} (2^63 − 1)")),
+    }
+}
+
 /// The full command line: the generic subcommands, `train` with every paper's trainers, and each
 /// paper's own subcommand.
 fn command_line() -> clap::Command {
@@ -188,13 +218,20 @@ fn command_line() -> clap::Command {
 }
 
 fn main() -> ExitCode {
+    // A run is its user's own: every file, directory and shared-memory segment this process and
+    // its children create is owner-only.
+    // SAFETY: umask(2) cannot fail.
+    unsafe { libc::umask(0o077) };
+    // Descriptors grow with a run's size (iceoryx2 ports); children inherit the raised limit.
+    cohort_wire::limits::raise_nofile_to_hard();
     let matches = command_line().get_matches();
-    // Commands that run things stop them in order on Ctrl-C or SIGTERM and exit 128 + signal;
-    // `check` and `report` only read and `train` only computes: they die on the signal as usual.
+    // Commands that run things stop them in order on Ctrl-C, SIGTERM or SIGHUP and exit 128 +
+    // signal; `check` and `report` only read and `train` only computes: they die on the signal as
+    // usual.
     if !matches!(matches.subcommand_name(), Some("check" | "report" | "train"))
         && let Err(e) = supervise::install_signal_handlers()
     {
-        eprintln!("error: {e}");
+        errln!("error: {e}");
         return ExitCode::from(EXIT_FAILED);
     }
     match matches.subcommand() {
@@ -206,7 +243,7 @@ fn main() -> ExitCode {
             match host {
                 Some(h) => finish(h.run_trainer(name, sub)),
                 None => {
-                    eprintln!("error: no trainer {name:?}");
+                    errln!("error: no trainer {name:?}");
                     ExitCode::from(EXIT_INVALID)
                 }
             }
@@ -226,11 +263,11 @@ fn main() -> ExitCode {
 fn finish(result: Result<String, CommandError>) -> ExitCode {
     match result {
         Ok(text) => {
-            println!("{text}");
+            outln!("{text}");
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             ExitCode::from(e.exit_code)
         }
     }
@@ -245,19 +282,19 @@ fn generic(command: Cmd) -> ExitCode {
             let wall = match soak::parse_wall(&wall) {
                 Ok(w) => w,
                 Err(e) => {
-                    eprintln!("error: {e}");
+                    errln!("error: {e}");
                     return ExitCode::from(EXIT_INVALID);
                 }
             };
             let faults = match faults.as_deref().map(soak::parse_fault_kinds).transpose() {
                 Ok(f) => f.unwrap_or_default(),
                 Err(e) => {
-                    eprintln!("error: {e}");
+                    errln!("error: {e}");
                     return ExitCode::from(EXIT_INVALID);
                 }
             };
             if realtime && !(rate.is_finite() && rate > 0.0) {
-                eprintln!("error: --rate {rate}: must be a positive number");
+                errln!("error: --rate {rate}: must be a positive number");
                 return ExitCode::from(EXIT_INVALID);
             }
             let out = out.unwrap_or_else(|| {
@@ -267,36 +304,36 @@ fn generic(command: Cmd) -> ExitCode {
             let o = soak::Options { file, wall, realtime, rate, faults, out, seed };
             match soak::run(&o) {
                 Ok((md, ok)) => {
-                    println!("{md}");
-                    println!("written: {} (soak.md, soak.json, *.png)", o.out.display());
+                    outln!("{md}");
+                    outln!("written: {} (soak.md, soak.json, *.png)", o.out.display());
                     if ok { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILED) }
                 }
                 Err(e) => {
-                    eprintln!("error: {e}");
+                    errln!("error: {e}");
                     ExitCode::from(EXIT_INVALID)
                 }
             }
         }
         Cmd::Bench { quick, reps, out } => match bench::run(quick, reps.unwrap_or(if quick { 1 } else { 3 }), &out) {
             Ok(md) => {
-                println!("{md}");
-                println!("written: {} and {}", out.join("results.md").display(), out.join("results.json").display());
+                outln!("{md}");
+                outln!("written: {} and {}", out.join("results.md").display(), out.join("results.json").display());
                 ExitCode::SUCCESS
             }
             Err(e) => {
-                eprintln!("error: {e}");
+                errln!("error: {e}");
                 ExitCode::from(EXIT_FAILED)
             }
         },
         Cmd::Report { run_dir } => match launcher::report(&run_dir) {
             Ok(files) => {
                 for f in files {
-                    println!("{}", f.display());
+                    outln!("{}", f.display());
                 }
                 ExitCode::SUCCESS
             }
             Err(e) => {
-                eprintln!("error: {e}");
+                errln!("error: {e}");
                 ExitCode::from(EXIT_INVALID)
             }
         },
@@ -307,15 +344,11 @@ fn check(files: &[PathBuf]) -> ExitCode {
     let mut bad = false;
     for f in files {
         match load(f, &Overrides::default()) {
-            Ok(s) => println!(
-                "ok: {} ({} agents, {} steps of {} s)",
-                f.display(),
-                s.n_agents(),
-                s.n_steps(),
-                s.scenario.dt_s
-            ),
+            Ok(s) => {
+                outln!("ok: {} ({} agents, {} steps of {} s)", f.display(), s.n_agents(), s.n_steps(), s.scenario.dt_s)
+            }
             Err(e) => {
-                eprintln!("{e}");
+                errln!("{e}");
                 bad = true;
             }
         }
@@ -325,7 +358,7 @@ fn check(files: &[PathBuf]) -> ExitCode {
 
 fn load_or_exit(file: &Path, o: &Overrides) -> Result<Setup, ExitCode> {
     load(file, o).map_err(|e| {
-        eprintln!("{e}");
+        errln!("{e}");
         ExitCode::from(EXIT_INVALID)
     })
 }
@@ -336,7 +369,7 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
         match cohort_scenario::faults::FaultSpec::parse_cli(f) {
             Ok(spec) => faults.push(spec),
             Err(e) => {
-                eprintln!("error: --fault (#{}): {e}", k + 1);
+                errln!("error: --fault (#{}): {e}", k + 1);
                 return ExitCode::from(EXIT_INVALID);
             }
         }
@@ -352,6 +385,7 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
         realtime_rate: a.realtime.then_some(a.rate),
         faults,
         on_agent_loss: a.on_agent_loss,
+        authenticate: a.authenticate.then_some(true),
     };
     launch(&a.file, a.out.as_deref(), &o, a.reference, !a.no_plots)
 }
@@ -362,10 +396,11 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         Err(code) => return code,
     };
     if reference && let Some(f) = s.faults.iter().find(|f| f.is_process_fault()) {
-        eprintln!(
+        errln!(
             "error: --reference runs every process as a thread of this one, so it cannot {} agent {} \
              (process faults signal processes); drop --reference, or keep only delay, drop and corrupt faults",
-            f.kind, f.agent
+            f.kind,
+            f.agent
         );
         return ExitCode::from(EXIT_INVALID);
     }
@@ -378,7 +413,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         None if reference => "reference",
         None => "multi-process",
     };
-    eprintln!(
+    errln!(
         "launching {} ({mode}): {} agents, {} steps of {} s, seed {} → {}",
         file.display(),
         s.n_agents(),
@@ -389,11 +424,15 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     );
     let (outcome, summary) = run_once(&s, &dirs, reference, true);
     if let Some(e) = &outcome.error {
-        eprintln!("error: {e}");
-        eprintln!("run directory (partial): {}", dirs.root.display());
+        // The root cause first, then what it left undone.
+        errln!("error: {e}");
+        for w in &summary.warnings {
+            errln!("warning: {w}");
+        }
+        errln!("run directory (partial): {}", dirs.root.display());
         return ExitCode::from(outcome.exit_code);
     }
-    println!(
+    outln!(
         "done: {} steps in {:.3} s wall ({:.0} steps/s); run directory: {}",
         summary.steps_completed,
         outcome.wall_s,
@@ -401,20 +440,20 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         dirs.root.display()
     );
     for (k, v) in &summary.metrics {
-        println!("  {k} = {v}");
+        outln!("  {k} = {v}");
     }
     if plots {
         match launcher::report(&dirs.root) {
-            Ok(_) => println!("plots: {}", dirs.root.join("plots").display()),
-            Err(e) => eprintln!("warning: plots not drawn: {e}"),
+            Ok(_) => outln!("plots: {}", dirs.root.join("plots").display()),
+            Err(e) => errln!("warning: plots not drawn: {e}"),
         }
     }
     ExitCode::from(outcome.exit_code)
 }
 
 fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
-    if args.seeds == 0 {
-        eprintln!("error: --seeds 0: at least one seed is needed");
+    if args.first_seed.checked_add(args.seeds - 1).is_none_or(|last| last > cohort_scenario::validate::MAX_SEED) {
+        errln!("error: --first-seed {} --seeds {}: the last seed passes 2^63 − 1", args.first_seed, args.seeds);
         return ExitCode::from(EXIT_INVALID);
     }
     // Validate once up front, with the first seed, so a bad file fails before any run.
@@ -427,11 +466,11 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
     let root =
         args.out.clone().unwrap_or_else(|| PathBuf::from(format!("runs/{name}-sweep-{}", cohort_host::utc_stamp())));
     if let Err(e) = std::fs::create_dir_all(&root) {
-        eprintln!("error: {}: {e}", root.display());
+        errln!("error: {}: {e}", root.display());
         return ExitCode::from(EXIT_INVALID);
     }
     let mode = if args.multi_process { "multi-process" } else { "reference" };
-    eprintln!(
+    errln!(
         "sweep of {} over seeds {}..={} ({mode}) → {}",
         file.display(),
         args.first_seed,
@@ -450,14 +489,14 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
         };
         let (outcome, summary) = run_once(&s, &dirs, !args.multi_process, false);
         if outcome.status == "interrupted" {
-            eprintln!("interrupted at seed {seed}");
+            errln!("interrupted at seed {seed}");
             return ExitCode::from(outcome.exit_code);
         }
         if let Some(e) = &outcome.error {
-            eprintln!("error: seed {seed}: {e}");
+            errln!("error: seed {seed}: {e}");
             return ExitCode::from(outcome.exit_code);
         }
-        eprintln!("seed {seed}: {} steps in {:.2} s", summary.steps_completed, outcome.wall_s);
+        errln!("seed {seed}: {} steps in {:.2} s", summary.steps_completed, outcome.wall_s);
         if !args.keep_telemetry {
             // Ten headline runs would otherwise leave ~1.5 GB; summaries stay.
             for d in ["telemetry", "timing", "derived"] {
@@ -468,12 +507,12 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
     }
     match sweep_report::write(&root, file, mode, &rows) {
         Ok(md) => {
-            println!("{md}");
-            println!("sweep results: {} and {}", root.join("sweep.md").display(), root.join("sweep.csv").display());
+            outln!("{md}");
+            outln!("sweep results: {} and {}", root.join("sweep.md").display(), root.join("sweep.csv").display());
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            errln!("error: {e}");
             ExitCode::from(EXIT_FAILED)
         }
     }

@@ -48,12 +48,19 @@ fn run_one(s: &Setup, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) -> Pr
     report
 }
 
-pub fn launch(s: &Setup, dirs: &RunDirs, run_id: u64, progress: &Progress) -> LaunchOutcome {
+pub fn launch(
+    s: &Setup,
+    dirs: &RunDirs,
+    run_id: u64,
+    key: Option<cohort_wire::auth::MacKey>,
+    progress: &Progress,
+) -> LaunchOutcome {
     let started = Instant::now();
     let bus = MemoryBus::new(s.topology());
     let terminate = Arc::new(AtomicBool::new(false));
     // Threads of one process: spinning is as good (or bad) as between processes.
-    let params = DriveParams::from_setup(s, run_id, dirs.clone(), Arc::clone(&terminate), started);
+    let mut params = DriveParams::from_setup(s, run_id, dirs.clone(), Arc::clone(&terminate), started);
+    params.key = key;
     let procs: Vec<Proc> = std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)).collect();
     let mut signal = 0usize;
     let reports: Vec<ProcessReport> = std::thread::scope(|sc| {

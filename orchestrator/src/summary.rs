@@ -63,6 +63,9 @@ pub struct Summary {
     /// Faults carried out, roster changes and their effect (empty without faults).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub timeline: Vec<cohort_runtime::record::TimelineEvent>,
+    /// What the analyses could not do (printed after the run's error when it failed).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 /// Read one column of a timing CSV as integers (missing or malformed files give nothing: timing
@@ -147,12 +150,13 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
         messages_unaccounted: unaccounted(s, &processes, &outcome.timeline),
         processes,
         timeline: outcome.timeline,
+        warnings: Vec::new(),
     }
 }
 
 pub fn write(dirs: &RunDirs, summary: &Summary) -> std::io::Result<()> {
     let text = serde_json::to_string_pretty(summary).map_err(std::io::Error::other)?;
-    std::fs::write(dirs.root.join("summary.json"), text + "\n")
+    cohort_runtime::record::write_atomic(&dirs.root.join("summary.json"), (text + "\n").as_bytes())
 }
 
 /// Every message sent must reach every reader that ran to the end, where it is counted as

@@ -22,12 +22,14 @@ use cohort_runtime::paper::Setup;
 use cohort_runtime::process::{EXIT_BUILD_MISMATCH, EXIT_STOPPED};
 use cohort_runtime::record::{RunDirs, TimelineEvent};
 use cohort_scenario::faults::FaultPlan;
+use cohort_wire::auth::MacKey;
 use cohort_wire::msg::{
     PLANT_ID, Roster, STATUS_ALIVE, STATUS_DEAD, STATUS_HOLDING, STATUS_IDLE, STATUS_PROGRESS, STATUS_READY,
     STATUS_WAITING,
 };
 use cohort_wire::transport::Proc;
 use cohort_wire::transport::iox::{IoxRun, IoxServices};
+use cohort_wire::validate::Rejection;
 
 use crate::progress::Progress;
 
@@ -127,14 +129,35 @@ pub fn sibling_binary(name: &str) -> Result<PathBuf, String> {
     Ok(path)
 }
 
+/// The descriptor number a child reads the run's MAC key from (`--key-fd`).
+const KEY_FD: i32 = 3;
+
+/// A pipe holding the run's key, its read end for one child to inherit as [`KEY_FD`]. The key
+/// never appears in argv or the environment, which other users can read.
+fn key_pipe(key: &MacKey) -> Result<std::fs::File, String> {
+    use std::io::Write;
+    use std::os::fd::FromRawFd;
+    let mut fds = [0i32; 2];
+    // SAFETY: pipe2 into an array we own; both ends close on exec unless dup2'd.
+    if unsafe { libc::pipe2(fds.as_mut_ptr(), libc::O_CLOEXEC) } != 0 {
+        return Err(format!("cannot create the key pipe: {}", std::io::Error::last_os_error()));
+    }
+    // SAFETY: the two descriptors were just created and are owned by these Files alone.
+    let (read, mut write) = unsafe { (std::fs::File::from_raw_fd(fds[0]), std::fs::File::from_raw_fd(fds[1])) };
+    // 32 bytes fit in any pipe buffer: this never blocks.
+    write.write_all(key.bytes()).map_err(|e| format!("cannot write the key pipe: {e}"))?;
+    Ok(read)
+}
+
 fn spawn(
     bin: &Path,
     p: Proc,
     dirs: &RunDirs,
     run: &IoxRun,
     step_timeout_s: f64,
-    restore: bool,
+    restore_at: Option<u64>,
 ) -> Result<Child, String> {
+    let restore = restore_at.is_some();
     let log_path = dirs.logs().join(format!("{}.log", p.name()));
     // A relaunched agent's log goes on after its predecessor's.
     let log = std::fs::OpenOptions::new()
@@ -149,9 +172,14 @@ fn spawn(
     if let Proc::Agent(id) = p {
         cmd.arg("--id").arg(id.to_string());
     }
-    if restore {
-        cmd.arg("--restore");
+    if let Some(k) = restore_at {
+        cmd.arg("--restore-at").arg(k.to_string());
     }
+    let key_read = run.key.as_ref().map(key_pipe).transpose()?;
+    if key_read.is_some() {
+        cmd.arg("--key-fd").arg(KEY_FD.to_string());
+    }
+    let key_raw = key_read.as_ref().map(std::os::fd::AsRawFd::as_raw_fd);
     cmd.arg("--run-dir")
         .arg(&dirs.root)
         .arg("--run-id")
@@ -163,9 +191,15 @@ fn spawn(
         .stdin(Stdio::null())
         .stdout(Stdio::from(log))
         .stderr(Stdio::from(log2));
-    // SAFETY: only async-signal-safe calls (setpgid, prctl, getppid) between fork and exec.
+    // SAFETY: only async-signal-safe calls (dup2, setpgid, prctl, getppid) between fork and exec.
     unsafe {
-        cmd.pre_exec(|| {
+        cmd.pre_exec(move || {
+            // The key pipe's read end becomes KEY_FD, without close-on-exec (dup2 clears it).
+            if let Some(fd) = key_raw
+                && libc::dup2(fd, KEY_FD) < 0
+            {
+                return Err(std::io::Error::last_os_error());
+            }
             libc::setpgid(0, 0);
             libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong, 0, 0, 0);
             // The orchestrator may have died between fork and prctl.
@@ -175,7 +209,25 @@ fn spawn(
             Ok(())
         });
     }
-    cmd.spawn().map_err(|e| format!("cannot start {}: {e}", bin.display()))
+    let child = cmd.spawn().map_err(|e| format!("cannot start {}: {e}", bin.display()));
+    drop(key_read); // the child has its own copy of the read end
+    child
+}
+
+/// Refuse up front a run whose busiest process would run out of descriptors (iceoryx2 would fail
+/// half-way through start-up with an opaque internal failure). The soft limit was raised to the
+/// hard one at start.
+fn check_descriptors(n_agents: u32, spare: usize) -> Result<(), String> {
+    let need = cohort_wire::limits::descriptors_needed(n_agents, spare as u32);
+    let (soft, hard) = cohort_wire::limits::nofile_limit();
+    if need > soft {
+        return Err(format!(
+            "{n_agents} agents: the plant process needs ≈ {need} open files, the limit is {soft}; raise it with \
+             ulimit -n (e.g. ulimit -n {}; the hard limit is {hard})",
+            need.next_multiple_of(1024)
+        ));
+    }
+    Ok(())
 }
 
 /// Launch and supervise one multi-process run.
@@ -193,14 +245,18 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> L
         (Ok(p), Ok(a)) => (p, a),
         (Err(e), _) | (_, Err(e)) => return failed(e),
     };
-    for id in IoxRun::sweep_stale() {
-        eprintln!("removed the iceoryx2 resources of run {id:016x}, whose orchestrator is gone");
-    }
-    if let Err(e) = run.claim() {
-        return failed(format!("cannot create {}: {e}", run.root_dir().display()));
-    }
     let plan = FaultPlan::from_scenario(s);
     let spare = plan.faults.iter().filter(|f| f.spec.kind == "restart").count();
+    if let Err(e) = check_descriptors(s.n_agents(), spare) {
+        return failed(e);
+    }
+    for id in IoxRun::sweep_stale() {
+        errln!("removed the iceoryx2 resources of run {id:016x}, whose orchestrator is gone");
+    }
+    let claim = match run.claim() {
+        Ok(c) => c,
+        Err(e) => return failed(format!("cannot claim the run's directory {}: {e}", run.root_dir().display())),
+    };
     let services = match IoxServices::create(run, &s.topology(), spare) {
         Ok(sv) => sv,
         Err(e) => {
@@ -212,7 +268,7 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> L
     let mut failure: Option<String> = None;
     for p in std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)) {
         let bin = if p == Proc::Plant { &bins.0 } else { &bins.1 };
-        match spawn(bin, p, dirs, run, s.run.step_timeout_s, false) {
+        match spawn(bin, p, dirs, run, s.run.step_timeout_s, None) {
             Ok(child) => kids.push(Kid::new(p, child)),
             Err(e) => {
                 failure = Some(e);
@@ -230,6 +286,7 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> L
         started,
         timeline: Vec::new(),
         unplanned: Vec::new(),
+        waiting: Vec::new(),
     };
     let mut startup_s = None;
     let outcome = if failure.is_none() { sup.supervise(&mut kids, progress, &mut startup_s) } else { (failure, None) };
@@ -248,11 +305,12 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> L
     }
     drop(services);
     run.remove_all_resources();
+    drop(claim);
     let wall_s = started.elapsed().as_secs_f64();
     if !timeline.is_empty()
         && let Ok(text) = serde_json::to_string_pretty(&timeline)
     {
-        let _ = std::fs::write(dirs.root.join("timeline.json"), text);
+        let _ = cohort_runtime::record::write_atomic(&dirs.root.join("timeline.json"), text.as_bytes());
     }
     match (signal, failure) {
         (Some(sig), _) => LaunchOutcome {
@@ -293,6 +351,8 @@ struct Supervisor<'a> {
     timeline: Vec<TimelineEvent>,
     /// Agents lost outside the fault plan (degrade mode), described.
     unplanned: Vec<String>,
+    /// Each process's latest waiting report (index 0 the plant).
+    waiting: Vec<Option<Waiting>>,
 }
 
 /// A hold of the plant for the process faults due at `step`.
@@ -382,7 +442,7 @@ impl Supervisor<'_> {
                             self.dirs,
                             self.run,
                             self.s.run.step_timeout_s,
-                            true,
+                            Some(k),
                         )?;
                         let detail =
                             format!("pid {} resumes from its latest checkpoint (faults[{}])", child.id(), f.index);
@@ -441,7 +501,7 @@ impl Supervisor<'_> {
         let mut start_granted = false;
         let mut plant_step = 0u64;
         // Latest "waiting for X at step k" per sender.
-        let mut waiting: Vec<Option<(u64, u32)>> = vec![None; s.n_agents() as usize + 1];
+        let mut waiting: Vec<Option<Waiting>> = vec![None; s.n_agents() as usize + 1];
         let mut failed_since: Option<Instant> = None;
         let mut hold: Option<Hold> = None;
         // The plant's roster, as it reported it.
@@ -469,7 +529,12 @@ impl Supervisor<'_> {
                         kids[idx].ready = true;
                     }
                     STATUS_PROGRESS if st.sender == PLANT_ID => plant_step = st.step,
-                    STATUS_WAITING => waiting[idx] = Some((st.step, st.waiting_for)),
+                    STATUS_WAITING => {
+                        let rejected = (st.detail as usize).checked_sub(1).and_then(|r| Rejection::ALL.get(r));
+                        waiting[idx] =
+                            Some(Waiting { step: st.step, who: st.waiting_for, rejected: rejected.copied() });
+                        self.waiting = waiting.clone();
+                    }
                     STATUS_IDLE => kids[idx].idle_at = Some(st.step),
                     STATUS_HOLDING if st.sender == PLANT_ID => {
                         plant_step = st.step;
@@ -494,7 +559,7 @@ impl Supervisor<'_> {
                         let live: Vec<bool> = off_roster.iter().skip(1).map(|off| !off).collect();
                         let now = s.roster_warnings(&live);
                         for w in now.iter().filter(|w| !warned.contains(*w)) {
-                            eprintln!(
+                            errln!(
                                 "warning: from step {} (t = {:.3} s): {w}",
                                 st.step,
                                 st.step as f64 * s.scenario.dt_s
@@ -502,16 +567,11 @@ impl Supervisor<'_> {
                             self.event(st.step, 0, "warning", w.clone());
                         }
                         warned = now;
-                        if dead && !self.planned_loss(a, st.step) && !kids[a as usize].reported_dead {
-                            let kid = &kids[a as usize];
-                            let state = if kid.exit.is_none() { " (its process is alive but silent)" } else { "" };
-                            self.unplanned.push(format!(
-                                "agent {a} went silent{state}: no share of step {} (t = {:.3} s) reached the plant \
-                                 within run.step_timeout_s = {} s; it was marked dead",
-                                st.step,
-                                st.step as f64 * s.scenario.dt_s,
-                                s.run.step_timeout_s
-                            ));
+                        let known = (1..kids.len()).contains(&(a as usize));
+                        if dead && known && !self.planned_loss(a, st.step) && !kids[a as usize].reported_dead {
+                            let alive = kids[a as usize].exit.is_none();
+                            let why = silence_of(s, a, st.step, &self.waiting, alive);
+                            self.unplanned.push(format!("{why}; it was marked dead"));
                         }
                     }
                     _ => {}
@@ -598,7 +658,7 @@ impl Supervisor<'_> {
                     std::thread::sleep(TICK);
                     continue;
                 }
-                return (Some(blame(s, self.dirs, kids, waiting[0], plant_step)), None);
+                return (Some(blame(s, self.dirs, kids, &waiting, plant_step)), None);
             }
             std::thread::sleep(TICK);
         }
@@ -636,7 +696,48 @@ impl Supervisor<'_> {
 /// The failure message: a process killed by a signal if there is one, else the agent the plant
 /// was stuck waiting for, else the first failed process; each with the step and its log's last
 /// line, followed by the other failures.
-fn blame(s: &Setup, dirs: &RunDirs, kids: &[Kid], plant_waiting: Option<(u64, u32)>, plant_step: u64) -> String {
+/// A process's latest "waiting for `who` in `step`" report, and why `who`'s latest message was
+/// rejected if it was.
+#[derive(Debug, Clone, Copy)]
+struct Waiting {
+    step: u64,
+    who: u32,
+    rejected: Option<Rejection>,
+}
+
+/// Why agent `who` sent the plant nothing for `step`: silence, unless a rejected message explains
+/// it — the plant rejected its share, or it rejected the plant's measurement and waited for a
+/// valid one. The process whose message was rejected is named, not the one that waited.
+fn silence_of(s: &Setup, who: u32, step: u64, waiting: &[Option<Waiting>], alive: bool) -> String {
+    let t = step as f64 * s.scenario.dt_s;
+    let timeout = s.run.step_timeout_s;
+    let plant = waiting.first().copied().flatten().filter(|w| w.who == who);
+    let agent = waiting.get(who as usize).copied().flatten().filter(|w| w.who == PLANT_ID);
+    if let Some(r) = plant.and_then(|w| w.rejected) {
+        return format!(
+            "the plant rejected agent {who}'s share of step {step} (t = {t:.3} s) as {} (damaged in transit or \
+             not of this run) and no valid one came within run.step_timeout_s = {timeout:?} s",
+            r.name()
+        );
+    }
+    if let Some(w) = agent.filter(|w| w.rejected.is_some()) {
+        return format!(
+            "agent {who} rejected the plant's measurement of step {} as {} (damaged in transit or not of this run) \
+             and waited for a valid one, so no share of step {step} (t = {t:.3} s) reached the plant within \
+             run.step_timeout_s = {timeout:?} s",
+            w.step,
+            w.rejected.map_or("", |r| r.name())
+        );
+    }
+    let state = if alive { " (its process is alive but silent)" } else { "" };
+    format!(
+        "agent {who} went silent{state}: no share of step {step} (t = {t:.3} s) reached the plant within \
+         run.step_timeout_s = {timeout:?} s"
+    )
+}
+
+fn blame(s: &Setup, dirs: &RunDirs, kids: &[Kid], waiting: &[Option<Waiting>], plant_step: u64) -> String {
+    let plant_waiting = waiting.first().copied().flatten().map(|w| (w.step, w.who));
     let failed: Vec<&Kid> = kids.iter().filter(|k| k.exit.is_some_and(|st| !st.success())).collect();
     let t = |step: u64| step as f64 * s.scenario.dt_s;
     let describe = |k: &Kid| {
@@ -683,16 +784,8 @@ fn blame(s: &Setup, dirs: &RunDirs, kids: &[Kid], plant_waiting: Option<(u64, u3
         }
         m
     } else if let Some((step, who)) = plant_waiting.filter(|(_, who)| *who != 0) {
-        let state = kids
-            .iter()
-            .find(|k| k.proc_ == Proc::Agent(who))
-            .map_or("", |k| if k.exit.is_none() { " (its process is alive but silent)" } else { "" });
-        format!(
-            "agent {who} went silent{state}: no share of step {step} (t = {:.3} s) reached the plant within \
-             run.step_timeout_s = {} s",
-            t(step),
-            s.run.step_timeout_s
-        )
+        let alive = kids.iter().find(|k| k.proc_ == Proc::Agent(who)).is_some_and(|k| k.exit.is_none());
+        silence_of(s, who, step, waiting, alive)
     } else {
         describe(failed[0])
     };
@@ -739,9 +832,10 @@ fn wait_all(kids: &mut [Kid], grace: Duration) {
     }
 }
 
-/// Install SIGINT and SIGTERM handlers that record the signal in [`SIGNALLED`].
+/// Install SIGINT, SIGTERM and SIGHUP (a closed terminal) handlers that record the signal in
+/// [`SIGNALLED`]: the run is then stopped in order, its summary written and its resources removed.
 pub fn install_signal_handlers() -> Result<(), String> {
-    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP] {
         // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
         unsafe {
             signal_hook::low_level::register(sig, move || {

@@ -109,9 +109,27 @@ impl Checkpoint {
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir)?;
         }
-        let tmp = path.with_extension("ckpt.tmp");
-        std::fs::write(&tmp, self.encode())?;
-        std::fs::rename(&tmp, path)
+        crate::record::write_atomic(path, &self.encode())
+    }
+
+    /// Whether this checkpoint can resume an agent relaunched at step `relaunch_step` of a run of
+    /// `n_steps`: it must hold a state from before the relaunch (a CRC-valid file can still name
+    /// any step, and one from the future would leave the agent waiting for measurements the plant
+    /// already sent), and the relaunch must be inside the run.
+    pub fn check_resume(&self, relaunch_step: u64, n_steps: u64) -> Result<(), String> {
+        if relaunch_step >= n_steps {
+            return Err(format!(
+                "relaunch step {relaunch_step} is past the run's last step {}",
+                n_steps.saturating_sub(1)
+            ));
+        }
+        if self.step > relaunch_step {
+            return Err(format!(
+                "holds the state at step {}, after the relaunch step {relaunch_step}: it cannot be from this run's past",
+                self.step
+            ));
+        }
+        Ok(())
     }
 
     pub fn read(path: &Path, agent: u32, kind: &str) -> Result<Self, CheckpointError> {
@@ -211,6 +229,21 @@ mod tests {
             let e = Checkpoint::decode(&bytes, agent, kind).unwrap_err();
             assert!(e.contains(says), "expected {says:?}, got {e:?}");
         }
+    }
+
+    #[test]
+    fn a_step_after_the_relaunch_or_past_the_run_is_refused() {
+        // Issue 18, finding 6: a CRC-valid checkpoint of step 2^63, or ahead of the relaunch
+        // step, was accepted and the agent then waited until it was declared dead.
+        let mut c = sample(); // step 1200
+        assert_eq!(c.check_resume(1200, 36_000), Ok(()));
+        assert_eq!(c.check_resume(3000, 36_000), Ok(()));
+        assert!(c.check_resume(1199, 36_000).unwrap_err().contains("after the relaunch step 1199"));
+        assert!(c.check_resume(36_000, 36_000).unwrap_err().contains("past the run's last step"));
+        c.step = 1 << 63;
+        let bytes = c.encode();
+        let decoded = Checkpoint::decode(&bytes, 2, "lb-dnn-servicing").unwrap();
+        assert!(decoded.check_resume(3000, 36_000).is_err());
     }
 
     #[test]

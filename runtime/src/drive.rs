@@ -16,6 +16,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use cohort_scenario::faults::{Corruption, Fate, FaultPlan};
+use cohort_wire::auth::MacKey;
 use cohort_wire::msg::{
     CONTROL_DEAD, CONTROL_RESUME, Header, LINK_DATA, LINK_LOST, Measurement, PLANT_ID, Roster, RunControl,
     SCHEMA_VERSION, STATUS_ALIVE, STATUS_DEAD, STATUS_DONE, STATUS_HOLDING, STATUS_IDLE, STATUS_PROGRESS, STATUS_READY,
@@ -101,6 +102,9 @@ pub struct DriveParams {
     pub algorithm_kind: String,
     /// How long a hold for the orchestrator (a process fault) may take, at most.
     pub hold_timeout: Duration,
+    /// `run.authenticate`: the run's MAC key; every message sent is sealed with it and every
+    /// message received must carry its tag.
+    pub key: Option<MacKey>,
 }
 
 impl DriveParams {
@@ -122,6 +126,7 @@ impl DriveParams {
             checkpoint_every: 0,
             algorithm_kind: String::new(),
             hold_timeout: Duration::from_secs(60),
+            key: None,
         }
     }
 
@@ -150,6 +155,7 @@ impl DriveParams {
             checkpoint_every: s.run.checkpoint_every_steps,
             algorithm_kind: setup.algorithm.kind().to_string(),
             hold_timeout: Duration::from_secs_f64(s.run.startup_timeout_s + 2.0 * s.run.step_timeout_s),
+            key: None,
         }
     }
 }
@@ -163,6 +169,9 @@ pub enum SpinPolicy {
     /// the same kind (measurement or share) (at
     /// least [`ADAPTIVE_FLOOR_US`], at most [`ADAPTIVE_CAP_US`]); when waits are typically longer
     /// than the cap (a slow or paced plant), do not spin at all, so an idle process costs nothing.
+    /// When spinning stops paying because the machine is contended (a yield comes back only after
+    /// another program held the core for a scheduler slice, [`YIELD_STALL`]), block at once and
+    /// skip spinning for a while ([`Contention`]).
     Adaptive,
 }
 
@@ -184,6 +193,17 @@ pub const ADAPTIVE_FLOOR_US: f64 = 20.0;
 /// Measured on the 2-core machine (README, Performance): spinning with `sched_yield` for up to
 /// 1 ms beat blocking at every N from 6 to 100 agent processes.
 pub const ADAPTIVE_CAP_US: f64 = 2000.0;
+/// A `sched_yield` that takes this long returned only after another runnable task held the core
+/// for a whole scheduler slice (on this machine 1–5 ms with two CPU hogs, while with none 99.99 %
+/// of yields take under 10 µs): the cores are contended, and a spinner then only takes CPU from
+/// the peer it waits for. A peer's step that would end a spin is microseconds (a slower one makes
+/// the typical wait exceed [`ADAPTIVE_CAP_US`], which stops spinning anyway).
+pub const YIELD_STALL: Duration = Duration::from_millis(1);
+/// After a stalled yield, the next waits block without spinning: this many, doubled for every
+/// further spinning wait that stalls in a row (up to [`BACKOFF_MAX`]); a spin that completes
+/// without a stall resets it. A lone stall (another user's burst) costs a few blocking waits.
+const BACKOFF_MIN: u32 = 16;
+const BACKOFF_MAX: u32 = 4096;
 /// Weight of the newest wait in the running typical wait.
 const ADAPTIVE_EWMA: f64 = 0.1;
 /// Spin for up to this many typical waits.
@@ -210,6 +230,16 @@ trait Inbox {
     fn fresh(&mut self) -> bool {
         false
     }
+    /// Why the latest message from process `id` was rejected, if it was (a valid one since
+    /// clears it): a wait that times out names that, not silence.
+    fn rejected_from(&self, id: u32) -> Option<Rejection>;
+}
+
+/// How a missing peer is described when its latest message was rejected.
+fn rejected_note(r: Option<Rejection>) -> String {
+    r.map_or(String::new(), |r| {
+        format!(" (its latest message was rejected: {}, i.e. damaged in transit or not of this run)", r.name())
+    })
 }
 
 struct Waiter<'a, T: Transport + ?Sized> {
@@ -219,15 +249,61 @@ struct Waiter<'a, T: Transport + ?Sized> {
     timeouts: u64,
     /// Running typical wait, µs, per kind of wait (measurement, share): adaptive spinning.
     typical_wait_us: [f64; 2],
+    contention: Contention,
     events: Vec<RunControl>,
 }
 
-impl<T: Transport + ?Sized> Waiter<'_, T> {
-    fn spin_for(&self, kind: usize) -> Duration {
+/// Adaptive waiting's view of CPU contention: whether spinning pays on this machine right now.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct Contention {
+    /// Spinning waits that stalled in a row.
+    streak: u32,
+    /// Waits left to block without spinning.
+    skip: u32,
+    /// Stalled spins so far (reported as `spin_stalls`).
+    pub stalls: u64,
+}
+
+impl Contention {
+    /// Whether this wait may spin (and count it against the back-off).
+    fn may_spin(&mut self) -> bool {
+        if self.skip > 0 {
+            self.skip -= 1;
+            return false;
+        }
+        true
+    }
+    /// A spinning wait ended: `stalled` if one of its yields did.
+    fn spun(&mut self, stalled: bool) {
+        if stalled {
+            self.stalls += 1;
+            self.skip = BACKOFF_MIN.checked_shl(self.streak).unwrap_or(BACKOFF_MAX).min(BACKOFF_MAX);
+            self.streak = self.streak.saturating_add(1);
+        } else {
+            self.streak = 0;
+        }
+    }
+}
+
+impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
+    fn new(t: &'a mut T, p: &'a DriveParams, me: u32) -> Waiter<'a, T> {
+        Waiter {
+            t,
+            p,
+            me,
+            timeouts: 0,
+            typical_wait_us: [0.0; 2],
+            contention: Contention::default(),
+            events: Vec::new(),
+        }
+    }
+
+    fn spin_for(&mut self, kind: usize) -> Duration {
         let typical = self.typical_wait_us[kind];
         match self.p.spin {
             SpinPolicy::Fixed(d) => d,
             SpinPolicy::Adaptive if typical > ADAPTIVE_CAP_US => Duration::ZERO,
+            SpinPolicy::Adaptive if !self.contention.may_spin() => Duration::ZERO,
             SpinPolicy::Adaptive => {
                 Duration::from_secs_f64((ADAPTIVE_MARGIN * typical).clamp(ADAPTIVE_FLOOR_US, ADAPTIVE_CAP_US) * 1e-6)
             }
@@ -246,7 +322,10 @@ impl<T: Transport + ?Sized> Waiter<'_, T> {
         let started = Instant::now();
         let mut silent_since = started;
         let kind = usize::from(what == "share");
-        let spin = self.spin_for(kind);
+        let mut spin = self.spin_for(kind);
+        let spun = spin > Duration::ZERO;
+        let adaptive = self.p.spin == SpinPolicy::Adaptive;
+        let mut stalled = false;
         let mut reported = false;
         let mut spins = 0u32;
         loop {
@@ -254,6 +333,9 @@ impl<T: Transport + ?Sized> Waiter<'_, T> {
             if inbox.complete() {
                 let w = started.elapsed().as_secs_f64() * 1e6;
                 self.typical_wait_us[kind] += ADAPTIVE_EWMA * (w - self.typical_wait_us[kind]);
+                if spun && adaptive {
+                    self.contention.spun(stalled);
+                }
                 return Ok(());
             }
             if inbox.fresh() {
@@ -291,12 +373,19 @@ impl<T: Transport + ?Sized> Waiter<'_, T> {
                 if !reported && waited >= REPORT_WAITING_AFTER {
                     reported = true;
                     let (id, _) = inbox.missing();
-                    let s = status(self.p, self.me, STATUS_WAITING, step, id);
+                    let mut s = status(self.p, self.me, STATUS_WAITING, step, id);
+                    s.detail = inbox.rejected_from(id).map_or(0, |r| r as u32 + 1);
                     self.t.report(&s);
                 }
             }
             if spinning {
+                let y0 = Instant::now();
                 std::thread::yield_now();
+                if adaptive && y0.elapsed() >= YIELD_STALL {
+                    // Contended: spinning only takes the CPU from whoever we wait for.
+                    stalled = true;
+                    spin = Duration::ZERO;
+                }
             } else {
                 self.t.wait(POLL.min(limit.saturating_sub(waited)).max(Duration::from_micros(100)))?;
             }
@@ -314,6 +403,9 @@ fn status(p: &DriveParams, me: u32, kind: u32, step: u64, waiting_for: u32) -> S
         step,
         t_s: p.t_s(step),
         build_hash: cohort_wire::build_id_hash(),
+        detail: 0,
+        _pad: 0,
+        mac: [0; 2],
     }
 }
 
@@ -400,6 +492,9 @@ struct PlantInbox {
     overrun: Vec<u64>,
     late: u64,
     rejects: RejectCounts,
+    /// Per agent: why its latest share was rejected, if it was.
+    rejected: Vec<Option<Rejection>>,
+    key: Option<MacKey>,
 }
 
 impl Inbox for PlantInbox {
@@ -409,14 +504,23 @@ impl Inbox for PlantInbox {
             self.rejects.add(Rejection::Sender); // the plant reads no measurements
             return;
         };
-        let e =
-            Expect { run_id: self.run_id, sender: from, step_min: self.k.saturating_sub(self.back), step_max: self.k };
-        if let Some(n) = self.from.get_mut(from as usize - 1) {
-            *n += 1;
+        // `from` names the service (or socket) it came by; anything else is no agent of ours.
+        if from == 0 || from as usize > self.want.len() {
+            self.rejects.add(Rejection::Sender);
+            return;
         }
+        let idx = (from - 1) as usize;
+        let e = Expect {
+            run_id: self.run_id,
+            sender: from,
+            step_min: self.k.saturating_sub(self.back),
+            step_max: self.k,
+            key: self.key,
+        };
+        self.from[idx] += 1;
         match validate_share(share, &e) {
             Ok(()) => {
-                let idx = (from - 1) as usize;
+                self.rejected[idx] = None;
                 self.latency[idx].record(monotonic_ns().saturating_sub(share.header.sent_wall_ns));
                 let step = share.header.step;
                 let on_time = share.link == LINK_LOST || self.plan.fate(from, step) == Fate::Deliver;
@@ -441,7 +545,10 @@ impl Inbox for PlantInbox {
                     self.latency_max_ns = self.latency_max_ns.max(latency);
                 }
             }
-            Err(r) => self.rejects.add(r),
+            Err(r) => {
+                self.rejects.add(r);
+                self.rejected[idx] = Some(r);
+            }
         }
     }
     fn complete(&self) -> bool {
@@ -449,7 +556,10 @@ impl Inbox for PlantInbox {
     }
     fn missing(&self) -> (u32, String) {
         let id = self.want.iter().position(|w| *w).map_or(0, |i| i as u32 + 1);
-        (id, format!("agent {id}"))
+        (id, format!("agent {id}{}", rejected_note(self.rejected_from(id))))
+    }
+    fn rejected_from(&self, id: u32) -> Option<Rejection> {
+        self.rejected.get((id as usize).wrapping_sub(1)).copied().flatten()
     }
     fn control(&mut self, c: &RunControl) {
         if c.command == CONTROL_DEAD {
@@ -534,6 +644,8 @@ fn plant_loop<T: Transport + ?Sized>(
         overrun: vec![0; n],
         late: 0,
         rejects: RejectCounts::default(),
+        rejected: vec![None; n],
+        key: p.key,
     };
     let mut roster = PlantRoster {
         live: Roster::all(n_agents),
@@ -549,7 +661,7 @@ fn plant_loop<T: Transport + ?Sized>(
     // the step timeout, as in lockstep).
     let mut last_heard = vec![Instant::now(); n];
     let mut row = Vec::with_capacity(columns.len());
-    let mut waiter = Waiter { t, p, me: PLANT_ID, timeouts: 0, typical_wait_us: [0.0; 2], events: Vec::new() };
+    let mut waiter = Waiter::new(t, p, PLANT_ID);
     let mut last_progress = Instant::now();
     let sent = std::cell::Cell::new(0u64);
     // Measurements of step k go out as soon as the truth reaches tₖ; the telemetry row of step
@@ -567,6 +679,9 @@ fn plant_loop<T: Transport + ?Sized>(
                 let mut m = Measurement::new(Header::new(p.run_id, PLANT_ID, k, p.t_s(k)), &readings);
                 m.live = roster.live;
                 m.lost_at_close = roster.lost_at_close;
+                if let Some(k) = &p.key {
+                    k.seal_measurement(&mut m);
+                }
                 t.send_measurement(i, &m)?;
                 sent.set(sent.get() + 1);
             }
@@ -807,6 +922,8 @@ struct Peer {
     /// The newest step of a token from it, and tokens lost to a full queue (a gap in steps).
     last_token: Option<u64>,
     overrun: u64,
+    /// Why its latest share was rejected, if it was.
+    rejected: Option<Rejection>,
 }
 
 /// An agent's inbox: the plant's measurement, then the neighbours' shares.
@@ -839,6 +956,12 @@ struct AgentInbox {
     fresh: bool,
     received: u64,
     rejects: RejectCounts,
+    /// Why the plant's latest measurement was rejected, if it was.
+    rejected_plant: Option<Rejection>,
+    /// The run's last step: no message names a later one (a step read from a message is never
+    /// trusted as a loop bound beyond it).
+    last_step: u64,
+    key: Option<MacKey>,
 }
 
 impl AgentInbox {
@@ -855,10 +978,17 @@ impl Inbox for AgentInbox {
                 // Once every share of step k is in, the plant may already send step k+1's
                 // measurement while this agent still waits for a neighbour: keep it.
                 let want = if self.want_measurement { self.k } else { self.k + 1 };
-                let e = Expect { run_id: self.run_id, sender: PLANT_ID, step_min: want, step_max: u64::MAX - 1 };
+                let e = Expect {
+                    run_id: self.run_id,
+                    sender: PLANT_ID,
+                    step_min: want,
+                    step_max: self.last_step,
+                    key: self.key,
+                };
                 self.from_plant += 1;
                 match validate_measurement(m, &e) {
                     Ok(()) => {
+                        self.rejected_plant = None;
                         self.latency_plant.record(monotonic_ns().saturating_sub(m.header.sent_wall_ns));
                         let step = m.header.step;
                         if self.last_meas_step.is_some_and(|s| s >= step) {
@@ -876,7 +1006,10 @@ impl Inbox for AgentInbox {
                         self.meas_latency_ns = monotonic_ns().saturating_sub(m.header.sent_wall_ns);
                         self.meas = Some(Box::new(*m));
                     }
-                    Err(r) => self.rejects.add(r),
+                    Err(r) => {
+                        self.rejects.add(r);
+                        self.rejected_plant = Some(r);
+                    }
                 }
             }
             Incoming::Share { from, share } => {
@@ -894,10 +1027,13 @@ impl Inbox for AgentInbox {
                     step_max: match (self.last_meas_step, self.relaunched_until) {
                         (None, Some(last)) => last,
                         (m, _) => self.k.max(m.unwrap_or(0)) + 1,
-                    },
+                    }
+                    .min(self.last_step),
+                    key: self.key,
                 };
                 match validate_share(share, &e) {
                     Ok(()) => {
+                        peer.rejected = None;
                         peer.latency.record(monotonic_ns().saturating_sub(share.header.sent_wall_ns));
                         let step = share.header.step;
                         if share.link == LINK_LOST || self.plan.fate(from, step) == Fate::Deliver {
@@ -917,7 +1053,10 @@ impl Inbox for AgentInbox {
                             peer.arrived.push((step, values));
                         }
                     }
-                    Err(r) => self.rejects.add(r),
+                    Err(r) => {
+                        self.rejects.add(r);
+                        peer.rejected = Some(r);
+                    }
                 }
             }
         }
@@ -940,14 +1079,20 @@ impl Inbox for AgentInbox {
     }
     fn missing(&self) -> (u32, String) {
         if self.want_measurement && self.meas.is_none() {
-            return (PLANT_ID, "the plant".into());
+            return (PLANT_ID, format!("the plant{}", rejected_note(self.rejected_plant)));
         }
         if self.want_measurement && !self.i_am_live() {
             return (PLANT_ID, "the plant (to be back on the roster)".into());
         }
         let u = self.need_shares.unwrap_or(self.k);
         let j = self.peers.iter().find(|p| live_at(&p.hist, u) && !p.tokens.contains(&u)).map_or(0, |p| p.id);
-        (j, format!("neighbour agent {j}"))
+        (j, format!("neighbour agent {j}{}", rejected_note(self.rejected_from(j))))
+    }
+    fn rejected_from(&self, id: u32) -> Option<Rejection> {
+        if id == PLANT_ID {
+            return self.rejected_plant;
+        }
+        self.peers.iter().find(|p| p.id == id).and_then(|p| p.rejected)
     }
     fn fresh(&mut self) -> bool {
         std::mem::take(&mut self.fresh)
@@ -966,6 +1111,19 @@ fn corrupt(s: &mut Share, how: Corruption) {
             s.command_len = s.command_len.max(1);
             s.values_len = s.values_len.max(1);
         }
+    }
+}
+
+/// Send a share, sealed with the run's key when there is one (after a `corrupt` fault garbled
+/// it: the fault models a sender that sends garbage, which its readers must reject by reason).
+fn send_share<T: Transport + ?Sized>(t: &mut T, p: &DriveParams, s: &Share) -> Result<(), TransportError> {
+    match &p.key {
+        Some(k) => {
+            let mut sealed = *s;
+            k.seal_share(&mut sealed);
+            t.send_share(&sealed)
+        }
+        None => t.send_share(s),
     }
 }
 
@@ -1026,6 +1184,7 @@ fn agent_loop<T: Transport + ?Sized>(
                 latency: LatencyHist::default(),
                 last_token: None,
                 overrun: 0,
+                rejected: None,
             })
             .collect(),
         plan: Arc::clone(&p.faults),
@@ -1033,6 +1192,9 @@ fn agent_loop<T: Transport + ?Sized>(
         fresh: false,
         received: 0,
         rejects: RejectCounts::default(),
+        rejected_plant: None,
+        last_step: p.n_steps.saturating_sub(1),
+        key: p.key,
     };
     let mut k = 0;
     if let Some(c) = restore {
@@ -1056,7 +1218,7 @@ fn agent_loop<T: Transport + ?Sized>(
     let mut live_now: Vec<bool> = Vec::with_capacity(neighbours.len());
     let mut out = ShareOut::default();
     let mut row = Vec::with_capacity(columns.len());
-    let mut waiter = Waiter { t, p, me: id, timeouts: 0, typical_wait_us: [0.0; 2], events: Vec::new() };
+    let mut waiter = Waiter::new(t, p, id);
 
     // Step `algo` from `u`'s shares: for each neighbour live at u, the newest share that has
     // arrived by u, else its last valid one (held, its age recorded); a dead one is left out.
@@ -1187,7 +1349,7 @@ fn agent_loop<T: Transport + ?Sized>(
             while i < pending.len() {
                 if pending[i].0 <= k {
                     let (_, s) = pending.swap_remove(i);
-                    waiter.t.send_share(&s)?;
+                    send_share(waiter.t, p, &s)?;
                     report.messages_sent += 1;
                 } else {
                     i += 1;
@@ -1197,7 +1359,7 @@ fn agent_loop<T: Transport + ?Sized>(
             let fate = plan.fate(id, k);
             match fate {
                 Fate::Deliver => {
-                    waiter.t.send_share(&share)?;
+                    send_share(waiter.t, p, &share)?;
                     report.messages_sent += 1;
                 }
                 Fate::Delay(n) => {
@@ -1209,7 +1371,7 @@ fn agent_loop<T: Transport + ?Sized>(
                     *report.faults.shares_corrupted.entry(how.name().to_string()).or_default() += 1;
                     let mut garbled = share;
                     corrupt(&mut garbled, how);
-                    waiter.t.send_share(&garbled)?;
+                    send_share(waiter.t, p, &garbled)?;
                     report.messages_sent += 1;
                 }
             }
@@ -1217,7 +1379,7 @@ fn agent_loop<T: Transport + ?Sized>(
                 // The step token: lockstep goes on without the share (see `LINK_LOST`).
                 let mut token = Share::new(share.header, &[], &[]);
                 token.link = LINK_LOST;
-                waiter.t.send_share(&token)?;
+                send_share(waiter.t, p, &token)?;
                 report.messages_sent += 1;
             }
             let mut compute_ns = monotonic_ns() - compute_start;
@@ -1269,8 +1431,8 @@ mod tests {
     use super::*;
     use crate::model::{AgentInput, Neighbour};
     use crate::rng::process_rng;
-    use cohort_wire::transport::Topology;
     use cohort_wire::transport::memory::MemoryBus;
+    use cohort_wire::transport::{DataPath, Topology};
     use rand::Rng;
     use std::sync::Mutex;
 
@@ -1346,6 +1508,12 @@ mod tests {
         silent: Option<u32>,
         abort: bool,
         faults: Vec<cohort_scenario::faults::FaultSpec>,
+        /// run.authenticate: the run's key, and a process (0: the plant) whose messages carry
+        /// another one (as if damaged in place, or forged).
+        key: Option<MacKey>,
+        wrong_key: Option<u32>,
+        /// A measurement to slip into agent 1's inbox before the run starts.
+        inject: Option<Measurement>,
     }
 
     /// Run 4 agents on a ring; returns (plant report, agent reports, in-memory shared values).
@@ -1353,13 +1521,21 @@ mod tests {
         let topo = Topology { neighbours: vec![vec![2, 4], vec![1, 3], vec![2, 4], vec![3, 1]] };
         let bus = MemoryBus::new(topo.clone());
         let silent = setup.silent;
-        let mut p = params(dir, 50, Duration::from_millis(if silent.is_some() { 300 } else { 20_000 }));
+        let quick = silent.is_some() || setup.wrong_key.is_some();
+        let mut p = params(dir, 50, Duration::from_millis(if quick { 300 } else { 20_000 }));
         p.degrade = !setup.abort;
         p.faults = Arc::new(FaultPlan::new(&setup.faults, 11, p.dt_s));
+        p.key = setup.key;
+        let mut forged = p.clone();
+        forged.key = Some(MacKey::from_bytes([0xEE; 32]));
+        if let Some(m) = &setup.inject {
+            bus.endpoint(Proc::Plant).send_measurement(1, m).unwrap();
+        }
         let shared: Vec<Arc<Mutex<Vec<f64>>>> = (0..4).map(|_| Arc::new(Mutex::new(Vec::new()))).collect();
         std::thread::scope(|sc| {
             let plant = {
-                let (bus, p) = (&bus, &p);
+                let p = if setup.wrong_key == Some(0) { &forged } else { &p };
+                let bus = &bus;
                 sc.spawn(move || {
                     let mut t = bus.endpoint(Proc::Plant);
                     let mut m = ToyPlant { x: vec![1.0, -2.0, 3.5, 0.25], u: vec![0.0; 4] };
@@ -1375,7 +1551,8 @@ mod tests {
             let agents: Vec<_> = (1..=4u32)
                 .filter(|&i| Some(i) != silent)
                 .map(|i| {
-                    let (bus, p, topo, sh) = (&bus, &p, &topo, Arc::clone(&shared[i as usize - 1]));
+                    let p = if setup.wrong_key == Some(i) { &forged } else { &p };
+                    let (bus, topo, sh) = (&bus, &topo, Arc::clone(&shared[i as usize - 1]));
                     sc.spawn(move || {
                         let mut t = bus.endpoint(Proc::Agent(i));
                         let mut a = ToyAgent { y: 0.0, nbr: vec![], shared: sh };
@@ -1446,6 +1623,64 @@ mod tests {
         assert_eq!((c.step, c.agent, c.live, c.reason.as_str()), (0, 3, false, "silent"));
         assert!(ars.iter().all(|r| r.error.is_none() && r.steps_completed == 50), "{ars:?}");
         let _ = std::fs::remove_dir_all(&base);
+    }
+
+    #[test]
+    fn an_authenticated_run_is_bit_identical_and_a_wrongly_keyed_plant_is_named_as_rejected() {
+        // Issue 18, finding 6: a message that fails its MAC is counted, the wait goes on, and the
+        // run's error names the process whose message was rejected (not "went silent").
+        let base = std::env::temp_dir().join(format!("cohort-drive-mac-{}", std::process::id()));
+        let key = Some(MacKey::from_bytes([5; 32]));
+        let (plain, _, sp) = run(&base.join("plain"), Setup::default());
+        let (sealed, ra, ss) = run(&base.join("sealed"), Setup { key, ..Default::default() });
+        assert!(plain.error.is_none() && sealed.error.is_none(), "{:?}", sealed.error);
+        let bits = |v: &Vec<Vec<f64>>| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&sp), bits(&ss), "the MAC changed the results");
+        assert!(ra.iter().chain([&sealed]).all(|r| r.messages_rejected.values().sum::<u64>() == 0));
+        // Every measurement fails its tag: each agent counts it, waits on, and ends naming the
+        // plant's rejected message as the reason it got nothing.
+        let (pr, ars, _) = run(&base.join("forged"), Setup { key, wrong_key: Some(0), ..Default::default() });
+        assert!(pr.error.is_none(), "degrade mode: the plant goes on without the agents: {:?}", pr.error);
+        for a in &ars {
+            let err = &a.error.as_ref().expect("the agent must time out").message;
+            assert!(err.contains("from the plant (its latest message was rejected: mac"), "{err}");
+            assert!(a.messages_rejected.get("mac").copied().unwrap_or(0) >= 1, "{:?}", a.messages_rejected);
+        }
+        let _ = std::fs::remove_dir_all(&base);
+    }
+
+    #[test]
+    fn a_measurement_naming_a_step_past_the_run_is_rejected_not_propagated_through() {
+        // Issue 18, finding 6: a step read from a message was trusted as a loop bound (an agent
+        // would have propagated through 2^40 steps).
+        let base = std::env::temp_dir().join(format!("cohort-drive-far-{}", std::process::id()));
+        let far = Measurement::new(Header::new(99, PLANT_ID, 1 << 40, 1e9), &[0.0]);
+        let (pr, ars, _) = run(&base, Setup { inject: Some(far), ..Default::default() });
+        assert!(pr.error.is_none() && ars.iter().all(|r| r.error.is_none()), "{pr:?} {ars:?}");
+        assert_eq!(ars[0].steps_completed, 50);
+        assert_eq!(ars[0].messages_rejected.get("step"), Some(&1), "{:?}", ars[0].messages_rejected);
+        let _ = std::fs::remove_dir_all(&base);
+    }
+
+    #[test]
+    fn contention_stops_spinning_for_longer_the_longer_it_lasts_and_a_good_spin_resets_it() {
+        let mut c = Contention::default();
+        assert!(c.may_spin());
+        c.spun(true);
+        let blocked = (0..100).take_while(|_| !c.may_spin()).count();
+        assert_eq!(blocked, BACKOFF_MIN as usize);
+        c.spun(true);
+        let blocked = (0..100).take_while(|_| !c.may_spin()).count();
+        assert_eq!(blocked, 2 * BACKOFF_MIN as usize);
+        for _ in 0..40 {
+            c.spun(true);
+        }
+        assert_eq!(c.skip, BACKOFF_MAX);
+        c.skip = 0;
+        c.spun(false);
+        c.spun(true);
+        assert_eq!(c.skip, BACKOFF_MIN, "a spin without a stall resets the back-off");
+        assert_eq!(c.stalls, 43);
     }
 
     fn fault(kind: &str, agent: u32, t_s: f64) -> cohort_scenario::faults::FaultSpec {

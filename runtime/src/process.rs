@@ -15,6 +15,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use cohort_scenario::TransportKind;
+use cohort_wire::auth::MacKey;
 use cohort_wire::transport::iox::{IoxData, IoxRun};
 use cohort_wire::transport::udp;
 use cohort_wire::transport::{Proc, Transport};
@@ -44,6 +45,10 @@ pub struct CommonArgs {
     /// Override of run.step_timeout_s.
     #[arg(long)]
     pub step_timeout_s: Option<f64>,
+    /// `run.authenticate`: the inherited descriptor to read the run's MAC key from (never the key
+    /// itself: argv and the environment are readable by others).
+    #[arg(long)]
+    pub key_fd: Option<i32>,
 }
 
 impl CommonArgs {
@@ -54,6 +59,7 @@ impl CommonArgs {
             run_id: self.run_id,
             build_id: self.build_id,
             step_timeout_s: self.step_timeout_s,
+            key_fd: self.key_fd,
         }
     }
 }
@@ -66,10 +72,14 @@ pub struct ChildSpec {
     pub run_id: String,
     pub build_id: String,
     pub step_timeout_s: Option<f64>,
+    pub key_fd: Option<i32>,
 }
 
+/// One line to this process's log (its stderr). A failed write (a full disk) is ignored: the
+/// process goes on and its exit code and report say what happened; `eprintln!` would panic.
 fn log(me: Proc, start: Instant, msg: impl std::fmt::Display) {
-    eprintln!("[{:9.3} s] {}: {msg}", start.elapsed().as_secs_f64(), me.name());
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "[{:9.3} s] {}: {msg}", start.elapsed().as_secs_f64(), me.name());
 }
 
 /// Run one child process to its end. The run directory's resolved scenario is configured with
@@ -112,17 +122,33 @@ pub fn child_main(
         log(me, start, format!("--id {id}: out of range, the scenario has agents 1..={}", scenario.n_agents()));
         return ExitCode::from(EXIT_BAD_INPUT);
     }
-    // Ctrl-C belongs to the orchestrator, which stops its children in order; SIGTERM asks this
-    // process to stop at its next wait, flushing its telemetry.
+    let key = match (spec.key_fd, scenario.run.authenticate) {
+        (Some(fd), _) => match MacKey::read_from_fd(fd) {
+            Ok(k) => Some(k),
+            Err(e) => {
+                log(me, start, format!("--key-fd {fd}: cannot read the run's key: {e}"));
+                return ExitCode::from(EXIT_BAD_INPUT);
+            }
+        },
+        (None, true) => {
+            log(me, start, "run.authenticate is on but no --key-fd was given: the orchestrator hands the key over");
+            return ExitCode::from(EXIT_BAD_INPUT);
+        }
+        (None, false) => None,
+    };
+    // Ctrl-C belongs to the orchestrator, which stops its children in order; SIGTERM (and SIGHUP,
+    // a closed terminal) asks this process to stop at its next wait, flushing its telemetry.
     let terminate = Arc::new(AtomicBool::new(false));
     // SAFETY: ignoring SIGINT installs no handler code.
     unsafe { libc_ignore_sigint() };
-    if let Err(e) = signal_hook::flag::register(signal_hook::consts::SIGTERM, Arc::clone(&terminate)) {
-        log(me, start, format!("cannot install the SIGTERM handler: {e}"));
-        return ExitCode::from(EXIT_RUN_FAILED);
+    for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP] {
+        if let Err(e) = signal_hook::flag::register(sig, Arc::clone(&terminate)) {
+            log(me, start, format!("cannot install the handler of signal {sig}: {e}"));
+            return ExitCode::from(EXIT_RUN_FAILED);
+        }
     }
     let topo = scenario.topology();
-    let iox_run = IoxRun::new(run_id);
+    let iox_run = IoxRun::new(run_id).with_key(key);
     let opened: Result<Box<dyn Transport>, _> = match scenario.run.transport {
         TransportKind::Udp => {
             let timeout = Duration::from_secs_f64(scenario.run.startup_timeout_s);
@@ -137,7 +163,8 @@ pub fn child_main(
             return ExitCode::from(EXIT_RUN_FAILED);
         }
     };
-    let params = DriveParams::from_setup(&scenario, run_id, dirs.clone(), terminate, start);
+    let mut params = DriveParams::from_setup(&scenario, run_id, dirs.clone(), terminate, start);
+    params.key = key;
     log(me, start, format!("ready ({} steps of {} s)", params.n_steps, params.dt_s));
     let report = run(&scenario, transport.as_mut(), &params);
     drop(transport); // release the ports before exiting

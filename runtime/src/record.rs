@@ -292,8 +292,26 @@ impl ProcessReport {
     pub fn write(&self, dirs: &RunDirs) -> std::io::Result<()> {
         let path = dirs.status().join(format!("{}.json", self.process));
         let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other)?;
-        std::fs::write(path, text)
+        write_atomic(&path, text.as_bytes())
     }
+}
+
+/// Write a file whole or not at all: into a temporary name beside it, then renamed over it; on
+/// any error (a full disk) the temporary file is removed, so no empty or half-written file is
+/// left where a reader expects a complete one.
+pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp"));
+    let written = (|| {
+        let mut f = File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_data()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written
 }
 
 /// (CPU seconds of the calling thread (`RUSAGE_THREAD`), peak RSS of its process in kB).

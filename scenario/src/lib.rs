@@ -91,6 +91,27 @@ mod tests {
     }
 
     #[test]
+    fn out_of_range_seeds_and_step_timeouts_are_problems_with_short_values() {
+        // Issue 18, findings 3 and 7: seed 2^63 panicked when the resolved scenario was
+        // serialised; a step timeout of 1e-300 s ran and printed it with 300 zeros.
+        for seed in [1u64 << 63, u64::MAX] {
+            let o = Overrides { seed: Some(seed), ..Default::default() };
+            let problems = match parse(&ring(), Path::new("x.toml"), &o) {
+                Ok(s) => validate::validate(&s).1.iter().map(|p| p.to_string()).collect::<Vec<_>>(),
+                Err(e) => vec![e.to_string()],
+            };
+            assert!(problems.iter().any(|p| p.contains("scenario.seed")), "seed {seed}: {problems:?}");
+        }
+        let o = Overrides { seed: Some(validate::MAX_SEED), ..Default::default() };
+        assert!(validate::validate(&parse(&ring(), Path::new("x.toml"), &o).unwrap()).1.is_empty());
+        let o = Overrides { step_timeout_s: Some(1e-300), ..Default::default() };
+        let problems = validate::validate(&parse(&ring(), Path::new("x.toml"), &o).unwrap()).1;
+        let text = problems.iter().map(|p| p.to_string()).collect::<String>();
+        assert!(text.contains("run.step_timeout_s = 1e-300: must be at least 0.1 s"), "{text}");
+        assert!(text.len() < 200, "{text}");
+    }
+
+    #[test]
     fn choices_read_like_the_scenario() {
         let opts = |xs: &[&str]| xs.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>();
         assert_eq!(parse::choice_list(&opts(&["a", "b"])), "\"a\" or \"b\"");

@@ -27,6 +27,7 @@ pub struct Overrides {
     /// `--fault` entries, appended to the file's `[[faults]]`.
     pub faults: Vec<crate::faults::FaultSpec>,
     pub on_agent_loss: Option<String>,
+    pub authenticate: Option<bool>,
 }
 
 /// Read and parse a scenario file: the generic sections typed and checked for their own form
@@ -127,6 +128,9 @@ fn apply_overrides(table: &mut toml::Table, o: &Overrides) {
     }
     if let Some(x) = &o.on_agent_loss {
         set("run", "on_agent_loss", Value::String(x.clone()));
+    }
+    if let Some(a) = o.authenticate {
+        set("run", "authenticate", Value::Boolean(a));
     }
     if !o.faults.is_empty() {
         let entry = table.entry("faults").or_insert_with(|| Value::Array(Vec::new()));

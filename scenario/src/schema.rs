@@ -116,6 +116,12 @@ pub struct RunSettings {
     /// restarted agent resumes from its latest one.
     #[serde(default = "default_checkpoint_every_steps")]
     pub checkpoint_every_steps: u64,
+    /// Seal every message with a keyed MAC (a per-run random key the orchestrator hands each
+    /// process through an inherited descriptor) and reject any without a valid tag. Off by
+    /// default: a run's shared memory is owner-only already; this guards against processes of
+    /// the same user, at a cost measured by `orchestrator bench`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub authenticate: bool,
 }
 
 fn default_on_agent_loss() -> OnAgentLoss {
@@ -153,6 +159,7 @@ impl Default for RunSettings {
             realtime_rate: None,
             on_agent_loss: default_on_agent_loss(),
             checkpoint_every_steps: default_checkpoint_every_steps(),
+            authenticate: false,
         }
     }
 }

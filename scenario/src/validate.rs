@@ -9,6 +9,12 @@ use crate::schema::*;
 
 /// Longest run we accept, in steps (keeps telemetry and counters sane).
 const MAX_STEPS: u64 = 1_000_000_000;
+/// The largest seed: seeds are written back into the resolved scenario as TOML integers, which
+/// are signed 64-bit.
+pub const MAX_SEED: u64 = i64::MAX as u64;
+/// The shortest step timeout, s: a wait re-polls every 10 ms and a process needs milliseconds to
+/// be scheduled on a busy machine, so anything shorter only declares healthy processes dead.
+pub const MIN_STEP_TIMEOUT_S: f64 = 0.1;
 
 /// The checks of what every scenario has (meta, run settings, agents and their graph, the fault
 /// plan). The paper sections are checked by their papers. Returns whether agent ids are exactly
@@ -40,6 +46,9 @@ pub fn validate(s: &Scenario) -> (bool, Vec<Problem>) {
 fn meta(c: &mut Checker, m: &Meta) {
     if m.name.is_empty() || !m.name.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '-' || ch == '_') {
         c.fail("scenario.name", format!("{:?}", m.name), "must be non-empty and use only letters, digits, '-' and '_'");
+    }
+    if m.seed > MAX_SEED {
+        c.fail("scenario.seed", m.seed, format!("must be in 0..={MAX_SEED} (2^63 − 1: seeds are TOML integers)"));
     }
     let dt_ok = m.dt_s.is_finite() && m.dt_s > 0.0;
     c.positive("scenario.dt_s", m.dt_s);
@@ -78,9 +87,13 @@ fn run(c: &mut Checker, r: &RunSettings) {
         c.fail("run.link_delay_steps", r.link_delay_steps, "must be 0 or 1");
     }
     for (path, x) in [("run.step_timeout_s", r.step_timeout_s), ("run.startup_timeout_s", r.startup_timeout_s)] {
-        c.positive(path, x);
-        if x.is_finite() && x > 3600.0 {
+        if !c.positive(path, x) {
+            continue;
+        }
+        if x > 3600.0 {
             c.fail(path, fmt_f64(x), "must be at most 3600 s");
+        } else if x < MIN_STEP_TIMEOUT_S {
+            c.fail(path, fmt_f64(x), format!("must be at least {MIN_STEP_TIMEOUT_S} s"));
         }
     }
 }

@@ -13,11 +13,11 @@ fn messages(c: &mut Criterion) {
         b.iter(|| Share::new(Header::new(7, 3, 100, 1.0), black_box(&command), black_box(&values)))
     });
     let share = Share::new(Header::new(7, 3, 100, 1.0), &command, &values);
-    let e = Expect { run_id: 7, sender: 3, step_min: 100, step_max: 101 };
+    let e = Expect { run_id: 7, sender: 3, step_min: 100, step_max: 101, key: None };
     c.bench_function("validate_share (3 + 106 values)", |b| b.iter(|| validate_share(black_box(&share), &e)));
     let readings = [1.0; 9];
     let m = Measurement::new(Header::new(7, 0, 100, 1.0), &readings);
-    let e0 = Expect { run_id: 7, sender: 0, step_min: 100, step_max: 100 };
+    let e0 = Expect { run_id: 7, sender: 0, step_min: 100, step_max: 100, key: None };
     c.bench_function("Measurement::new + validate (9 readings)", |b| {
         b.iter(|| {
             let m2 = Measurement::new(Header::new(7, 0, 100, 1.0), black_box(&readings));

@@ -1,7 +1,9 @@
 //! Cohort's wire layer: the messages processes exchange ([`msg`]), how a receiver validates them
 //! ([`validate`]), and the [`transport::Transport`] abstraction with its iceoryx2 and in-memory
-//! implementations.
+//! implementations, and the keyed MAC of `run.authenticate` ([`auth`]).
 
+pub mod auth;
+pub mod limits;
 pub mod msg;
 pub mod transport;
 pub mod validate;

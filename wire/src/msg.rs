@@ -9,7 +9,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Bumped whenever a payload's layout or meaning changes.
-pub const SCHEMA_VERSION: u32 = 2;
+pub const SCHEMA_VERSION: u32 = 3;
 
 /// Sender id of the plant. Agents are numbered 1..=N as in the scenario; the orchestrator is
 /// [`ORCHESTRATOR_ID`].
@@ -38,11 +38,13 @@ pub struct Header {
     /// CLOCK_MONOTONIC at send, ns; shared by all processes of one machine, used only for
     /// latency histograms (never for anything that reaches telemetry).
     pub sent_wall_ns: u64,
+    /// Keyed MAC of the message (`run.authenticate`, see [`crate::auth`]); zero otherwise.
+    pub mac: [u64; 2],
 }
 
 impl Header {
     pub fn new(run_id: u64, sender: u32, step: u64, t_s: f64) -> Self {
-        Self { version: SCHEMA_VERSION, sender, run_id, step, t_s, sent_wall_ns: 0 }
+        Self { version: SCHEMA_VERSION, sender, run_id, step, t_s, sent_wall_ns: 0, mac: [0; 2] }
     }
 }
 
@@ -177,11 +179,21 @@ pub struct RunControl {
     pub dead: Roster,
     /// CONTROL_RESUME: agents to mark live again (relaunched or thawed).
     pub alive: Roster,
+    /// Keyed MAC (`run.authenticate`); zero otherwise.
+    pub mac: [u64; 2],
 }
 
 impl RunControl {
     pub fn new(command: u32, run_id: u64) -> Self {
-        Self { version: SCHEMA_VERSION, command, run_id, step: 0, dead: Roster::EMPTY, alive: Roster::EMPTY }
+        Self {
+            version: SCHEMA_VERSION,
+            command,
+            run_id,
+            step: 0,
+            dead: Roster::EMPTY,
+            alive: Roster::EMPTY,
+            mac: [0; 2],
+        }
     }
 }
 
@@ -220,6 +232,12 @@ pub struct Status {
     pub t_s: f64,
     /// Build id hash (see `build_id_hash`) so the orchestrator can check it in the handshake.
     pub build_hash: u64,
+    /// For `STATUS_WAITING`: 0, or 1 + the [`crate::validate::Rejection`] of the latest message
+    /// from the process waited for, when that message was rejected (damaged or forged).
+    pub detail: u32,
+    pub _pad: u32,
+    /// Keyed MAC (`run.authenticate`); zero otherwise.
+    pub mac: [u64; 2],
 }
 
 /// All ports exist; the process is ready for step 0.

@@ -1,6 +1,13 @@
 //! Every receiver validates what it reads before trusting a number of it. A bad message is dropped
-//! and counted by [`Rejection`], never trusted and never a crash.
+//! and counted by [`Rejection`], never trusted and never a crash. With a run key
+//! ([`crate::auth`]) the tag is checked right after the version and run id, so nothing else of a
+//! forged or damaged message is believed (the reason counted is `mac`).
+//!
+//! Nothing read from a message is used as an index or a loop bound before it is checked here:
+//! lengths against the wire bounds, steps against the window the receiver gives in [`Expect`]
+//! (which never reaches past the run's last step).
 
+use crate::auth::MacKey;
 use crate::msg::{Header, MAX_COMMAND, MAX_READINGS, MAX_SHARE_VALUES, Measurement, SCHEMA_VERSION, Share};
 
 /// Why a message was dropped. The discriminant indexes [`RejectCounts`].
@@ -12,16 +19,19 @@ pub enum Rejection {
     Step,
     Length,
     NonFinite,
+    /// The keyed MAC does not match: forged, or damaged in place.
+    Mac,
 }
 
 impl Rejection {
-    pub const ALL: [Rejection; 6] = [
+    pub const ALL: [Rejection; 7] = [
         Rejection::Version,
         Rejection::RunId,
         Rejection::Sender,
         Rejection::Step,
         Rejection::Length,
         Rejection::NonFinite,
+        Rejection::Mac,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -31,13 +41,14 @@ impl Rejection {
             Rejection::Step => "step",
             Rejection::Length => "length",
             Rejection::NonFinite => "non_finite",
+            Rejection::Mac => "mac",
         }
     }
 }
 
 /// Rejected-message counters, one per reason.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct RejectCounts(pub [u64; 6]);
+pub struct RejectCounts(pub [u64; 7]);
 
 impl RejectCounts {
     pub fn add(&mut self, r: Rejection) {
@@ -60,15 +71,24 @@ pub struct Expect {
     /// agents accept `k..=k+1` from neighbours and exactly `k` from the plant.
     pub step_min: u64,
     pub step_max: u64,
+    /// The run's key when `run.authenticate` is on.
+    pub key: Option<MacKey>,
 }
 
-fn check_header(h: &Header, e: &Expect) -> Result<(), Rejection> {
+fn check_origin(h: &Header, e: &Expect, tag_ok: impl FnOnce(&MacKey) -> bool) -> Result<(), Rejection> {
     if h.version != SCHEMA_VERSION {
         return Err(Rejection::Version);
     }
     if h.run_id != e.run_id {
         return Err(Rejection::RunId);
     }
+    if e.key.as_ref().is_some_and(|k| !tag_ok(k)) {
+        return Err(Rejection::Mac);
+    }
+    Ok(())
+}
+
+fn check_header(h: &Header, e: &Expect) -> Result<(), Rejection> {
     if h.sender != e.sender {
         return Err(Rejection::Sender);
     }
@@ -86,6 +106,7 @@ fn all_finite(xs: &[f64]) -> bool {
 }
 
 pub fn validate_measurement(m: &Measurement, e: &Expect) -> Result<(), Rejection> {
+    check_origin(&m.header, e, |k| k.check_measurement(m))?;
     check_header(&m.header, e)?;
     if m.len as usize > MAX_READINGS {
         return Err(Rejection::Length);
@@ -97,6 +118,7 @@ pub fn validate_measurement(m: &Measurement, e: &Expect) -> Result<(), Rejection
 }
 
 pub fn validate_share(s: &Share, e: &Expect) -> Result<(), Rejection> {
+    check_origin(&s.header, e, |k| k.check_share(s))?;
     check_header(&s.header, e)?;
     if s.command_len as usize > MAX_COMMAND || s.values_len as usize > MAX_SHARE_VALUES || s.link > 1 {
         return Err(Rejection::Length);
@@ -117,7 +139,7 @@ mod tests {
         Share::new(Header::new(RUN, sender, step, step as f64 * 0.01), &[1.0, 2.0, 3.0], &[4.0, 5.0])
     }
     fn expect(sender: u32, k: u64) -> Expect {
-        Expect { run_id: RUN, sender, step_min: k, step_max: k + 1 }
+        Expect { run_id: RUN, sender, step_min: k, step_max: k + 1, key: None }
     }
 
     #[test]
@@ -125,7 +147,10 @@ mod tests {
         assert_eq!(validate_share(&share(3, 10), &expect(3, 10)), Ok(()));
         assert_eq!(validate_share(&share(3, 11), &expect(3, 10)), Ok(()));
         let m = Measurement::new(Header::new(RUN, 0, 5, 0.05), &[1.0, -2.0]);
-        assert_eq!(validate_measurement(&m, &Expect { run_id: RUN, sender: 0, step_min: 5, step_max: 5 }), Ok(()));
+        assert_eq!(
+            validate_measurement(&m, &Expect { run_id: RUN, sender: 0, step_min: 5, step_max: 5, key: None }),
+            Ok(())
+        );
     }
 
     #[test]
@@ -153,7 +178,7 @@ mod tests {
         assert_eq!(validate_share(&share(3, 12), &expect(3, 10)), Err(Rejection::Step));
         let m = Measurement::new(Header::new(RUN, 0, 6, 0.06), &[1.0]);
         assert_eq!(
-            validate_measurement(&m, &Expect { run_id: RUN, sender: 0, step_min: 5, step_max: 5 }),
+            validate_measurement(&m, &Expect { run_id: RUN, sender: 0, step_min: 5, step_max: 5, key: None }),
             Err(Rejection::Step)
         );
     }
@@ -173,7 +198,7 @@ mod tests {
             let mut m = Measurement::new(Header::new(RUN, 0, 5, 0.05), &[1.0, 2.0]);
             m.readings[0] = bad;
             assert_eq!(
-                validate_measurement(&m, &Expect { run_id: RUN, sender: 0, step_min: 5, step_max: 5 }),
+                validate_measurement(&m, &Expect { run_id: RUN, sender: 0, step_min: 5, step_max: 5, key: None }),
                 Err(Rejection::NonFinite)
             );
         }
@@ -195,9 +220,27 @@ mod tests {
         let mut m = Measurement::new(Header::new(RUN, 0, 5, 0.05), &[1.0]);
         m.len = u32::MAX;
         assert_eq!(
-            validate_measurement(&m, &Expect { run_id: RUN, sender: 0, step_min: 5, step_max: 5 }),
+            validate_measurement(&m, &Expect { run_id: RUN, sender: 0, step_min: 5, step_max: 5, key: None }),
             Err(Rejection::Length)
         );
+    }
+
+    #[test]
+    fn with_a_key_an_altered_value_is_rejected_as_mac_and_a_sealed_one_passes() {
+        // Issue 18, finding 6: a share with a valid header and altered values was accepted.
+        let key = crate::auth::MacKey::from_bytes([3; 32]);
+        let e = Expect { key: Some(key), ..expect(3, 10) };
+        let mut s = share(3, 10);
+        key.seal_share(&mut s);
+        assert_eq!(validate_share(&s, &e), Ok(()));
+        s.values[1] = 866.0;
+        assert_eq!(validate_share(&s, &Expect { key: None, ..e }), Ok(()), "without a key it passes");
+        assert_eq!(validate_share(&s, &e), Err(Rejection::Mac));
+        let mut m = Measurement::new(Header::new(RUN, 0, 5, 0.05), &[1.0]);
+        let em = Expect { run_id: RUN, sender: 0, step_min: 5, step_max: 5, key: Some(key) };
+        assert_eq!(validate_measurement(&m, &em), Err(Rejection::Mac), "unsealed");
+        key.seal_measurement(&mut m);
+        assert_eq!(validate_measurement(&m, &em), Ok(()));
     }
 
     #[test]

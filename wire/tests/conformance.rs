@@ -10,10 +10,11 @@ use std::time::{Duration, Instant};
 use cohort_wire::msg::{
     CONTROL_DEAD, CONTROL_RESUME, Header, Measurement, PLANT_ID, Roster, RunControl, STATUS_PROGRESS, Share, Status,
 };
-use cohort_wire::transport::iox::{IoxData, IoxRun, IoxServices};
+use cohort_wire::transport::iox::{IoxData, IoxRun, IoxServices, RunClaim};
 use cohort_wire::transport::memory::MemoryBus;
 use cohort_wire::transport::udp::UdpData;
 use cohort_wire::transport::{Incoming, Proc, Split, Topology, Transport};
+use cohort_wire::validate::{Expect, RejectCounts, Rejection, validate_share};
 
 /// One backend: opens every endpoint of a run and plays the orchestrator's part.
 trait Harness {
@@ -77,13 +78,16 @@ struct Iox {
     run: IoxRun,
     services: Option<IoxServices>,
     udp_dir: Option<std::path::PathBuf>,
+    /// Held like an orchestrator holds it: a concurrent launch's sweep leaves the run alone.
+    claim: Option<RunClaim>,
 }
 
 impl Iox {
     fn new(udp: bool) -> Self {
         let run = IoxRun::new(fresh_run_id());
         let udp_dir = udp.then(|| std::env::temp_dir().join(format!("cohort-conformance-udp-{:016x}", run.run_id)));
-        Self { run, services: None, udp_dir }
+        let claim = Some(run.claim().expect("claim the run"));
+        Self { run, services: None, udp_dir, claim }
     }
     fn services(&self) -> &IoxServices {
         self.services.as_ref().expect("opened")
@@ -94,6 +98,7 @@ impl Drop for Iox {
     fn drop(&mut self) {
         self.services = None;
         self.run.remove_all_resources();
+        self.claim = None;
         if let Some(d) = &self.udp_dir {
             let _ = std::fs::remove_dir_all(d);
         }
@@ -306,6 +311,9 @@ fn status_reaches_the_orchestrator(h: &mut dyn Harness) {
         step: 99,
         t_s: 0.99,
         build_hash: cohort_wire::build_id_hash(),
+        detail: 0,
+        _pad: 0,
+        mac: [0; 2],
     };
     plant.report(&st);
     let deadline = Instant::now() + Duration::from_secs(10);
@@ -315,6 +323,42 @@ fn status_reaches_the_orchestrator(h: &mut dyn Harness) {
         std::thread::sleep(Duration::from_millis(2));
     }
     assert_eq!(got, [st]);
+}
+
+/// A share of another run and a damaged share, sent before a genuine one: the transport delivers
+/// all three as they are, in order (it neither drops nor repairs, so every backend's receiver
+/// counts the same), validation rejects the first two by reason and takes the third. With the
+/// run's key, a share altered after sealing is rejected as `mac` (issue 18, finding 6).
+fn foreign_and_damaged_messages_are_counted_and_the_genuine_one_still_arrives(h: &mut dyn Harness) {
+    let (mut plant, mut agents) = h.open(&ring4());
+    h.grant_start();
+    let key = cohort_wire::auth::MacKey::from_bytes([9; 32]);
+    let run = h.run_id();
+    let mut foreign = share(run ^ 0xDEAD, 1, 3, &[1.0]);
+    key.seal_share(&mut foreign);
+    let mut damaged = share(run, 1, 3, &[1.0, 2.0]);
+    key.seal_share(&mut damaged);
+    damaged.values[1] = 866.0;
+    let mut genuine = share(run, 1, 3, &[1.0, 2.0]);
+    key.seal_share(&mut genuine);
+    for s in [&foreign, &damaged, &genuine] {
+        agents[0].send_share(s).unwrap();
+    }
+    let got = collect(plant.as_mut(), 3);
+    assert_eq!(got.len(), 3, "every message is delivered, none is lost or merged");
+    let mut counts = RejectCounts::default();
+    let mut accepted = Vec::new();
+    let e = Expect { run_id: run, sender: 1, step_min: 3, step_max: 3, key: Some(key) };
+    for r in &got {
+        let Received::Share(from, s) = r else { panic!("the plant got a measurement") };
+        assert_eq!(*from, 1);
+        match validate_share(s, &e) {
+            Ok(()) => accepted.push(s.values().to_vec()),
+            Err(r) => counts.add(r),
+        }
+    }
+    assert_eq!((counts.get(Rejection::RunId), counts.get(Rejection::Mac), counts.total()), (1, 1, 2));
+    assert_eq!(accepted, [vec![1.0, 2.0]], "the genuine share, after the bad ones");
 }
 
 macro_rules! conformance {
@@ -340,6 +384,10 @@ macro_rules! conformance {
             #[test]
             fn status_reaches_the_orchestrator() {
                 super::status_reaches_the_orchestrator(&mut $make);
+            }
+            #[test]
+            fn foreign_and_damaged_messages_are_counted_and_the_genuine_one_still_arrives() {
+                super::foreign_and_damaged_messages_are_counted_and_the_genuine_one_still_arrives(&mut $make);
             }
         }
     };

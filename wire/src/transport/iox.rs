@@ -12,6 +12,23 @@
 //! The orchestrator creates every service with limits sized from the scenario ([`IoxServices`])
 //! before it spawns anything, and holds them for the run; plant and agents only `open()` them, so
 //! there is no creation race and every limit is set in one place.
+//!
+//! Ownership (issue 18): a run's root directory lives in the user's own base directory
+//! ([`user_base`], 0700, checked before use), the orchestrator holds an `flock` on the run's lock
+//! file for the run's life ([`IoxRun::claim`]) so the stale-run sweep ([`IoxRun::sweep_stale`])
+//! never needs a pid it would have to trust, and iceoryx2's world-writable management segment is
+//! replaced by an owner-only copy before any child starts.
+//!
+//! What permissions cannot stop: a process of the same user that writes into a run's data
+//! segments. iceoryx2 0.10 keeps its pool allocator's free list in the publisher's data segment
+//! and follows the relocatable offsets stored there without a bounds check: random bytes written
+//! over every `.data` segment of a running consensus ring made the plant and an agent SIGSEGV in
+//! `UniqueIndexSet::release_raw_index` (iceoryx2-bb-lock-free `unique_index_set.rs:452`), called
+//! from `Sender::retrieve_returned_chunks` (`sender.rs:530`) on the next `loan`. That is
+//! iceoryx2's (it trusts its peers by design); the orchestrator reports the crash by process and
+//! signal. Nothing of ours uses a number read from shared memory as an index or a bound before
+//! `validate` has checked it, and `run.authenticate` makes a damaged or forged payload a counted
+//! rejection instead of a wrong value.
 
 use std::path::{Path as StdPath, PathBuf};
 use std::time::Duration;
@@ -37,30 +54,108 @@ type Svc = ipc::Service;
 const SHARE_BUFFER: usize = 8;
 const MEAS_BUFFER: usize = 2;
 const STATUS_BUFFER: usize = 64;
-/// Parent of every run's own iceoryx2 root directory.
-const IOX_ROOT: &str = "/tmp/iceoryx2";
-/// In a run's root directory: the pid of the orchestrator that owns the run.
-const OWNER_FILE: &str = "owner.pid";
+/// In the user's base directory: a run's lock file is `cohort_<run id>.lock`.
+const LOCK_SUFFIX: &str = ".lock";
 
-/// Whether `pid` is a live orchestrator process (not a zombie, not a recycled pid of another
-/// program).
-fn owner_alive(pid: u32) -> bool {
-    let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else { return false };
-    // Field 3 (after the parenthesised name) is the state; Z = zombie.
-    let state = stat.rsplit_once(") ").and_then(|(_, rest)| rest.chars().next());
-    let comm = stat.split_once(" (").and_then(|(_, r)| r.rsplit_once(')')).map(|(c, _)| c.to_string());
-    state.is_some_and(|c| c != 'Z') && comm.is_some_and(|c| c.starts_with("orchestrator"))
+/// This user's euid.
+fn euid() -> u32 {
+    // SAFETY: geteuid cannot fail.
+    unsafe { libc::geteuid() }
 }
 
-/// The names and locations of one run's iceoryx2 resources.
+/// The parent of this user's run directories: `$XDG_RUNTIME_DIR/cohort` when that variable names
+/// an absolute directory, else `/tmp/cohort-<uid>`. Per user, so one user's runs never meet
+/// another's (a shared `/tmp/iceoryx2` let a second user neither run nor trust the sweep).
+pub fn user_base() -> PathBuf {
+    match std::env::var_os("XDG_RUNTIME_DIR").map(PathBuf::from) {
+        Some(x) if x.is_absolute() && x.is_dir() => x.join("cohort"),
+        _ => PathBuf::from(format!("/tmp/cohort-{}", euid())),
+    }
+}
+
+/// Why a directory cannot hold this user's runs: it must be a real directory (not a symlink)
+/// owned by this user that nobody else can enter.
+pub fn check_private_dir(path: &StdPath) -> Result<(), String> {
+    use std::os::unix::fs::{MetadataExt, PermissionsExt};
+    let md = std::fs::symlink_metadata(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    if !md.file_type().is_dir() {
+        return Err(format!("{} is not a directory (a symlink or a file is refused)", path.display()));
+    }
+    if md.uid() != euid() {
+        return Err(format!(
+            "{} belongs to uid {}, not to this user (uid {}): another user created it; remove it or set \
+             XDG_RUNTIME_DIR to a directory of your own",
+            path.display(),
+            md.uid(),
+            euid()
+        ));
+    }
+    if md.permissions().mode() & 0o077 != 0 {
+        return Err(format!(
+            "{} has mode {:04o}: other users could reach this user's runs; chmod 700 it",
+            path.display(),
+            md.permissions().mode() & 0o7777
+        ));
+    }
+    Ok(())
+}
+
+/// Create this user's base directory (mode 0700) if absent, then check that it is a directory
+/// owned by this user that nobody else can enter. Returns it.
+pub fn ensure_user_base() -> Result<PathBuf, TransportError> {
+    use std::os::unix::fs::DirBuilderExt;
+    let base = user_base();
+    match std::fs::DirBuilder::new().mode(0o700).create(&base) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+        Err(e) => return Err(TransportError::Other(format!("cannot create {}: {e}", base.display()))),
+    }
+    check_private_dir(&base).map_err(|e| TransportError::Other(format!("unsafe run directory: {e}")))?;
+    Ok(base)
+}
+
+/// flock(2) on `f`, without blocking. Ok(true): taken; Ok(false): someone holds it.
+fn try_lock(f: &std::fs::File) -> std::io::Result<bool> {
+    use std::os::fd::AsRawFd;
+    // SAFETY: flock on a descriptor we own.
+    if unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } == 0 {
+        return Ok(true);
+    }
+    let e = std::io::Error::last_os_error();
+    if e.raw_os_error() == Some(libc::EWOULDBLOCK) { Ok(false) } else { Err(e) }
+}
+
+/// A run's claim: its lock file in the user's base directory, locked (flock) for as long as this
+/// value lives. A later orchestrator that can take the lock knows, without trusting any pid, that
+/// the run's orchestrator is gone: the kernel drops the lock when its process ends, however it
+/// ends. Dropping the claim removes the lock file.
+pub struct RunClaim {
+    file: std::fs::File,
+    path: PathBuf,
+}
+
+impl Drop for RunClaim {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+        let _ = &self.file; // the lock goes with the descriptor, after the file is gone
+    }
+}
+
+/// The names and locations of one run's iceoryx2 resources, and its MAC key when
+/// `run.authenticate` is on (run control and status are sealed with it).
 #[derive(Debug, Clone)]
 pub struct IoxRun {
     pub run_id: u64,
+    pub key: Option<crate::auth::MacKey>,
 }
 
 impl IoxRun {
     pub fn new(run_id: u64) -> Self {
-        Self { run_id }
+        Self { run_id, key: None }
+    }
+    pub fn with_key(mut self, key: Option<crate::auth::MacKey>) -> Self {
+        self.key = key;
+        self
     }
     /// File prefix of every shared-memory segment and file of this run.
     pub fn prefix(&self) -> String {
@@ -68,7 +163,10 @@ impl IoxRun {
     }
     /// The run's own iceoryx2 root directory (removed whole at the end of the run).
     pub fn root_dir(&self) -> PathBuf {
-        PathBuf::from(format!("{IOX_ROOT}/cohort_{:016x}", self.run_id))
+        user_base().join(format!("cohort_{:016x}", self.run_id))
+    }
+    fn lock_path(&self) -> PathBuf {
+        user_base().join(format!("cohort_{:016x}{LOCK_SUFFIX}", self.run_id))
     }
     pub fn config(&self) -> Result<Config, TransportError> {
         let mut cfg = Config::default();
@@ -87,6 +185,7 @@ impl IoxRun {
             .map_err(|e| TransportError::iox(format!("service name {what}"), e))
     }
     fn node(&self, name: &str) -> Result<Node<Svc>, TransportError> {
+        ensure_user_base()?;
         let cfg = self.config()?;
         NodeBuilder::new()
             .name(&NodeName::new(name).map_err(|e| TransportError::iox("node name", e))?)
@@ -97,19 +196,23 @@ impl IoxRun {
             .map_err(|e| TransportError::iox(format!("create node {name}"), e))
     }
 
+    /// This run's entries in /dev/shm that belong to this user.
+    fn own_segments(&self) -> Vec<PathBuf> {
+        use std::os::unix::fs::MetadataExt;
+        let prefix = self.prefix();
+        let Ok(rd) = std::fs::read_dir("/dev/shm") else { return Vec::new() };
+        rd.flatten()
+            .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+            .filter(|e| e.metadata().is_ok_and(|m| m.uid() == euid()))
+            .map(|e| e.path())
+            .collect()
+    }
+
     /// Remove everything this run left in /dev/shm and its root directory — including the
     /// per-prefix management segment iceoryx2 keeps by design. Call only when no process of the
     /// run is alive. Returns how many entries were removed.
     pub fn remove_all_resources(&self) -> usize {
-        let mut removed = 0;
-        let prefix = self.prefix();
-        if let Ok(rd) = std::fs::read_dir("/dev/shm") {
-            for e in rd.flatten() {
-                if e.file_name().to_string_lossy().starts_with(&prefix) && std::fs::remove_file(e.path()).is_ok() {
-                    removed += 1;
-                }
-            }
-        }
+        let mut removed = self.own_segments().iter().filter(|p| std::fs::remove_file(p).is_ok()).count();
         let root = self.root_dir();
         if root.exists() {
             removed += count_files(&root);
@@ -118,52 +221,99 @@ impl IoxRun {
         removed
     }
 
-    /// Mark this run as owned by the calling (orchestrator) process, so a later orchestrator can
-    /// tell that the run's resources are stale if this one dies without cleaning up (SIGKILL).
-    pub fn claim(&self) -> std::io::Result<()> {
+    /// Claim this run for the calling (orchestrator) process: create and lock its lock file, then
+    /// its root directory (0700). The lock file is locked under a temporary name and renamed into
+    /// place, so a sweeping orchestrator never finds it unlocked while the run is set up.
+    pub fn claim(&self) -> Result<RunClaim, TransportError> {
+        use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt};
+        let base = ensure_user_base()?;
+        let err = |what: &str, e: std::io::Error| TransportError::Other(format!("{what}: {e}"));
+        let tmp = base.join(format!(".claim-{:016x}-{}", self.run_id, std::process::id()));
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .mode(0o600)
+            .custom_flags(libc::O_NOFOLLOW)
+            .open(&tmp)
+            .map_err(|e| err(&tmp.display().to_string(), e))?;
+        if !try_lock(&file).map_err(|e| err("flock", e))? {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(TransportError::Other(format!("{}: locked by another process", tmp.display())));
+        }
+        let path = self.lock_path();
+        std::fs::rename(&tmp, &path).map_err(|e| err(&path.display().to_string(), e))?;
+        let claim = RunClaim { file, path };
         let root = self.root_dir();
-        std::fs::create_dir_all(&root)?;
-        std::fs::write(root.join(OWNER_FILE), std::process::id().to_string())
+        std::fs::DirBuilder::new().mode(0o700).create(&root).map_err(|e| err(&root.display().to_string(), e))?;
+        Ok(claim)
     }
 
-    /// Remove the resources of every run whose owning orchestrator is gone (killed with no chance
-    /// to clean up). Returns the ids of the runs swept.
+    /// Remove the resources of every run of this user whose orchestrator is provably gone: its
+    /// lock file in the user's base directory can be locked (the kernel released the lock when
+    /// that orchestrator ended), or its root directory has no lock file at all (a claim always
+    /// makes the lock file first). Another user's runs are never touched. Returns the ids swept.
     pub fn sweep_stale() -> Vec<u64> {
         let mut swept = Vec::new();
-        let mut live_roots = std::collections::HashSet::new();
-        if let Ok(rd) = std::fs::read_dir(IOX_ROOT) {
-            for e in rd.flatten() {
-                let name = e.file_name().to_string_lossy().to_string();
-                let Some(id) = name.strip_prefix("cohort_").and_then(|h| u64::from_str_radix(h, 16).ok()) else {
-                    continue;
-                };
-                let owner = std::fs::read_to_string(e.path().join(OWNER_FILE)).ok().and_then(|t| t.trim().parse().ok());
-                if owner.is_some_and(owner_alive) {
-                    live_roots.insert(id);
-                } else if owner.is_some() {
+        let Ok(base) = ensure_user_base() else { return swept };
+        let Ok(rd) = std::fs::read_dir(&base) else { return swept };
+        let mut locked = std::collections::HashSet::new();
+        let mut roots = Vec::new();
+        for e in rd.flatten() {
+            let name = e.file_name().to_string_lossy().to_string();
+            let Some(rest) = name.strip_prefix("cohort_") else { continue };
+            if let Some(hex) = rest.strip_suffix(LOCK_SUFFIX) {
+                let Ok(id) = u64::from_str_radix(hex, 16) else { continue };
+                let Ok(f) = std::fs::OpenOptions::new().read(true).write(true).open(e.path()) else { continue };
+                if try_lock(&f).unwrap_or(false) {
                     IoxRun::new(id).remove_all_resources();
+                    let _ = std::fs::remove_file(e.path());
                     swept.push(id);
                 } else {
-                    // No owner file yet: a run being set up right now. Leave it alone.
-                    live_roots.insert(id);
+                    locked.insert(id);
                 }
+            } else if let Ok(id) = u64::from_str_radix(rest, 16) {
+                roots.push(id);
             }
         }
-        // Segments whose run has no root directory at all are orphans too.
-        if let Ok(rd) = std::fs::read_dir("/dev/shm") {
-            for e in rd.flatten() {
-                let name = e.file_name().to_string_lossy().to_string();
-                let Some(hex) = name.strip_prefix("cohort_").and_then(|r| r.get(..16)) else { continue };
-                let Ok(id) = u64::from_str_radix(hex, 16) else { continue };
-                if !live_roots.contains(&id) && !IoxRun::new(id).root_dir().exists() {
-                    let _ = std::fs::remove_file(e.path());
-                    if !swept.contains(&id) {
-                        swept.push(id);
-                    }
-                }
+        for id in roots {
+            if !locked.contains(&id) && !swept.contains(&id) && !IoxRun::new(id).lock_path().exists() {
+                IoxRun::new(id).remove_all_resources();
+                swept.push(id);
             }
         }
         swept
+    }
+
+    /// iceoryx2 0.10 creates its per-prefix management segment (`…global_mgmt`, a node counter)
+    /// with a hard-coded mode 0666 (`enable_global_access(true)` in its
+    /// `GlobalManagementSegment::open_or_create`), and no setting changes that: any user could
+    /// write it and make the run's next node creation fail. Right after the orchestrator's node
+    /// created it, before any child exists, it is replaced by an owner-only copy: created 0600
+    /// with O_EXCL, filled with the same bytes, renamed over the name. A process that opened the
+    /// world-writable one in that instant holds an inode nobody opens again.
+    fn secure_management_segment(&self) -> Result<(), TransportError> {
+        use std::io::Write;
+        use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
+        let err = |what: String, e: std::io::Error| TransportError::Other(format!("{what}: {e}"));
+        for path in self.own_segments() {
+            let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+            let mode = std::fs::symlink_metadata(&path).map_err(|e| err(path.display().to_string(), e))?;
+            if !name.ends_with("global_mgmt") || mode.permissions().mode() & 0o077 == 0 {
+                continue;
+            }
+            let bytes = std::fs::read(&path).map_err(|e| err(path.display().to_string(), e))?;
+            let tmp = path.with_file_name(format!("{name}.owner-only"));
+            let mut f = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .mode(0o600)
+                .custom_flags(libc::O_NOFOLLOW)
+                .open(&tmp)
+                .map_err(|e| err(tmp.display().to_string(), e))?;
+            f.write_all(&bytes).map_err(|e| err(tmp.display().to_string(), e))?;
+            std::fs::rename(&tmp, &path).map_err(|e| err(path.display().to_string(), e))?;
+        }
+        Ok(())
     }
 
     /// Entries of this run currently in /dev/shm and under its root directory.
@@ -191,6 +341,7 @@ pub struct IoxServices {
     control_pub: Publisher<Svc, RunControl, ()>,
     status_sub: Subscriber<Svc, Status, ()>,
     run: IoxRun,
+    rejected: std::cell::Cell<u64>,
     // Dropped last: ports and factories above belong to this node.
     _node: Node<Svc>,
 }
@@ -201,6 +352,7 @@ impl IoxServices {
     /// that many spare places.
     pub fn create(run: &IoxRun, topo: &Topology, spare: usize) -> Result<Self, TransportError> {
         let node = run.node("orchestrator")?;
+        run.secure_management_segment()?;
         let n = topo.n_agents() as usize;
         // Every process of the run may hold a port: size node limits generously from N.
         let max_nodes = n + 3 + 2 * spare;
@@ -278,6 +430,7 @@ impl IoxServices {
             control_pub,
             status_sub,
             run: run.clone(),
+            rejected: std::cell::Cell::new(0),
             _node: node,
         })
     }
@@ -310,19 +463,31 @@ impl IoxServices {
         self.send_control(msg)
     }
 
-    fn send_control(&self, msg: RunControl) -> Result<(), TransportError> {
+    fn send_control(&self, mut msg: RunControl) -> Result<(), TransportError> {
+        if let Some(k) = &self.run.key {
+            k.seal_control(&mut msg);
+        }
         self.control_pub.send_copy(msg).map(|_| ()).map_err(|e| TransportError::iox("send control", e))
     }
 
-    /// Hand every status received so far to `f`; messages of another version or run are skipped.
+    /// Hand every status received so far to `f`; messages of another version or run, or with a
+    /// wrong tag when the run has a key, are skipped and counted ([`IoxServices::rejected`]).
     pub fn poll_status(&self, mut f: impl FnMut(&Status)) -> Result<(), TransportError> {
         while let Some(s) = self.status_sub.receive().map_err(|e| TransportError::iox("receive status", e))? {
             let st = s.payload();
-            if st.version == SCHEMA_VERSION && st.run_id == self.run.run_id {
+            let tag_ok = self.run.key.as_ref().is_none_or(|k| k.check_status(st));
+            if st.version == SCHEMA_VERSION && st.run_id == self.run.run_id && tag_ok {
                 f(st);
+            } else {
+                self.rejected.set(self.rejected.get() + 1);
             }
         }
         Ok(())
+    }
+
+    /// Status messages dropped so far (another version or run, or a wrong tag).
+    pub fn rejected(&self) -> u64 {
+        self.rejected.get()
     }
 }
 
@@ -332,6 +497,7 @@ pub struct IoxControl {
     control_sub: Subscriber<Svc, RunControl, ()>,
     status_pub: Publisher<Svc, Status, ()>,
     run_id: u64,
+    key: Option<crate::auth::MacKey>,
     stop: bool,
     started: bool,
     /// Resume and dead-agent notices not yet taken by the driver.
@@ -367,6 +533,7 @@ impl IoxControl {
             control_sub,
             status_pub,
             run_id: run.run_id,
+            key: run.key,
             stop: false,
             started: false,
             events: Vec::new(),
@@ -377,7 +544,8 @@ impl IoxControl {
     fn poll(&mut self) {
         while let Ok(Some(s)) = self.control_sub.receive() {
             let c = s.payload();
-            if c.version == SCHEMA_VERSION && c.run_id == self.run_id {
+            let tag_ok = self.key.as_ref().is_none_or(|k| k.check_control(c));
+            if c.version == SCHEMA_VERSION && c.run_id == self.run_id && tag_ok {
                 match c.command {
                     CONTROL_STOP => self.stop = true,
                     CONTROL_START => self.started = true,
@@ -392,7 +560,11 @@ impl IoxControl {
 impl RunControlPort for IoxControl {
     /// Best effort: a full status queue must never stall a step.
     fn report(&mut self, s: &Status) {
-        let _ = self.status_pub.send_copy(*s);
+        let mut s = *s;
+        if let Some(k) = &self.key {
+            k.seal_status(&mut s);
+        }
+        let _ = self.status_pub.send_copy(s);
     }
     fn stop_requested(&mut self) -> bool {
         if !self.stop {

@@ -83,8 +83,14 @@ pub enum TransportError {
 }
 
 impl TransportError {
+    /// An iceoryx2 failure. iceoryx2 reports running out of descriptors as an opaque internal
+    /// failure, so when this process is at its open-file limit the detail says that instead.
     pub fn iox(what: impl Into<String>, detail: impl std::fmt::Debug) -> Self {
-        TransportError::Iox { what: what.into(), detail: format!("{detail:?}") }
+        let detail = match crate::limits::fd_exhaustion_note() {
+            Some(note) => format!("{detail:?} ({note})"),
+            None => format!("{detail:?}"),
+        };
+        TransportError::Iox { what: what.into(), detail }
     }
 }
 
