@@ -206,29 +206,49 @@ fn trim_zeros(s: &str) -> &str {
     if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.') } else { s }
 }
 
+/// More lines than this on one chart hide each other (noisy per-agent series drawn over each
+/// other show only the last): such a figure becomes one panel per line, on shared axes.
+pub const MAX_OVERLAID_SERIES: usize = 4;
+
 pub(crate) fn draw_time_figure(path: &Path, fig: &TimeFigure) -> DrawResult {
     let x_range = linear_range(finite_bounds(fig.series.iter().flat_map(|s| s.points.iter().map(|p| p.0))));
     let y_bounds = finite_bounds(fig.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+    let log = matches!(y_bounds, Some((lo, hi)) if lo > 0.0 && hi / lo > LOG_SCALE_RATIO);
 
-    let root = BitMapBackend::new(path, TIME_FIGURE_SIZE).into_drawing_area();
+    let panels = if fig.series.len() > MAX_OVERLAID_SERIES { fig.series.len() } else { 1 };
+    let cols = if panels == 1 { 1 } else { 2 };
+    let rows = panels.div_ceil(cols);
+    let size = (TIME_FIGURE_SIZE.0, TIME_FIGURE_SIZE.1.max(280 * rows as u32 + 2 * CAPTION_SIZE));
+    let root = BitMapBackend::new(path, size).into_drawing_area();
     root.fill(&WHITE)?;
-    let mut builder = ChartBuilder::on(&root);
-    builder
-        .caption(&fig.title, (FONT_FAMILY, CAPTION_SIZE))
-        .margin(MARGIN)
-        .x_label_area_size(X_LABEL_AREA)
-        .y_label_area_size(Y_LABEL_AREA);
-    match y_bounds {
-        Some((lo, hi)) if lo > 0.0 && hi / lo > LOG_SCALE_RATIO => {
-            let y_range = (lo / 1.5)..(hi * 1.5);
-            let mut chart = builder.build_cartesian_2d(x_range.0..x_range.1, y_range.log_scale())?;
-            let y_desc = format!("{} (log scale)", fig.y_desc);
-            fill_time_chart(&mut chart, &y_desc, &fig.series)?;
-        }
-        _ => {
-            let y_range = linear_range(y_bounds);
-            let mut chart = builder.build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)?;
-            fill_time_chart(&mut chart, &fig.y_desc, &fig.series)?;
+    let body = if panels == 1 { root.clone() } else { root.titled(&fig.title, (FONT_FAMILY, CAPTION_SIZE))? };
+    let areas = body.split_evenly((rows, cols));
+    for (i, area) in areas.iter().enumerate().take(panels) {
+        let (caption, series): (&str, &[Series]) = if panels == 1 {
+            (&fig.title, &fig.series)
+        } else {
+            (&fig.series[i].label, std::slice::from_ref(&fig.series[i]))
+        };
+        let mut builder = ChartBuilder::on(area);
+        let caption_size = if panels == 1 { CAPTION_SIZE } else { 20 };
+        builder
+            .caption(caption, (FONT_FAMILY, caption_size))
+            .margin(if panels == 1 { MARGIN } else { MARGIN / 2 })
+            .x_label_area_size(X_LABEL_AREA)
+            .y_label_area_size(Y_LABEL_AREA);
+        // Every panel on the same axes, so the lines compare.
+        match (log, y_bounds) {
+            (true, Some((lo, hi))) => {
+                let y_range = (lo / 1.5)..(hi * 1.5);
+                let mut chart = builder.build_cartesian_2d(x_range.0..x_range.1, y_range.log_scale())?;
+                let y_desc = format!("{} (log scale)", fig.y_desc);
+                fill_time_chart(&mut chart, &y_desc, series)?;
+            }
+            _ => {
+                let y_range = linear_range(y_bounds);
+                let mut chart = builder.build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)?;
+                fill_time_chart(&mut chart, &fig.y_desc, series)?;
+            }
         }
     }
     root.present()?;

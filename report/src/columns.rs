@@ -5,33 +5,9 @@ use std::collections::HashMap;
 use crate::table::Table;
 
 /// Display form of a unit suffix, or `None` if `suffix` is not a unit we know (it is then taken
-/// as part of the quantity's name).
+/// as part of the quantity's name). The table is the runtime's, the one the telemetry writer uses.
 pub fn unit_label(suffix: &str) -> Option<&'static str> {
-    Some(match suffix {
-        "m" => "m",
-        "km" => "km",
-        "mps" => "m/s",
-        "kmps" => "km/s",
-        "mps2" => "m/s²",
-        "kmps2" => "km/s²",
-        "s" => "s",
-        "ms" => "ms",
-        "us" => "µs",
-        "ns" => "ns",
-        "rad" => "rad",
-        "radps" => "rad/s",
-        "radps2" => "rad/s²",
-        "deg" => "deg",
-        "degps" => "deg/s",
-        "N" => "N",
-        "Nm" => "N·m",
-        "kg" => "kg",
-        "J" => "J",
-        "W" => "W",
-        "Hz" => "Hz",
-        "pct" => "%",
-        _ => return None,
-    })
+    cohort_runtime::units::UNITS.iter().find(|(s, _)| *s == suffix).map(|(_, label)| *label)
 }
 
 /// A column name split into its parts; see the module documentation.
@@ -56,11 +32,9 @@ pub(crate) fn parse_column_name(column: &str, allow_owner: bool) -> ColumnName {
         Some((id, tail)) => (Some(id), tail),
         None => (None, column),
     };
-    let mut tokens: Vec<&str> = rest.split('_').collect();
-    let mut unit = None;
-    if tokens.len() >= 2 && tokens.last().is_some_and(|s| unit_label(s).is_some()) {
-        unit = tokens.pop().map(str::to_string);
-    }
+    let (stem, unit) = cohort_runtime::units::split_unit(rest);
+    let unit = unit.map(|(suffix, _)| suffix.to_string());
+    let mut tokens: Vec<&str> = stem.split('_').collect();
     let mut axis = None;
     if let [_, .., a @ ("x" | "y" | "z")] = tokens[..] {
         axis = a.chars().next();

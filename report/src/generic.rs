@@ -92,6 +92,11 @@ pub(crate) fn time_figures(
             Some(unit) => format!("{quantity} [{unit}]"),
             None => quantity.clone(),
         };
+        // A family whose every line is constant says nothing a figure adds (a solver status that
+        // stays 0): its values are in the telemetry; no figure.
+        if family.iter().all(|(table, q)| is_constant(&q.values(table))) {
+            continue;
+        }
         let series = family
             .iter()
             .enumerate()
@@ -108,6 +113,15 @@ pub(crate) fn time_figures(
         figures.push(Figure::Time(stem, TimeFigure { title, y_desc, series }));
     }
     figures
+}
+
+/// Whether every finite value of `xs` is the same (an empty or all-NaN series counts).
+fn is_constant(xs: &[f64]) -> bool {
+    let mut finite = xs.iter().filter(|x| x.is_finite());
+    match finite.next() {
+        None => true,
+        Some(first) => finite.all(|x| x.to_bits() == first.to_bits()),
+    }
 }
 
 /// The x–y paths of the table's position vectors (`r` with x and y axes), if it has any.

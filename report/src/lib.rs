@@ -111,6 +111,11 @@ pub trait FigureSource {
     fn plant_column(&self, _name: &str) -> ColumnUse {
         ColumnUse::Generic
     }
+    /// Whether an agent column (`agent-<id>.csv`) is left out of the generic figures because a
+    /// paper figure shows it already (default: no).
+    fn agent_column(&self, _name: &str) -> ColumnUse {
+        ColumnUse::Generic
+    }
     /// The paper's figures of the run, read and checked (not yet drawn).
     fn figures(&self, telemetry: &Telemetry<'_>) -> Result<Vec<Box<dyn PaperFigure>>, ReportError>;
 }
@@ -149,6 +154,12 @@ pub fn report(run_dir: &Path, papers: &[&dyn FigureSource]) -> Result<Vec<PathBu
             if !aside.is_empty() {
                 plant_aside = Some(Table { k: table.k.clone(), t: table.t.clone(), columns: aside });
             }
+            table
+        } else if matches!(file.kind, FileKind::Agent(_)) {
+            let agent_use =
+                |name: &str| papers.iter().map(|p| p.agent_column(name)).max().unwrap_or(ColumnUse::Generic);
+            let mut table = Table::read(&file.path)?;
+            table.columns.retain(|c| agent_use(&c.name) == ColumnUse::Generic);
             table
         } else {
             Table::read(&file.path)?

@@ -11,3 +11,4 @@ pub mod process;
 pub mod record;
 pub mod rng;
 pub mod solver_stats;
+pub mod units;

@@ -80,6 +80,10 @@ impl FigureSource for Fig1Figures {
             Some(_) => ColumnUse::Skip,
         }
     }
+    /// ‖uᵢ‖ is `u_norm.png` (from the joined series); the agents' own u columns would repeat it.
+    fn agent_column(&self, name: &str) -> ColumnUse {
+        if matches!(name, "u_x_mps2" | "u_y_mps2" | "u_z_mps2") { ColumnUse::Skip } else { ColumnUse::Generic }
+    }
     fn figures(&self, t: &Telemetry<'_>) -> Result<Vec<Box<dyn PaperFigure>>, ReportError> {
         let derived_path = t.run_dir.join(DERIVED_FILE);
         if !derived_path.is_file() {
