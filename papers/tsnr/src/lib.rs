@@ -125,6 +125,11 @@ impl PaperHost for Tsnr {
         let (json, md_path) = train::report_paths(&o.out);
         Ok(format!("{md}\nwritten: {}, {} and {}", o.out.display(), md_path.display(), json.display()))
     }
+    /// Case 1 with each QP solver: `orchestrator bench` reports the agents' solve times of both
+    /// in one invocation (the default exact active set, and Clarabel alone as before).
+    fn bench_scenarios(&self) -> Vec<&'static str> {
+        vec!["topologies/tsnr-case1.toml", "topologies/tsnr-case1-clarabel.toml"]
+    }
     fn command(&self) -> Option<clap::Command> {
         Some(<TsnrCli as clap::CommandFactory>::command())
     }

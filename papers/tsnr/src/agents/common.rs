@@ -130,6 +130,7 @@ pub mod test_support {
                 tension_forecast: crate::config::formation::Forecast::HoldMeasured,
                 tension_weights: None,
                 max_iter: 100,
+                qp_solver: Default::default(),
             }),
             smc: Some(TsnrSmc { lambda_per_s: 1.5, switching_gain_mps2: 0.3, boundary_layer_mps: 0.2 }),
         }

@@ -47,7 +47,7 @@ impl TsnrDmpc {
         let m = cfg.mpc.as_ref().expect("validated: dmpc needs [algorithm.mpc]");
         let np = m.horizon_steps as usize;
         let hz = Horizon::new(Cw::new(model.orbit_radius_m, model.mass_kg), dt_s, np, m.q_position, m.q_velocity);
-        let qp = BoxQp::new(&hz.hessian(1.0, m.r_force), model.thrust_max_n, m.max_iter);
+        let qp = BoxQp::new(&hz.hessian(1.0, m.r_force), model.thrust_max_n, m.max_iter, m.qp_solver);
         Self {
             traj: trajectory_of(cfg, id),
             hz,
@@ -60,6 +60,11 @@ impl TsnrDmpc {
             status: QpStatus::Solved,
             iterations: 0,
         }
+    }
+
+    /// The QP this agent solves (its last problem, its statistics).
+    pub fn qp(&self) -> &BoxQp {
+        &self.qp
     }
 
     /// The command at t_k from the state and the measured tension.

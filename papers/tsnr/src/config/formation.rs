@@ -174,9 +174,24 @@ pub struct TsnrMpc {
     /// train`), relative to the scenario file. Its Δt must be `scenario.dt_s`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tension_weights: Option<String>,
-    /// Interior-point iteration limit per QP.
+    /// Iteration limit per QP (of the active-set method, and of Clarabel's interior point).
     #[serde(default = "default_max_iter")]
     pub max_iter: u32,
+    /// How the QP is solved; see [`QpSolver`].
+    #[serde(default)]
+    pub qp_solver: QpSolver,
+}
+
+/// `algorithm.mpc.qp_solver`: how AEMC and DMPC solve their box-constrained QP (25).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum QpSolver {
+    /// Exact primal–dual active set, warm-started from the previous step's active set; Clarabel
+    /// when it stalls (`crate::agents::active_set`).
+    #[default]
+    ActiveSet,
+    /// Clarabel's interior point alone (tolerances 1e-10).
+    Clarabel,
 }
 
 fn default_true() -> bool {
@@ -210,11 +225,30 @@ pub struct TsnrSmc {
 
 impl TsnrFormation {
     /// Values per share for a graph whose largest neighbour list has `max_degree` entries:
-    /// the header, plus for AEMC Uᵢ (3N_p), Xᵢ (6N_p) and one 6N_p residual per neighbour.
+    /// the header, plus for AEMC Uᵢ (3N_p) and each neighbour's age, state and plan (7 + 3N_p;
+    /// `crate::agents::aemc` has the layout).
     pub fn share_values(&self, max_degree: usize) -> usize {
         match (self.method, &self.mpc) {
-            (Method::Aemc, Some(m)) => SHARE_HEADER + (9 + 6 * max_degree) * m.horizon_steps as usize,
+            (Method::Aemc, Some(m)) => crate::agents::aemc::share_len(m.horizon_steps as usize, max_degree),
             _ => SHARE_HEADER,
+        }
+    }
+}
+
+impl TsnrFormation {
+    /// AEMC agent `id`'s tension forecast, as `mpc.tension_forecast` selects it (validated: the
+    /// MPC table is present and its files load).
+    pub fn forecast_of(&self, id: u32) -> Box<dyn crate::forecast::TensionForecast> {
+        let m = self.mpc.as_ref().expect("validated: aemc needs [algorithm.mpc]");
+        match m.tension_forecast {
+            Forecast::HoldMeasured => Box::new(crate::forecast::HoldMeasured),
+            Forecast::Dnn => {
+                let path = m.tension_weights.as_deref().expect("validated: dnn needs tension_weights");
+                // Validation loaded this file already; it can only fail here if it changed since.
+                let predictor = crate::predictor::TensionPredictor::load(std::path::Path::new(path))
+                    .unwrap_or_else(|e| panic!("{e}"));
+                Box::new(crate::dnn_forecast::DnnForecast::new(Arc::new(predictor), id))
+            }
         }
     }
 }
@@ -415,17 +449,7 @@ impl AlgorithmSetup for TsnrFormation {
         let model = TsnrModel::of(&plant.config);
         match self.method {
             Method::Aemc => {
-                let m = self.mpc.as_ref().expect("validated: aemc needs [algorithm.mpc]");
-                let forecast: Box<dyn crate::forecast::TensionForecast> = match m.tension_forecast {
-                    Forecast::HoldMeasured => Box::new(crate::forecast::HoldMeasured),
-                    Forecast::Dnn => {
-                        let path = m.tension_weights.as_deref().expect("validated: dnn needs tension_weights");
-                        // Validation loaded this file already; it can only fail here if it changed since.
-                        let predictor = crate::predictor::TensionPredictor::load(std::path::Path::new(path))
-                            .unwrap_or_else(|e| panic!("{e}"));
-                        Box::new(crate::dnn_forecast::DnnForecast::new(Arc::new(predictor), id))
-                    }
-                };
+                let forecast = self.forecast_of(id);
                 let graph = setup.topology().neighbours;
                 Box::new(TsnrAemc::new(self, &model, dt_s, setup.run.link_delay_steps, id, &graph, forecast))
             }
