@@ -21,6 +21,7 @@ pub mod figures;
 pub mod forecast;
 pub mod net;
 pub mod net_plant;
+pub mod oracle_forecast;
 pub mod predictor;
 pub mod train;
 pub mod trajectory;

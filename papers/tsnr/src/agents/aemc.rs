@@ -28,6 +28,8 @@
 //! q = 2ΓᵀQ̄(cᵢsᵢ − Σⱼ(λⱼ/λᵢ)aⱼᵢsⱼᵢ). With `neighbour_costs = false` the sum over j is dropped and
 //! this is exactly (25)–(26) (the Σⱼ UⱼᵀRᵢⱼUⱼ of (24) is constant in Uᵢ there, so Rᵢⱼ only acts
 //! through the neighbours' costs). Thrust bound: |û − T̂| ≤ ū per axis at every step of the horizon.
+//! With `force_cost = "thrust"` (not the paper's: an ablation) every force weight is on the MU's
+//! thrust u = û − T̂ instead, which keeps H and adds −2(r + Σⱼ(λⱼ/λᵢ)rᵢⱼ)T̂ to q.
 //! The command is uᵢ = ûᵢ* − T̂ᵢ (first step of the plan).
 //!
 //! **Timing.** At t_k MU i has its neighbours' shares of step k−1 (k−1−delay with a link delay):
@@ -58,7 +60,7 @@
 //! then applies the previous solve's plan for this step less the current T̂ᵢ, saturated, and
 //! shares that shifted plan.
 
-use crate::config::formation::{SHARE_HEADER, TsnrFormation, TsnrModel};
+use crate::config::formation::{ForceCost, SHARE_HEADER, TsnrFormation, TsnrModel};
 use crate::cw::Cw;
 use crate::forecast::{ForecastInput, NeighbourSample, TensionForecast};
 use crate::trajectory::{Desired, Trajectory};
@@ -161,6 +163,8 @@ pub struct TsnrAemc {
     /// cᵢ = dᵢ + bᵢ.
     c_i: f64,
     neighbours: Vec<Nbr>,
+    /// With `force_cost = "thrust"`: the total weight on this MU's force (r + Σⱼ(λⱼ/λᵢ)rᵢⱼ).
+    thrust_cost: Option<f64>,
     /// Every MU's desired trajectory (index id − 1): a neighbour's ρ needs its neighbours'.
     trajs: Vec<Trajectory>,
     /// aᵢⱼ, the same for every edge.
@@ -238,6 +242,7 @@ impl TsnrAemc {
             bound_n: model.thrust_max_n,
             c_i,
             neighbours,
+            thrust_cost: (m.force_cost == ForceCost::Thrust).then_some(w_force),
             trajs: (1..=n).map(|j| trajectory_of(cfg, j)).collect(),
             adjacency: a,
             link_delay_steps: u64::from(link_delay_steps),
@@ -407,6 +412,13 @@ impl Algorithm for TsnrAemc {
         let (q, aligned) = self.linear_term(k, t_s, &free);
         self.heard = aligned.iter().filter(|a| a.is_some()).count();
         let offset: Vec<f64> = self.t_hat.iter().flatten().copied().collect();
+        let mut q = q;
+        if let Some(w_force) = self.thrust_cost {
+            // R on u = û − T̂: w|U − T̂|² adds −2w T̂ᵀU (the constant dropped).
+            for (qi, t) in q.iter_mut().zip(&offset) {
+                *qi -= 2.0 * w_force * t;
+            }
+        }
         let (status, iterations, x) = self.qp.solve(q.as_slice(), &offset);
         (self.status, self.iterations) = (status, iterations);
         if let Some(u) = x {
@@ -602,6 +614,32 @@ mod tests {
         }
         // And the command is the first total force less the forecast tension.
         assert!((out.command[0] - (u[0] - 1.0)).abs() < 1e-8);
+    }
+
+    #[test]
+    fn a_cost_on_the_thrust_shifts_the_plan_by_h_inverse_r_t_hat() {
+        // Unbounded, own cost only: H U = −q/2 (total) and H U' = −q/2 + r T̂ (thrust), so
+        // H (U' − U) = r T̂ stacked, with H = c²ΓᵀQ̄Γ + r I.
+        let mut cfg = case1("aemc");
+        let model = TsnrModel { thrust_max_n: 1e4, ..MODEL };
+        cfg.mpc.as_mut().unwrap().neighbour_costs = false;
+        let x1 = offset_state(&cfg, DT_S, [0.3, -0.2, 0.1]);
+        let t_hat = [1.0, -2.0, 0.5];
+        let (total, _) = run_agent_1(&cfg, &model, x1, t_hat);
+        cfg.mpc.as_mut().unwrap().force_cost = ForceCost::Thrust;
+        let (thrust, _) = run_agent_1(&cfg, &model, x1, t_hat);
+        let m = cfg.mpc.as_ref().unwrap();
+        let c = m.adjacency_weight * 2.0 + m.pinning_weight;
+        let pred = Cw::new(MODEL.orbit_radius_m, MODEL.mass_kg).discretise(DT_S).prediction(NP);
+        let h =
+            pred.gamma.transpose() * qbar(&cfg) * &pred.gamma * (c * c) + DMatrix::identity(3 * NP, 3 * NP) * m.r_force;
+        let du = DVector::from_fn(3 * NP, |i, _| thrust.values[9 + i] - total.values[9 + i]);
+        let lhs = h * du;
+        for i in 0..3 * NP {
+            let want = m.r_force * t_hat[i % 3];
+            assert!((lhs[i] - want).abs() < 1e-9, "row {i}: {} vs {want}", lhs[i]);
+        }
+        assert!(lhs.iter().any(|x| x.abs() > 1e-4), "the two plans must differ");
     }
 
     #[test]

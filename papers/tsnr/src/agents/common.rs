@@ -131,6 +131,9 @@ pub mod test_support {
                 tension_weights: None,
                 max_iter: 100,
                 qp_solver: Default::default(),
+                tension_oracle: None,
+                oracle_series: None,
+                force_cost: Default::default(),
             }),
             smc: Some(TsnrSmc { lambda_per_s: 1.5, switching_gain_mps2: 0.3, boundary_layer_mps: 0.2 }),
         }

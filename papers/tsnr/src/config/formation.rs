@@ -100,6 +100,9 @@ pub enum Forecast {
     HoldMeasured,
     /// The paper's estimator (7)–(11), weights from `tension_weights`.
     Dnn,
+    /// The tension an earlier run recorded (`tension_oracle`, its plant telemetry), replayed:
+    /// an upper bound on what a forecast can give (`crate::oracle_forecast`).
+    Oracle,
 }
 
 impl Forecast {
@@ -107,6 +110,7 @@ impl Forecast {
         match self {
             Forecast::HoldMeasured => "hold-measured",
             Forecast::Dnn => "dnn",
+            Forecast::Oracle => "oracle",
         }
     }
 }
@@ -174,12 +178,34 @@ pub struct TsnrMpc {
     /// train`), relative to the scenario file. Its Δt must be `scenario.dt_s`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tension_weights: Option<String>,
+    /// With `tension_forecast = "oracle"`: an earlier run's `telemetry/plant.csv`, relative to
+    /// the scenario file; it must cover this run's steps at this Δt.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tension_oracle: Option<String>,
+    /// That file's tension series, loaded by validation.
+    #[serde(skip)]
+    pub oracle_series: Option<Arc<crate::oracle_forecast::Series>>,
+    /// Which force R (and R_ij) weighs; see [`ForceCost`].
+    #[serde(default)]
+    pub force_cost: ForceCost,
     /// Iteration limit per QP (of the active-set method, and of Clarabel's interior point).
     #[serde(default = "default_max_iter")]
     pub max_iter: u32,
     /// How the QP is solved; see [`QpSolver`].
     #[serde(default)]
     pub qp_solver: QpSolver,
+}
+
+/// `algorithm.mpc.force_cost`: the force the MPCs' weight R is on.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ForceCost {
+    /// The total force ûᵢ = uᵢ + T̂ᵢ, as the paper's cost (23) writes it.
+    #[default]
+    Total,
+    /// The MU's own thrust uᵢ = ûᵢ − T̂ᵢ (what it spends fuel on): R|û − T̂|², the same Hessian
+    /// and a linear term −2R T̂.
+    Thrust,
 }
 
 /// `algorithm.mpc.qp_solver`: how AEMC and DMPC solve their box-constrained QP (25).
@@ -242,6 +268,10 @@ impl TsnrFormation {
         let m = self.mpc.as_ref().expect("validated: aemc needs [algorithm.mpc]");
         match m.tension_forecast {
             Forecast::HoldMeasured => Box::new(crate::forecast::HoldMeasured),
+            Forecast::Oracle => {
+                let series = m.oracle_series.clone().expect("validated: oracle needs tension_oracle, loaded");
+                Box::new(crate::oracle_forecast::OracleForecast::new(series, id))
+            }
             Forecast::Dnn => {
                 let path = m.tension_weights.as_deref().expect("validated: dnn needs tension_weights");
                 // Validation loaded this file already; it can only fail here if it changed since.
@@ -286,6 +316,29 @@ fn validate_algorithm(c: &mut Checker, s: &Scenario, a: &mut TsnrFormation) {
         }
         if let Some(path) = &mut m.tension_weights {
             *path = s.resolve_path(path);
+        }
+        if let Some(path) = &mut m.tension_oracle {
+            *path = s.resolve_path(path);
+        }
+        match (m.tension_forecast, &m.tension_oracle) {
+            (Forecast::Oracle, None) => c.problems.push(Problem::new(
+                "algorithm.mpc.tension_oracle",
+                None,
+                "required by tension_forecast = \"oracle\" (an earlier run's telemetry/plant.csv)",
+            )),
+            (Forecast::Oracle, Some(path)) => {
+                let steps = s.n_steps();
+                match crate::oracle_forecast::load(std::path::Path::new(path), n as u32, steps, s.scenario.dt_s) {
+                    Ok(series) => m.oracle_series = Some(Arc::new(series)),
+                    Err(e) => c.fail("algorithm.mpc.tension_oracle", format!("{path:?}"), e),
+                }
+            }
+            (_, Some(path)) => c.fail(
+                "algorithm.mpc.tension_oracle",
+                format!("{path:?}"),
+                "only used with tension_forecast = \"oracle\"",
+            ),
+            _ => {}
         }
         match (m.tension_forecast, &m.tension_weights) {
             (Forecast::Dnn, None) => c.problems.push(Problem::new(
