@@ -570,6 +570,42 @@ mod tests {
     }
 
     #[test]
+    fn the_clarabel_case_differs_from_case_1_in_its_solver_alone() {
+        let read = |name: &str| -> toml::Table {
+            let path = format!("{}/../../topologies/{name}", env!("CARGO_MANIFEST_DIR"));
+            std::fs::read_to_string(path).unwrap().parse().unwrap()
+        };
+        let (mut a, mut b) = (read("tsnr-case1.toml"), read("tsnr-case1-clarabel.toml"));
+        for t in [&mut a, &mut b] {
+            let sc = t["scenario"].as_table_mut().unwrap();
+            sc.remove("name");
+            sc.remove("description");
+        }
+        let solver = |t: &mut toml::Table| {
+            t["algorithm"].as_table_mut().unwrap()["mpc"].as_table_mut().unwrap().remove("qp_solver")
+        };
+        assert_eq!(solver(&mut a), Some(toml::Value::String("active-set".into())));
+        assert_eq!(solver(&mut b), Some(toml::Value::String("clarabel".into())));
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn an_oracle_forecast_needs_a_readable_series_covering_the_run() {
+        let base = case(1).replace("tension_forecast = \"dnn\"", "tension_forecast = \"oracle\"");
+        let e = problems(&base);
+        assert!(
+            e.contains("algorithm.mpc.tension_weights") && e.contains("only used with tension_forecast = \"dnn\""),
+            "{e}"
+        );
+        let no_weights = base.replace("tension_weights = \"../papers/tsnr/weights/tension.safetensors\"\n", "");
+        let e = problems(&no_weights);
+        assert!(e.contains("algorithm.mpc.tension_oracle: required by tension_forecast = \"oracle\""), "{e}");
+        let missing = no_weights.replace("max_iter = 100", "max_iter = 100\ntension_oracle = \"no/such/plant.csv\"");
+        let e = problems(&missing);
+        assert!(e.contains("algorithm.mpc.tension_oracle = ") && e.contains("no/such/plant.csv"), "{e}");
+    }
+
+    #[test]
     fn bad_values_are_each_reported_with_their_key_path() {
         let bad = case(2)
             .replace("knots_s = [0.0, 10.0, 20.0, 30.0]", "knots_s = [0.0, 10.0, 10.0, 30.0]")
