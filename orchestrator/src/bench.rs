@@ -422,9 +422,6 @@ fn markdown(a: &[Aggregate], quick: bool, reps: u32, only: Option<&str>, took_s:
         only_arg,
         took_s
     );
-    let med = |key: &str, f: &dyn Fn(&Sample) -> f64| -> f64 {
-        get(a, key).map_or(f64::NAN, |x| median(&mut x.samples.iter().map(f).collect::<Vec<_>>()))
-    };
     // Each paper's headline case, multi-process against the in-process reference.
     let mut headlines: Vec<(&str, u32)> =
         a.iter().filter(|x| x.group == "headline").map(|x| (x.label.as_str(), x.n)).collect();
@@ -458,43 +455,9 @@ fn markdown(a: &[Aggregate], quick: bool, reps: u32, only: Option<&str>, took_s:
     // Ring: strategies per N
     let mut ns: Vec<u32> = a.iter().filter(|x| x.group == "ring").map(|x| x.n).collect();
     ns.dedup();
-    md.push_str("## Consensus ring: steps/s by waiting strategy (iceoryx2)\n\n");
-    md.push_str("| N agents | event | poll + yield | adaptive | adaptive + 1-step link delay | null round (adaptive) | messaging share |\n|---|---|---|---|---|---|---|\n");
-    for &n in &ns {
-        let cell = |k: &str| {
-            get(a, k).map_or("–".to_string(), |x| {
-                format!("{} [{}–{}]", f0(x.steps_per_s_median), f0(x.steps_per_s_min), f0(x.steps_per_s_max))
-            })
-        };
-        let real = med(&format!("ring/N={n}/adaptive"), &|s| 1.0 / s.steps_per_s);
-        let null = med(&format!("null/N={n}/adaptive"), &|s| 1.0 / s.steps_per_s);
-        let _ = writeln!(
-            md,
-            "| {n} | {} | {} | {} | {} | {} | {:.0} % |",
-            cell(&format!("ring/N={n}/event")),
-            cell(&format!("ring/N={n}/poll")),
-            cell(&format!("ring/N={n}/adaptive")),
-            cell(&format!("ring/N={n}/adaptive+link-delay")),
-            cell(&format!("null/N={n}/adaptive")),
-            100.0 * (null / real).min(1.0)
-        );
-    }
-    md.push_str("\n\"messaging share\": the null round's step time over the real step time (same processes and message sizes, no computation).\n\n");
-    md.push_str("## Consensus ring, adaptive waiting: per-step cost\n\n| N | round p50 µs | round p99 µs | round max ms | agent CPU s / 1000 steps | plant CPU s / 1000 steps | agent RSS MB | plant RSS MB | start-up s |\n|---|---|---|---|---|---|---|---|---|\n");
-    for &n in &ns {
-        let k = format!("ring/N={n}/adaptive");
-        let _ = writeln!(
-            md,
-            "| {n} | {:.1} | {:.1} | {:.2} | {:.3} | {:.3} | {:.1} | {:.1} | {:.2} |",
-            med(&k, &|s| s.round_p50_us),
-            med(&k, &|s| s.round_p99_us),
-            med(&k, &|s| s.round_max_ms),
-            med(&k, &|s| s.agent_cpu_s_per_1000_steps),
-            med(&k, &|s| s.plant_cpu_s_per_1000_steps),
-            med(&k, &|s| s.agent_rss_mb),
-            med(&k, &|s| s.plant_rss_mb),
-            med(&k, &|s| s.startup_s.unwrap_or(f64::NAN)),
-        );
+    // `--only` may leave no ring case: then no ring sections.
+    if !ns.is_empty() {
+        ring_sections(&mut md, a, &ns);
     }
     // UDP
     let mut udp_ns: Vec<u32> = a.iter().filter(|x| x.group == "udp").map(|x| x.n).collect();
@@ -541,4 +504,49 @@ fn markdown(a: &[Aggregate], quick: bool, reps: u32, only: Option<&str>, took_s:
         );
     }
     md
+}
+
+/// The consensus ring's two tables (steps/s by strategy; per-step cost), for the N in `ns`.
+fn ring_sections(md: &mut String, a: &[Aggregate], ns: &[u32]) {
+    let med = |key: &str, f: &dyn Fn(&Sample) -> f64| -> f64 {
+        get(a, key).map_or(f64::NAN, |x| median(&mut x.samples.iter().map(f).collect::<Vec<_>>()))
+    };
+    md.push_str("## Consensus ring: steps/s by waiting strategy (iceoryx2)\n\n");
+    md.push_str("| N agents | event | poll + yield | adaptive | adaptive + 1-step link delay | null round (adaptive) | messaging share |\n|---|---|---|---|---|---|---|\n");
+    for &n in ns {
+        let cell = |k: &str| {
+            get(a, k).map_or("–".to_string(), |x| {
+                format!("{} [{}–{}]", f0(x.steps_per_s_median), f0(x.steps_per_s_min), f0(x.steps_per_s_max))
+            })
+        };
+        let real = med(&format!("ring/N={n}/adaptive"), &|s| 1.0 / s.steps_per_s);
+        let null = med(&format!("null/N={n}/adaptive"), &|s| 1.0 / s.steps_per_s);
+        let _ = writeln!(
+            md,
+            "| {n} | {} | {} | {} | {} | {} | {:.0} % |",
+            cell(&format!("ring/N={n}/event")),
+            cell(&format!("ring/N={n}/poll")),
+            cell(&format!("ring/N={n}/adaptive")),
+            cell(&format!("ring/N={n}/adaptive+link-delay")),
+            cell(&format!("null/N={n}/adaptive")),
+            100.0 * (null / real).min(1.0)
+        );
+    }
+    md.push_str("\n\"messaging share\": the null round's step time over the real step time (same processes and message sizes, no computation).\n\n");
+    md.push_str("## Consensus ring, adaptive waiting: per-step cost\n\n| N | round p50 µs | round p99 µs | round max ms | agent CPU s / 1000 steps | plant CPU s / 1000 steps | agent RSS MB | plant RSS MB | start-up s |\n|---|---|---|---|---|---|---|---|---|\n");
+    for &n in ns {
+        let k = format!("ring/N={n}/adaptive");
+        let _ = writeln!(
+            md,
+            "| {n} | {:.1} | {:.1} | {:.2} | {:.3} | {:.3} | {:.1} | {:.1} | {:.2} |",
+            med(&k, &|s| s.round_p50_us),
+            med(&k, &|s| s.round_p99_us),
+            med(&k, &|s| s.round_max_ms),
+            med(&k, &|s| s.agent_cpu_s_per_1000_steps),
+            med(&k, &|s| s.plant_cpu_s_per_1000_steps),
+            med(&k, &|s| s.agent_rss_mb),
+            med(&k, &|s| s.plant_rss_mb),
+            med(&k, &|s| s.startup_s.unwrap_or(f64::NAN)),
+        );
+    }
 }

@@ -92,7 +92,7 @@ enum Cmd {
         /// Where results.md and results.json go.
         #[arg(long, default_value = "bench")]
         out: PathBuf,
-        /// Only the cases whose key starts with this, e.g. `headline/tsnr` (the keys are in
+        /// Only the cases whose key starts with this, e.g. `headline/` or `ring/N=20` (the keys are in
         /// results.json).
         #[arg(long, value_name = "PREFIX")]
         only: Option<String>,
