@@ -93,6 +93,17 @@ fn realtime_pacing_follows_the_wall_clock() {
 }
 
 #[test]
+fn bench_only_a_prefix_no_case_has_exits_2() {
+    let dir = scratch_dir("bench-only");
+    let o = orchestrator(&["bench", "--quick", "--only", "no-such-group", "--out", dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--only \"no-such-group\": no case key starts with it") && err.contains("headline/"), "{err}");
+    assert!(!dir.join("results.md").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn bench_quick_writes_its_results() {
     let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
     let dir = scratch_dir("bench");
@@ -102,6 +113,8 @@ fn bench_quick_writes_its_results() {
     for section in ["## fig1", "waiting strategy", "iceoryx2 vs UDP", "paced at 10 Hz"] {
         assert!(md.contains(section), "results.md lacks {section:?}:\n{md}");
     }
+    // A headline case whose agents solve a QP every step reports their solve times.
+    assert!(md.contains("Solver time per agent") && md.contains("| multi-process |"), "{md}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
     let cases = json["cases"].as_array().unwrap();

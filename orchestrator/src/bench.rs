@@ -59,6 +59,12 @@ struct Sample {
     /// Share of the plant's round spent in the agents' own computation (median over agents of
     /// compute / round), from timing/.
     compute_share: Option<f64>,
+    /// Agents that solve an optimisation problem every step (their end reports' solver
+    /// statistics): the median over agents of their solve-time p50, the largest p99 and the
+    /// largest single solve, µs. None when no agent reports a solver.
+    solver_p50_us: Option<f64>,
+    solver_p99_us: Option<f64>,
+    solver_max_us: Option<f64>,
 }
 
 #[derive(Debug, Serialize)]
@@ -168,8 +174,14 @@ fn cases(quick: bool, repo: &Path) -> Result<Vec<Case>, String> {
         out.push(Case { key, group, n, variant: variant.into(), label: label.into(), scenario, reference, hogs });
     };
     for file in cohort_registry::HOSTS.iter().flat_map(|h| h.bench_scenarios()) {
+        // Quick mode shortens a headline run to 20 s; a scenario that is not valid shortened (its
+        // own times reach past 20 s) runs whole.
         let o = Overrides { duration_s: quick.then_some(20.0), ..Default::default() };
-        let s = crate::load(&repo.join(file), &o).map_err(|e| e.to_string())?;
+        let s = match crate::load(&repo.join(file), &o) {
+            Ok(s) => s,
+            Err(_) if quick => crate::load(&repo.join(file), &Overrides::default()).map_err(|e| e.to_string())?,
+            Err(e) => return Err(e.to_string()),
+        };
         let (name, n) = (s.scenario.name.clone(), s.n_agents());
         push("headline", n, "multi-process", &name, s.clone(), false);
         push("headline", n, "reference", &name, s, true);
@@ -276,6 +288,13 @@ fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
     let mut agent_share: Vec<f64> = Vec::new();
     let mut plant_cpu = f64::NAN;
     let mut plant_rss = f64::NAN;
+    let (mut solver_p50, mut solver_p99, mut solver_max): (Vec<f64>, Vec<f64>, Vec<f64>) = Default::default();
+    for st in summary.processes.iter().filter_map(|p| p.solver.as_ref()).filter(|st| st.solves > 0) {
+        solver_p50.push(st.solve_time_p50_s * 1e6);
+        solver_p99.push(st.solve_time_p99_s * 1e6);
+        solver_max.push(st.solve_time_max_s * 1e6);
+    }
+    let largest = |xs: &[f64]| xs.iter().copied().reduce(f64::max);
     for p in &summary.processes {
         if p.process == "plant" {
             plant_cpu = per_k(p.cpu_s);
@@ -310,12 +329,41 @@ fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
         agent_rss_mb: median(&mut agent_rss),
         plant_rss_mb: plant_rss,
         compute_share,
+        solver_p50_us: (!solver_p50.is_empty()).then(|| median(&mut solver_p50)),
+        solver_p99_us: largest(&solver_p99),
+        solver_max_us: largest(&solver_max),
     }
 }
 
-pub fn run(quick: bool, reps: u32, out_dir: &Path) -> Result<String, String> {
+/// Why the bench did not run to the end.
+#[derive(Debug)]
+pub enum BenchError {
+    /// The arguments select nothing (exit 2).
+    Invalid(String),
+    /// A case could not be set up or run (exit 1).
+    Failed(String),
+}
+
+impl From<String> for BenchError {
+    fn from(e: String) -> Self {
+        Self::Failed(e)
+    }
+}
+
+/// Run every case (or only those whose key starts with `only`), `reps` times interleaved.
+pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result<String, BenchError> {
     let repo = std::env::current_dir().map_err(|e| e.to_string())?;
-    let cases = cases(quick, &repo)?;
+    let mut cases = cases(quick, &repo)?;
+    if let Some(prefix) = only {
+        let all: Vec<String> = cases.iter().map(|c| c.key.clone()).collect();
+        cases.retain(|c| c.key.starts_with(prefix));
+        if cases.is_empty() {
+            return Err(BenchError::Invalid(format!(
+                "--only {prefix:?}: no case key starts with it (keys: {})",
+                all.join(", ")
+            )));
+        }
+    }
     let scratch = std::env::temp_dir().join(format!("cohort-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&scratch);
     let mut samples: BTreeMap<String, Vec<Sample>> = BTreeMap::new();
@@ -331,7 +379,7 @@ pub fn run(quick: bool, reps: u32, out_dir: &Path) -> Result<String, String> {
             drop(hogs);
             if let Some(e) = outcome.error {
                 let _ = std::fs::remove_dir_all(&scratch);
-                return Err(format!("{} (repetition {}): {e}", c.key, rep + 1));
+                return Err(BenchError::Failed(format!("{} (repetition {}): {e}", c.key, rep + 1)));
             }
             let smp = sample(&c.scenario, &dir, &summary, outcome.wall_s);
             errln!(
@@ -372,7 +420,7 @@ pub fn run(quick: bool, reps: u32, out_dir: &Path) -> Result<String, String> {
         })
         .collect();
     let mac = [6usize, 106, 512].map(|v| (v, mac_ns(v)));
-    let mut md = markdown(&aggregates, quick, reps, started.elapsed().as_secs_f64());
+    let mut md = markdown(&aggregates, quick, reps, only, started.elapsed().as_secs_f64());
     md.push_str(&mac_markdown(&aggregates, &mac));
     std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let json = serde_json::json!({
@@ -449,6 +497,43 @@ fn machine() -> String {
     format!("{cores} cores ({model}), Linux {kernel}")
 }
 
+/// The 1-minute load average (other users of a shared machine inflate every time measured).
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|t| t.split_whitespace().next().map(str::to_string))
+        .unwrap_or_else(|| "unknown".into())
+}
+
+/// For a headline case whose agents solve an optimisation problem every step: the solve times
+/// of the multi-process and the reference runs (per repetition: the median agent's p50, the
+/// worst agent's p99 and the longest solve; medians over repetitions with [min–max]).
+fn solver_line(mp: &Aggregate, rf: &Aggregate) -> Option<String> {
+    let cell = |x: &Aggregate, f: &dyn Fn(&Sample) -> Option<f64>| -> Option<String> {
+        let mut v: Vec<f64> = x.samples.iter().map(f).collect::<Option<_>>()?;
+        let (lo, hi) = (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(0.0, f64::max));
+        Some(format!("{:.1} [{:.1}–{:.1}]", median(&mut v), lo, hi))
+    };
+    let row = |name: &str, x: &Aggregate| -> Option<String> {
+        Some(format!(
+            "| {name} | {} | {} | {} |\n",
+            cell(x, &|s| s.solver_p50_us)?,
+            cell(x, &|s| s.solver_p99_us)?,
+            cell(x, &|s| s.solver_max_us)?
+        ))
+    };
+    let mut out = String::from(
+        "Solver time per agent (the agents' end reports; per repetition the median agent's p50, the worst \
+         agent's p99 and the longest solve), µs:\n\n| run | p50 | p99 | max |\n|---|---|---|---|\n",
+    );
+    out.push_str(&row("multi-process", mp)?);
+    if let Some(r) = row("in-process reference", rf) {
+        out.push_str(&r);
+    }
+    out.push('\n');
+    Some(out)
+}
+
 fn get<'a>(a: &'a [Aggregate], key: &str) -> Option<&'a Aggregate> {
     a.iter().find(|x| x.key == key)
 }
@@ -457,21 +542,21 @@ fn f0(x: f64) -> String {
     if x.is_finite() { format!("{x:.0}") } else { "–".into() }
 }
 
-fn markdown(a: &[Aggregate], quick: bool, reps: u32, took_s: f64) -> String {
+fn markdown(a: &[Aggregate], quick: bool, reps: u32, only: Option<&str>, took_s: f64) -> String {
     let mut md = String::new();
+    let only_arg = only.map(|p| format!(" --only {p}")).unwrap_or_default();
     let _ = writeln!(
         md,
-        "# Cohort benchmarks\n\nMachine: {}. {} repetition(s), interleaved{}; medians with [min–max]; generated by \
-         `orchestrator bench{}` in {:.0} s.\n",
+        "# Cohort benchmarks\n\nMachine: {}; load average at the end {}. {} repetition(s), interleaved{}; medians with \
+         [min–max]; generated by `orchestrator bench{}{}` in {:.0} s.\n",
         machine(),
+        load_average(),
         reps,
         if quick { ", quick mode" } else { "" },
         if quick { " --quick" } else { "" },
+        only_arg,
         took_s
     );
-    let med = |key: &str, f: &dyn Fn(&Sample) -> f64| -> f64 {
-        get(a, key).map_or(f64::NAN, |x| median(&mut x.samples.iter().map(f).collect::<Vec<_>>()))
-    };
     // Each paper's headline case, multi-process against the in-process reference.
     let mut headlines: Vec<(&str, u32)> =
         a.iter().filter(|x| x.group == "headline").map(|x| (x.label.as_str(), x.n)).collect();
@@ -498,47 +583,16 @@ fn markdown(a: &[Aggregate], quick: bool, reps: u32, took_s: f64) -> String {
             median(&mut ratios.clone()),
             ratios.iter().map(|r| format!("{r:.2}")).collect::<Vec<_>>().join(", ")
         );
+        if let Some(line) = solver_line(mp, rf) {
+            md.push_str(&line);
+        }
     }
     // Ring: strategies per N
     let mut ns: Vec<u32> = a.iter().filter(|x| x.group == "ring").map(|x| x.n).collect();
     ns.dedup();
-    md.push_str("## Consensus ring: steps/s by waiting strategy (iceoryx2)\n\n");
-    md.push_str("| N agents | event | poll + yield | adaptive | adaptive + 1-step link delay | null round (adaptive) | messaging share |\n|---|---|---|---|---|---|---|\n");
-    for &n in &ns {
-        let cell = |k: &str| {
-            get(a, k).map_or("–".to_string(), |x| {
-                format!("{} [{}–{}]", f0(x.steps_per_s_median), f0(x.steps_per_s_min), f0(x.steps_per_s_max))
-            })
-        };
-        let real = med(&format!("ring/N={n}/adaptive"), &|s| 1.0 / s.steps_per_s);
-        let null = med(&format!("null/N={n}/adaptive"), &|s| 1.0 / s.steps_per_s);
-        let _ = writeln!(
-            md,
-            "| {n} | {} | {} | {} | {} | {} | {:.0} % |",
-            cell(&format!("ring/N={n}/event")),
-            cell(&format!("ring/N={n}/poll")),
-            cell(&format!("ring/N={n}/adaptive")),
-            cell(&format!("ring/N={n}/adaptive+link-delay")),
-            cell(&format!("null/N={n}/adaptive")),
-            100.0 * (null / real).min(1.0)
-        );
-    }
-    md.push_str("\n\"messaging share\": the null round's step time over the real step time (same processes and message sizes, no computation).\n\n");
-    md.push_str("## Consensus ring, adaptive waiting: per-step cost\n\n| N | round p50 µs | round p99 µs | round max ms | agent CPU s / 1000 steps | plant CPU s / 1000 steps | agent RSS MB | plant RSS MB | start-up s |\n|---|---|---|---|---|---|---|---|---|\n");
-    for &n in &ns {
-        let k = format!("ring/N={n}/adaptive");
-        let _ = writeln!(
-            md,
-            "| {n} | {:.1} | {:.1} | {:.2} | {:.3} | {:.3} | {:.1} | {:.1} | {:.2} |",
-            med(&k, &|s| s.round_p50_us),
-            med(&k, &|s| s.round_p99_us),
-            med(&k, &|s| s.round_max_ms),
-            med(&k, &|s| s.agent_cpu_s_per_1000_steps),
-            med(&k, &|s| s.plant_cpu_s_per_1000_steps),
-            med(&k, &|s| s.agent_rss_mb),
-            med(&k, &|s| s.plant_rss_mb),
-            med(&k, &|s| s.startup_s.unwrap_or(f64::NAN)),
-        );
+    // `--only` may leave no ring case: then no ring sections.
+    if !ns.is_empty() {
+        ring_sections(&mut md, a, &ns);
     }
     // UDP
     let mut udp_ns: Vec<u32> = a.iter().filter(|x| x.group == "udp").map(|x| x.n).collect();
@@ -585,4 +639,49 @@ fn markdown(a: &[Aggregate], quick: bool, reps: u32, took_s: f64) -> String {
         );
     }
     md
+}
+
+/// The consensus ring's two tables (steps/s by strategy; per-step cost), for the N in `ns`.
+fn ring_sections(md: &mut String, a: &[Aggregate], ns: &[u32]) {
+    let med = |key: &str, f: &dyn Fn(&Sample) -> f64| -> f64 {
+        get(a, key).map_or(f64::NAN, |x| median(&mut x.samples.iter().map(f).collect::<Vec<_>>()))
+    };
+    md.push_str("## Consensus ring: steps/s by waiting strategy (iceoryx2)\n\n");
+    md.push_str("| N agents | event | poll + yield | adaptive | adaptive + 1-step link delay | null round (adaptive) | messaging share |\n|---|---|---|---|---|---|---|\n");
+    for &n in ns {
+        let cell = |k: &str| {
+            get(a, k).map_or("–".to_string(), |x| {
+                format!("{} [{}–{}]", f0(x.steps_per_s_median), f0(x.steps_per_s_min), f0(x.steps_per_s_max))
+            })
+        };
+        let real = med(&format!("ring/N={n}/adaptive"), &|s| 1.0 / s.steps_per_s);
+        let null = med(&format!("null/N={n}/adaptive"), &|s| 1.0 / s.steps_per_s);
+        let _ = writeln!(
+            md,
+            "| {n} | {} | {} | {} | {} | {} | {:.0} % |",
+            cell(&format!("ring/N={n}/event")),
+            cell(&format!("ring/N={n}/poll")),
+            cell(&format!("ring/N={n}/adaptive")),
+            cell(&format!("ring/N={n}/adaptive+link-delay")),
+            cell(&format!("null/N={n}/adaptive")),
+            100.0 * (null / real).min(1.0)
+        );
+    }
+    md.push_str("\n\"messaging share\": the null round's step time over the real step time (same processes and message sizes, no computation).\n\n");
+    md.push_str("## Consensus ring, adaptive waiting: per-step cost\n\n| N | round p50 µs | round p99 µs | round max ms | agent CPU s / 1000 steps | plant CPU s / 1000 steps | agent RSS MB | plant RSS MB | start-up s |\n|---|---|---|---|---|---|---|---|---|\n");
+    for &n in ns {
+        let k = format!("ring/N={n}/adaptive");
+        let _ = writeln!(
+            md,
+            "| {n} | {:.1} | {:.1} | {:.2} | {:.3} | {:.3} | {:.1} | {:.1} | {:.2} |",
+            med(&k, &|s| s.round_p50_us),
+            med(&k, &|s| s.round_p99_us),
+            med(&k, &|s| s.round_max_ms),
+            med(&k, &|s| s.agent_cpu_s_per_1000_steps),
+            med(&k, &|s| s.plant_cpu_s_per_1000_steps),
+            med(&k, &|s| s.agent_rss_mb),
+            med(&k, &|s| s.plant_rss_mb),
+            med(&k, &|s| s.startup_s.unwrap_or(f64::NAN)),
+        );
+    }
 }

@@ -109,6 +109,10 @@ enum Cmd {
         /// Where results.md and results.json go.
         #[arg(long, default_value = "bench")]
         out: PathBuf,
+        /// Only the cases whose key starts with this, e.g. `headline/` or `ring/N=20` (the keys are in
+        /// results.json).
+        #[arg(long, value_name = "PREFIX")]
+        only: Option<String>,
     },
     /// Draw PNG plots of a run directory's telemetry into RUN_DIR/plots/.
     Report {
@@ -314,17 +318,23 @@ fn generic(command: Cmd) -> ExitCode {
                 }
             }
         }
-        Cmd::Bench { quick, reps, out } => match bench::run(quick, reps.unwrap_or(if quick { 1 } else { 3 }), &out) {
-            Ok(md) => {
-                outln!("{md}");
-                outln!("written: {} and {}", out.join("results.md").display(), out.join("results.json").display());
-                ExitCode::SUCCESS
+        Cmd::Bench { quick, reps, out, only } => {
+            match bench::run(quick, reps.unwrap_or(if quick { 1 } else { 3 }), only.as_deref(), &out) {
+                Ok(md) => {
+                    outln!("{md}");
+                    outln!("written: {} and {}", out.join("results.md").display(), out.join("results.json").display());
+                    ExitCode::SUCCESS
+                }
+                Err(bench::BenchError::Invalid(e)) => {
+                    errln!("error: {e}");
+                    ExitCode::from(EXIT_INVALID)
+                }
+                Err(bench::BenchError::Failed(e)) => {
+                    errln!("error: {e}");
+                    ExitCode::from(EXIT_FAILED)
+                }
             }
-            Err(e) => {
-                errln!("error: {e}");
-                ExitCode::from(EXIT_FAILED)
-            }
-        },
+        }
         Cmd::Report { run_dir } => match launcher::report(&run_dir) {
             Ok(files) => {
                 for f in files {

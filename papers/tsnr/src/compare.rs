@@ -367,6 +367,20 @@ pub fn write(root: &Path, ctx: &Context, runs: &[(String, BTreeMap<String, f64>)
     if aemc.is_none() {
         md.push_str("\nAEMC was not run: no ratios of ours.\n");
     }
+    // The paper's unit: Σ‖u_k‖ over the control steps. With the thrust held over each step it is
+    // ∫‖u‖dt / Δt exactly, so the published totals (≈ 140 N in Case 1) would be ≈ 14 N·s of
+    // ours, a thirtieth of what our net demands.
+    let per_step: Vec<String> = runs
+        .iter()
+        .map(|(m, r)| format!("{m} {}", get(r, "fuel_total_ns").map_or("–".into(), |f| format!("{:.0}", f / ctx.dt_s))))
+        .collect();
+    let _ = writeln!(
+        md,
+        "\nIn the paper's unit, Σₖ‖uᵢ(t_k)‖ over the {} s steps summed over the MUs (∫‖u‖dt / Δt, the thrust being \
+         held over each step): {} N.",
+        ctx.dt_s,
+        per_step.join(", ")
+    );
     // Orders, least fuel first.
     let order = |vals: Vec<(&str, Option<f64>)>| -> Option<Vec<String>> {
         let mut v: Vec<(&str, f64)> = vals.into_iter().map(|(m, x)| Some((m, x?))).collect::<Option<_>>()?;

@@ -1,6 +1,6 @@
 //! Clohessy–Wiltshire (linearised Hill) relative motion about a circular orbit, in the target's
 //! LVLH frame: x radial (outward), y along-track, z cross-track. Eq. (2) of the paper has a
-//! sign/factor slip in its y-equation (reference.md), so we use the standard form
+//! sign/factor slip in its y-equation (papers/tsnr/README.md), so we use the standard form
 //!
 //! ```text
 //! ẍ = 3n²x + 2nẏ + fₓ/m,   ÿ = −2nẋ + f_y/m,   z̈ = −n²z + f_z/m,   n = √(μ/r₀³),

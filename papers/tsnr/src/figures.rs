@@ -37,7 +37,7 @@ pub(crate) const TENSION_STEM: &str = "tsnr_tension";
 pub(crate) const NET_STEM: &str = "tsnr_net_3d";
 /// File stem (in `<dir>/plots/`) of the figure [`draw_comparison`] writes.
 pub const COMPARISON_STEM: &str = "tsnr_err_mu1";
-/// reference.md 001: the target sits at [5, 0, 0] m in the LVLH frame.
+/// papers/tsnr/README.md: the target sits at [5, 0, 0] m in the LVLH frame.
 const TARGET_LVLH_M: [f64; 3] = [5.0, 0.0, 0.0];
 /// The paper (Sec. 4): the net is fully deployed at 10 s, the sudden change in tension where
 /// DMPC and SMC peak and AEMC does not.

@@ -5,12 +5,14 @@
 //! ([`trajectory`]), the DNN tension predictor (7)–(11) ([`predictor`], trained by
 //! `orchestrator train tsnr-tension`, [`train`]), and the `tsnr-formation` agents AEMC, DMPC and
 //! SMC ([`agents`]); the run analysis ([`analysis`]), the paper's figures ([`figures`]) and the
-//! Tables 1–2 analogue (`orchestrator tsnr compare`, [`compare`]). Scenarios:
+//! Tables 1–2 analogue (`orchestrator tsnr compare`, [`compare`]), the ablation campaign
+//! (`orchestrator tsnr ablation`, [`ablation`]) with the oracle forecast ([`oracle_forecast`]). Scenarios:
 //! `topologies/tsnr-case*.toml`, `net-coast.toml`.
 
 // Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
 #![allow(clippy::needless_range_loop)]
 
+pub mod ablation;
 pub mod agents;
 pub mod analysis;
 pub mod compare;
@@ -21,6 +23,7 @@ pub mod figures;
 pub mod forecast;
 pub mod net;
 pub mod net_plant;
+pub mod oracle_forecast;
 pub mod predictor;
 pub mod train;
 pub mod trajectory;
@@ -72,6 +75,30 @@ enum TsnrCmd {
         /// Draw neither the runs' plots nor the comparison figures.
         #[arg(long)]
         no_plots: bool,
+    },
+    /// Run each scenario as given and under named variants, each one change from the file
+    /// (tension forecast hold-measured and oracle, R on the thrust, N_p = 10 and 40, no
+    /// neighbour costs, Clarabel's QP as the noise floor), AEMC/DMPC/SMC as each change applies,
+    /// and tabulate fuel (∫‖u‖dt and Σ‖u_k‖) and tracking (ablation.md, ablation.csv); each run's
+    /// directory is DIR/<scenario>/<variant>/<method>/.
+    Ablation {
+        /// Scenario files (TOML) with algorithm.kind = "tsnr-formation", e.g. both cases.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        /// Output directory (absent or empty); default runs/tsnr-ablation-<UTC time>/.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Oracle iterates: each replays the tension of the run before (1..=10).
+        #[arg(long, default_value_t = 3)]
+        oracle_iterations: u32,
+        /// Shorten every run to this many seconds, keeping only the net snapshot at 0 s (smoke
+        /// tests); default the files' durations.
+        #[arg(long, value_name = "S")]
+        duration: Option<f64>,
+        /// Spawn one process per MU for every run (default: the in-process reference, which
+        /// gives the same telemetry bit for bit).
+        #[arg(long)]
+        multi_process: bool,
     },
 }
 
@@ -125,6 +152,11 @@ impl PaperHost for Tsnr {
         let (json, md_path) = train::report_paths(&o.out);
         Ok(format!("{md}\nwritten: {}, {} and {}", o.out.display(), md_path.display(), json.display()))
     }
+    /// Case 1 with each QP solver: `orchestrator bench` reports the agents' solve times of both
+    /// in one invocation (the default exact active set, and Clarabel alone as before).
+    fn bench_scenarios(&self) -> Vec<&'static str> {
+        vec!["topologies/tsnr-case1.toml", "topologies/tsnr-case1-clarabel.toml"]
+    }
     fn command(&self) -> Option<clap::Command> {
         Some(<TsnrCli as clap::CommandFactory>::command())
     }
@@ -133,6 +165,9 @@ impl PaperHost for Tsnr {
         match cli.command {
             TsnrCmd::Compare { file, algorithms, out, no_plots } => {
                 compare::command(launcher, &file, &algorithms, out.as_deref(), !no_plots)
+            }
+            TsnrCmd::Ablation { files, out, oracle_iterations, duration, multi_process } => {
+                ablation::command(launcher, &files, out.as_deref(), oracle_iterations, duration, multi_process)
             }
         }
     }

@@ -1,7 +1,7 @@
 //! The net of the tethered space net robot: a square spring–damper mesh (eq. (4)) whose four
 //! corners are the maneuverable units (MUs), moving relative to a target on a circular orbit.
 //!
-//! Model (reference.md, section 001, "our choices" where the paper is silent):
+//! Model (papers/tsnr/README.md, "our choices" where the paper is silent):
 //! - `nodes_per_side` × `nodes_per_side` nodes (default 11 × 11, so 10 × 10 meshes), structural
 //!   edges between grid neighbours only (2·n·(n−1) = 220 edges), rest length l_n (0.5 m).
 //! - Edge force along the edge, eq. (4): f = (EA/l_n)·Δl + c·l̇ while the edge is stretched
@@ -70,7 +70,7 @@ pub struct NetParams {
 }
 
 impl Default for NetParams {
-    /// reference.md, section 001.
+    /// Our choices, papers/tsnr/README.md.
     fn default() -> Self {
         Self {
             nodes_per_side: 11,

@@ -483,7 +483,7 @@ mod tests {
             let (sy, sz) = [(1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0)][(mu - 1) as usize];
             for n in 0..10 {
                 assert!(slack[n].iter().all(|t| t.abs() < 0.2), "MU {mu} step {n}: slack net {:?}", slack[n]);
-                // Each corner's two edges pull with ≈ 4–6 N at 2 % (reference.md), inward.
+                // Each corner's two edges pull with ≈ 4–6 N at 2 % (papers/tsnr/README.md), inward.
                 let (ty, tz) = (taut[n][1] * -sy, taut[n][2] * -sz);
                 assert!((3.0..8.0).contains(&ty) && (3.0..8.0).contains(&tz), "MU {mu} step {n}: {:?}", taut[n]);
             }

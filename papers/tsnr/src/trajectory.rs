@@ -1,7 +1,7 @@
 //! Desired MU trajectories x_i^d(t): piecewise quintic polynomials through waypoints.
 //!
 //! The paper plans its capture trajectories with the method of its ref. [8], which is not in the
-//! text; reference.md fixes our choice: quintic segments through the phases deploy (0–10 s),
+//! text; papers/tsnr/README.md gives our choice: quintic segments through the phases deploy (0–10 s),
 //! approach (10–20 s) and close (20–30 s). Each segment matches position, velocity and
 //! acceleration at both of its knots, so the trajectory is C² (no jump in the feedforward force).
 //! Velocities at the knots are given with the waypoints (zero unless the scenario says otherwise —
@@ -155,7 +155,7 @@ mod tests {
         Waypoint { r_m: r, v_mps: v }
     }
 
-    /// MU 1 of Case 2 (reference.md): deploy, turn the net plane while approaching, close with
+    /// MU 1 of Case 2 (papers/tsnr/README.md): deploy, turn the net plane while approaching, close with
     /// the terminal velocity.
     fn case2_mu1() -> Trajectory {
         Trajectory::new(

@@ -110,3 +110,43 @@ fn launch_draws_the_tension_and_net_figures() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// 5 s of a shipped scenario (with `edit` applied), multi-process and reference: the telemetry
+/// must be identical bit for bit. Returns the reference run's directory.
+fn mp_equals_reference(name: &str, edit: &dyn Fn(String) -> String, dir: &Path) -> PathBuf {
+    let text = scenario_text_with_absolute_paths(name)
+        .replace("duration_s = 30.0", "duration_s = 5.0")
+        .replace("thrust_bound_n = 5.0\n", "thrust_bound_n = 5.0\nsnapshot_times_s = [0.0]\n");
+    let file = dir.join(format!("{}.toml", name.trim_end_matches(".toml")));
+    std::fs::write(&file, edit(text)).unwrap();
+    let (mp, rf) = (dir.join(format!("{name}-mp")), dir.join(format!("{name}-ref")));
+    let o = launch_scenario(&file, &mp, &[]);
+    assert!(o.status.success(), "{name}: {}", describe_output(&o));
+    let o = launch_scenario(&file, &rf, &["--reference"]);
+    assert!(o.status.success(), "{name} --reference: {}", describe_output(&o));
+    for f in ["plant.csv", "agent-1.csv", "agent-2.csv", "agent-3.csv", "agent-4.csv"] {
+        let a = std::fs::read(mp.join("telemetry").join(f)).unwrap();
+        let b = std::fs::read(rf.join("telemetry").join(f)).unwrap();
+        assert!(a == b, "{name}: telemetry/{f} differs between the multi-process run and the reference");
+    }
+    rf
+}
+
+/// The Clarabel-only scenario and the oracle forecast (replaying a run's recorded tension) are
+/// as deterministic as the default.
+#[test]
+fn clarabel_and_oracle_runs_are_bit_identical_multi_process_and_reference() {
+    let _g = heavy();
+    let dir = scratch_dir("tsnr-variants-mp");
+    let first = mp_equals_reference("tsnr-case1-clarabel.toml", &|t| t, &dir);
+    let plant = first.join("telemetry/plant.csv");
+    let oracle = move |t: String| {
+        let weights = t.lines().find(|l| l.starts_with("tension_weights")).unwrap().to_string();
+        t.replace(&weights, &format!("tension_oracle = {:?}", plant.display().to_string()))
+            .replace("tension_forecast = \"dnn\"", "tension_forecast = \"oracle\"")
+    };
+    let rf = mp_equals_reference("tsnr-case1.toml", &oracle, &dir);
+    let scenario = std::fs::read_to_string(rf.join("scenario.toml")).unwrap();
+    assert!(scenario.contains("tension_forecast = \"oracle\""), "{scenario}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

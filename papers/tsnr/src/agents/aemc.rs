@@ -28,6 +28,8 @@
 //! q = 2ΓᵀQ̄(cᵢsᵢ − Σⱼ(λⱼ/λᵢ)aⱼᵢsⱼᵢ). With `neighbour_costs = false` the sum over j is dropped and
 //! this is exactly (25)–(26) (the Σⱼ UⱼᵀRᵢⱼUⱼ of (24) is constant in Uᵢ there, so Rᵢⱼ only acts
 //! through the neighbours' costs). Thrust bound: |û − T̂| ≤ ū per axis at every step of the horizon.
+//! With `force_cost = "thrust"` (not the paper's: an ablation) every force weight is on the MU's
+//! thrust u = û − T̂ instead, which keeps H and adds −2(r + Σⱼ(λⱼ/λᵢ)rᵢⱼ)T̂ to q.
 //! The command is uᵢ = ûᵢ* − T̂ᵢ (first step of the plan).
 //!
 //! **Timing.** At t_k MU i has its neighbours' shares of step k−1 (k−1−delay with a link delay):
@@ -38,21 +40,27 @@
 //!
 //! **Share layout** (N_p = horizon, D = this MU's neighbour count), all f64:
 //!
-//! | offset              | length   | content |
-//! |---------------------|----------|---------|
-//! | 0                   | 6        | own state [r; v] at t_k, LVLH, m and m/s |
-//! | 6                   | 3        | thrust uᵢ commanded at t_k, N |
-//! | 9                   | 3N_p     | Uᵢ: planned total forces û(t_k … t_{k+N_p−1}), N |
-//! | 9 + 3N_p            | 6N_p     | Xᵢ: predicted states x(t_{k+1} … t_{k+N_p}), m and m/s |
-//! | 9 + 9N_p + 6N_p·s   | 6N_p     | ρᵢ\ₘ for the s-th neighbour m of this MU's list (s = 0..D) |
+//! | offset                  | length | content |
+//! |-------------------------|--------|---------|
+//! | 0                       | 6      | own state [r; v] at t_k, LVLH, m and m/s |
+//! | 6                       | 3      | thrust uᵢ commanded at t_k, N |
+//! | 9                       | 3N_p   | Uᵢ: planned total forces û(t_k … t_{k+N_p−1}), N |
+//! | 9 + 3N_p + (7 + 3N_p)·s | 1      | age in steps of the s-th neighbour m's share as this MU used it at t_k (0: none) |
+//! | … + 1                   | 6      | m's state in that share |
+//! | … + 7                   | 3N_p   | m's Uₘ in that share |
 //!
-//! 9 + (9 + 6D)N_p values: with D = 2, N_p ≤ 23 fits the wire's 512 (validation checks it).
+//! 9 + 3N_p + D(7 + 3N_p) values: with D = 2, N_p ≤ 54 fits the wire's 512 (validation checks it).
+//! Every MU knows the scenario (the model, every MU's desired trajectory, the graph, the weights),
+//! so a receiver rebuilds from this exactly what the sender computed, bit for bit, by the same
+//! functions on the same numbers: the predicted states Xⱼ = Φxⱼ + ΓUⱼ (19), and ρⱼ\ᵢ from the
+//! copies of j's other neighbours' shares that j forwards. Sending Xⱼ and every ρⱼ\ₘ themselves,
+//! as this crate first did, takes 9 + (9 + 6D)N_p values and caps N_p at 23.
 //!
 //! **Solver failure.** Any status but Solved is counted (report) and recorded (telemetry); the MU
 //! then applies the previous solve's plan for this step less the current T̂ᵢ, saturated, and
 //! shares that shifted plan.
 
-use crate::config::formation::{SHARE_HEADER, TsnrFormation, TsnrModel};
+use crate::config::formation::{ForceCost, SHARE_HEADER, TsnrFormation, TsnrModel};
 use crate::cw::Cw;
 use crate::forecast::{ForecastInput, NeighbourSample, TensionForecast};
 use crate::trajectory::{Desired, Trajectory};
@@ -65,7 +73,63 @@ use super::mpc::{BoxQp, Horizon, Plan, QpStatus};
 
 /// Values in an AEMC share of an MU with `degree` neighbours.
 pub fn share_len(np: usize, degree: usize) -> usize {
-    SHARE_HEADER + (9 + 6 * degree) * np
+    SHARE_HEADER + 3 * np + degree * forwarded_len(np)
+}
+
+/// Values of one forwarded neighbour share: its age, state and plan.
+fn forwarded_len(np: usize) -> usize {
+    7 + 3 * np
+}
+
+/// What a share says of a plan: the state at the share's step and U from then on.
+struct PlanView<'a> {
+    state: [f64; 6],
+    u: &'a [f64],
+}
+
+impl<'a> PlanView<'a> {
+    /// The sender's own plan in its share `v`.
+    fn own(v: &'a [f64], np: usize) -> Self {
+        Self { state: std::array::from_fn(|i| v[i]), u: &v[SHARE_HEADER..SHARE_HEADER + 3 * np] }
+    }
+    /// The plan of the `slot`-th neighbour the sender forwarded in its share `v`, with its age
+    /// (None when the sender had none).
+    fn forwarded(v: &'a [f64], np: usize, slot: usize) -> Option<(u64, Self)> {
+        let off = SHARE_HEADER + 3 * np + slot * forwarded_len(np);
+        let age = v[off];
+        (age >= 1.0).then(|| {
+            (age as u64, Self { state: std::array::from_fn(|i| v[off + 1 + i]), u: &v[off + 7..off + 7 + 3 * np] })
+        })
+    }
+}
+
+/// A plan made `age` steps before step k, brought to step k (at `t_s`): X̃ over t_{k+1} …
+/// t_{k+N_p} against the desired trajectory `traj`, the states past the plan's end extrapolated
+/// with its last force held. None when `age` is 0 or beyond the horizon.
+fn aligned_error(hz: &Horizon, traj: &Trajectory, plan: &PlanView<'_>, age: u64, t_s: f64) -> Option<DVector<f64>> {
+    let np = hz.np;
+    let age = age as usize;
+    if age == 0 || age > np {
+        return None;
+    }
+    let xs = hz.pred.states(&plan.state, plan.u);
+    let u_last = [plan.u[3 * np - 3], plan.u[3 * np - 2], plan.u[3 * np - 1]];
+    let mut err = DVector::zeros(6 * np);
+    // X[q] = x(t_{k_data + 1 + q}); step k needs x(t_{k+p}) = X[p + age − 1], p = 1..N_p.
+    let mut x: [f64; 6] = std::array::from_fn(|i| xs[6 * (np - 1) + i]);
+    for p in 1..=np {
+        let q = p + age - 1;
+        if q < np {
+            x = std::array::from_fn(|i| xs[6 * q + i]);
+        } else {
+            x = hz.disc.step(&x, &u_last);
+        }
+        let d = traj.at(t_s + p as f64 * hz.dt_s).state();
+        for i in 0..6 {
+            err[6 * (p - 1) + i] = x[i] - d[i];
+        }
+    }
+    Some(err)
 }
 
 /// One neighbour j as MU i sees it.
@@ -74,8 +138,9 @@ struct Nbr {
     /// aᵢⱼ: its weight in eᵢ.
     a_ij: f64,
     traj: Trajectory,
-    /// Length of j's own neighbour list (its share length depends on it).
-    degree: usize,
+    /// j's own neighbour list (its share length depends on its length) and c_j = d_j + b_j.
+    their_list: Vec<u32>,
+    c_j: f64,
     /// When j reads i and neighbours' costs are on: (slot of i in j's list, aⱼᵢ, λⱼ/λᵢ).
     pareto: Option<(usize, f64, f64)>,
     /// j's latest share and the step it was made at.
@@ -98,6 +163,12 @@ pub struct TsnrAemc {
     /// cᵢ = dᵢ + bᵢ.
     c_i: f64,
     neighbours: Vec<Nbr>,
+    /// With `force_cost = "thrust"`: the total weight on this MU's force (r + Σⱼ(λⱼ/λᵢ)rᵢⱼ).
+    thrust_cost: Option<f64>,
+    /// Every MU's desired trajectory (index id − 1): a neighbour's ρ needs its neighbours'.
+    trajs: Vec<Trajectory>,
+    /// aᵢⱼ, the same for every edge.
+    adjacency: f64,
     link_delay_steps: u64,
     forecast: Box<dyn TensionForecast>,
     plan: Plan,
@@ -146,7 +217,8 @@ impl TsnrAemc {
                     id: j,
                     a_ij: a,
                     traj: trajectory_of(cfg, j),
-                    degree: theirs.len(),
+                    their_list: theirs.clone(),
+                    c_j: a * theirs.len() as f64 + m.pinning_weight,
                     pareto,
                     latest: Vec::new(),
                     k_data: None,
@@ -161,7 +233,7 @@ impl TsnrAemc {
             }
         }
         let hz = Horizon::new(Cw::new(model.orbit_radius_m, model.mass_kg), dt_s, np, m.q_position, m.q_velocity);
-        let qp = BoxQp::new(&hz.hessian(w_error, w_force), model.thrust_max_n, m.max_iter);
+        let qp = BoxQp::new(&hz.hessian(w_error, w_force), model.thrust_max_n, m.max_iter, m.qp_solver);
         Self {
             np,
             traj: trajectory_of(cfg, id),
@@ -170,6 +242,9 @@ impl TsnrAemc {
             bound_n: model.thrust_max_n,
             c_i,
             neighbours,
+            thrust_cost: (m.force_cost == ForceCost::Thrust).then_some(w_force),
+            trajs: (1..=n).map(|j| trajectory_of(cfg, j)).collect(),
+            adjacency: a,
             link_delay_steps: u64::from(link_delay_steps),
             forecast,
             plan: Plan::default(),
@@ -185,37 +260,47 @@ impl TsnrAemc {
         }
     }
 
+    /// The QP this agent solves (its last problem, its statistics).
+    pub fn qp(&self) -> &BoxQp {
+        &self.qp
+    }
+
     /// Neighbour `nb`'s latest share brought to step `k` (None: treat it as on track).
     fn aligned(&self, nb: &Nbr, k: u64, t_s: f64) -> Option<Aligned> {
         let np = self.np;
-        let age = (k - nb.k_data?) as usize;
-        if age == 0 || age > np {
-            return None;
-        }
-        let v = &nb.latest;
-        let (u_off, x_off) = (SHARE_HEADER, SHARE_HEADER + 3 * np);
-        let u_last = [v[u_off + 3 * np - 3], v[u_off + 3 * np - 2], v[u_off + 3 * np - 1]];
-        let mut err = DVector::zeros(6 * np);
-        // X[q] = x(t_{k_data + 1 + q}); step k needs x(t_{k+p}) = X[p + age − 1], p = 1..N_p.
-        let mut x: [f64; 6] = std::array::from_fn(|i| v[x_off + 6 * (np - 1) + i]);
-        for p in 1..=np {
-            let q = p + age - 1;
-            if q < np {
-                x = std::array::from_fn(|i| v[x_off + 6 * q + i]);
-            } else {
-                x = self.hz.disc.step(&x, &u_last);
-            }
-            let d = nb.traj.at(t_s + p as f64 * self.hz.dt_s).state();
-            for i in 0..6 {
-                err[6 * (p - 1) + i] = x[i] - d[i];
-            }
-        }
+        let age = k - nb.k_data?;
+        let err = aligned_error(&self.hz, &nb.traj, &PlanView::own(&nb.latest, np), age, t_s)?;
         let rho = nb.pareto.map(|(slot, _, _)| {
-            let off = SHARE_HEADER + 9 * np + 6 * np * slot;
+            let rho = self.rho_of(nb, slot);
             // Row r is horizon step p = r/6 + 1, at index p + age − 1 of j's sequence.
-            DVector::from_fn(6 * np, |r, _| v[off + 6 * (r / 6 + age).min(np - 1) + r % 6])
+            let age = age as usize;
+            DVector::from_fn(6 * np, |r, _| rho[6 * (r / 6 + age).min(np - 1) + r % 6])
         });
         Some(Aligned { err, rho })
+    }
+
+    /// ρⱼ\ᵢ = cⱼX̃ⱼ − Σ_{m∈Nⱼ, m≠i} aⱼₘX̃ₘ over j's horizon, rebuilt as j computed it at the step of
+    /// its latest share (`slot`: this MU's place in j's list): X̃ⱼ from j's own plan, X̃ₘ from the
+    /// copies of its neighbours' shares that j forwarded.
+    fn rho_of(&self, nb: &Nbr, slot: usize) -> DVector<f64> {
+        let np = self.np;
+        let v = &nb.latest;
+        let k_j = nb.k_data.expect("called for a neighbour heard from");
+        let t_j = k_j as f64 * self.hz.dt_s;
+        let own = PlanView::own(v, np);
+        let x_pred = self.hz.pred.states(&own.state, own.u);
+        let xd = self.hz.desired(&nb.traj, t_j);
+        let mut rho = (x_pred - xd) * nb.c_j;
+        for (s, &m) in nb.their_list.iter().enumerate() {
+            if s == slot {
+                continue;
+            }
+            let Some((age, plan)) = PlanView::forwarded(v, np, s) else { continue };
+            if let Some(err) = aligned_error(&self.hz, &self.trajs[m as usize - 1], &plan, age, t_j) {
+                rho -= &err * self.adjacency;
+            }
+        }
+        rho
     }
 
     /// The linear term q of the QP at step k, and the neighbours' aligned errors (for ρ).
@@ -327,6 +412,13 @@ impl Algorithm for TsnrAemc {
         let (q, aligned) = self.linear_term(k, t_s, &free);
         self.heard = aligned.iter().filter(|a| a.is_some()).count();
         let offset: Vec<f64> = self.t_hat.iter().flatten().copied().collect();
+        let mut q = q;
+        if let Some(w_force) = self.thrust_cost {
+            // R on u = û − T̂: w|U − T̂|² adds −2w T̂ᵀU (the constant dropped).
+            for (qi, t) in q.iter_mut().zip(&offset) {
+                *qi -= 2.0 * w_force * t;
+            }
+        }
         let (status, iterations, x) = self.qp.solve(q.as_slice(), &offset);
         (self.status, self.iterations) = (status, iterations);
         if let Some(u) = x {
@@ -339,20 +431,17 @@ impl Algorithm for TsnrAemc {
         out.command.extend_from_slice(&self.u_n);
         push_header(&mut out.values, &self.sensed, &self.u_n);
         out.values.extend_from_slice(&u_plan);
-        let x_pred = self.hz.pred.states(&x0, &u_plan);
-        out.values.extend_from_slice(x_pred.as_slice());
-        // ρᵢ\ₘ = cᵢX̃ᵢ − Σ_{m'≠m} aᵢₘ′X̃ₘ′ for each neighbour m, in list order.
-        let own = (x_pred - xd) * self.c_i;
-        for skip in 0..self.neighbours.len() {
-            let mut rho = own.clone();
-            for (s, (nb, al)) in self.neighbours.iter().zip(&aligned).enumerate() {
-                if s != skip
-                    && let Some(al) = al
-                {
-                    rho -= &al.err * nb.a_ij;
+        // Each neighbour's share as used here, for the neighbours' ρ (see the share layout).
+        for nb in &self.neighbours {
+            match nb.k_data {
+                Some(kd) => {
+                    out.values.push((k - kd) as f64);
+                    let plan = PlanView::own(&nb.latest, np);
+                    out.values.extend_from_slice(&plan.state);
+                    out.values.extend_from_slice(plan.u);
                 }
+                None => out.values.extend(std::iter::repeat_n(0.0, forwarded_len(np))),
             }
-            out.values.extend_from_slice(rho.as_slice());
         }
         debug_assert_eq!(out.values.len(), share_len(np, self.neighbours.len()));
     }
@@ -362,7 +451,7 @@ impl Algorithm for TsnrAemc {
         let Some(k_data) = self.k.checked_sub(self.link_delay_steps) else { return };
         for n in neighbours {
             let Some(nb) = self.neighbours.iter_mut().find(|nb| nb.id == n.id) else { continue };
-            if n.values.len() != share_len(self.np, nb.degree) {
+            if n.values.len() != share_len(self.np, nb.their_list.len()) {
                 self.bad_shares += 1;
                 continue;
             }
@@ -413,16 +502,49 @@ mod tests {
         let traj = trajectory_of(cfg, j);
         let wobble = |i: usize| ((i * 7919 + j as usize * 104_729) % 1000) as f64 / 1000.0 - 0.5;
         let mut v = Vec::new();
-        v.extend(traj.at(0.0).state());
+        let x = traj.at(0.0).state();
+        v.extend((0..6).map(|i| x[i] + 0.2 * wobble(2000 + i)));
         v.extend([0.5, -0.25, 0.125]);
         v.extend((0..3 * NP).map(|i| 3.0 * wobble(i)));
-        for p in 0..NP {
-            let d = traj.at((p + 1) as f64 * DT_S).state();
-            v.extend((0..6).map(|i| d[i] + 0.4 * wobble(1000 + 6 * p + i)));
+        // Its neighbours' shares of the step before, as it forwards them: agents 1 and 4.
+        for m in square()[j as usize - 1].clone() {
+            v.push(1.0);
+            let xm = trajectory_of(cfg, m).at(0.0).state();
+            v.extend((0..6).map(|i| xm[i] + 0.3 * wobble(3000 + 10 * m as usize + i)));
+            v.extend((0..3 * NP).map(|i| 2.0 * wobble(5000 + 100 * m as usize + i)));
         }
-        v.extend((0..12 * NP).map(|i| 0.3 * wobble(5000 + i)));
         assert_eq!(v.len(), share_len(NP, 2));
         v
+    }
+
+    /// The state and plan in a share (`slot` None: the sender's own, else the forwarded one).
+    fn plan_in(share: &[f64], slot: Option<usize>) -> ([f64; 6], Vec<f64>) {
+        let off = slot.map_or(0, |s| 9 + 3 * NP + s * (7 + 3 * NP) + 1);
+        let u_off = slot.map_or(9, |_| off + 6);
+        (std::array::from_fn(|i| share[off + i]), share[u_off..u_off + 3 * NP].to_vec())
+    }
+
+    /// MU `id`'s plan (state `x`, forces `u`) made `age` steps before the step at `t_s`, seen
+    /// from that step: x(t_s + pΔt) − x_d(t_s + pΔt), p = 1..N_p, by stepping the ZOH model
+    /// (written out here independently of the module's condensed form).
+    fn plan_error(cfg: &TsnrFormation, id: u32, x: [f64; 6], u: &[f64], age: usize, t_s: f64) -> DVector<f64> {
+        let disc = Cw::new(MODEL.orbit_radius_m, MODEL.mass_kg).discretise(DT_S);
+        let traj = trajectory_of(cfg, id);
+        let mut xs = Vec::new();
+        let mut state = x;
+        for p in 0..NP + age {
+            let f = [u[3 * p.min(NP - 1)], u[3 * p.min(NP - 1) + 1], u[3 * p.min(NP - 1) + 2]];
+            state = disc.step(&state, &f);
+            xs.push(state);
+        }
+        let mut e = DVector::zeros(6 * NP);
+        for p in 1..=NP {
+            let d = traj.at(t_s + p as f64 * DT_S).state();
+            for i in 0..6 {
+                e[6 * (p - 1) + i] = xs[p + age - 1][i] - d[i];
+            }
+        }
+        e
     }
 
     /// Step k = 1 of agent 1 after hearing `shares` (of agents 2 and 3) at step 0. Returns the
@@ -437,20 +559,10 @@ mod tests {
 
     /// Neighbour j's states X_j(t_2 … t_{N_p+1}) from its step-0 share, the tail extrapolated
     /// with its last planned force (as the module documents), minus its desired states.
+    /// Neighbour j's error X̃ⱼ(t_2 … t_{N_p+1}) from its step-0 share, as agent 1 sees it at step 1.
     fn neighbour_error(cfg: &TsnrFormation, j: u32, share: &[f64]) -> DVector<f64> {
-        let disc = Cw::new(MODEL.orbit_radius_m, MODEL.mass_kg).discretise(DT_S);
-        let traj = trajectory_of(cfg, j);
-        let xs = |q: usize| -> [f64; 6] { std::array::from_fn(|i| share[9 + 3 * NP + 6 * q + i]) };
-        let u_last = [share[9 + 3 * NP - 3], share[9 + 3 * NP - 2], share[9 + 3 * NP - 1]];
-        let mut e = DVector::zeros(6 * NP);
-        for p in 1..=NP {
-            let x = if p < NP { xs(p) } else { disc.step(&xs(NP - 1), &u_last) };
-            let d = traj.at((1 + p) as f64 * DT_S).state();
-            for i in 0..6 {
-                e[6 * (p - 1) + i] = x[i] - d[i];
-            }
-        }
-        e
+        let (x, u) = plan_in(share, None);
+        plan_error(cfg, j, x, &u, 1, DT_S)
     }
 
     fn qbar(cfg: &TsnrFormation) -> DMatrix<f64> {
@@ -505,6 +617,32 @@ mod tests {
     }
 
     #[test]
+    fn a_cost_on_the_thrust_shifts_the_plan_by_h_inverse_r_t_hat() {
+        // Unbounded, own cost only: H U = −q/2 (total) and H U' = −q/2 + r T̂ (thrust), so
+        // H (U' − U) = r T̂ stacked, with H = c²ΓᵀQ̄Γ + r I.
+        let mut cfg = case1("aemc");
+        let model = TsnrModel { thrust_max_n: 1e4, ..MODEL };
+        cfg.mpc.as_mut().unwrap().neighbour_costs = false;
+        let x1 = offset_state(&cfg, DT_S, [0.3, -0.2, 0.1]);
+        let t_hat = [1.0, -2.0, 0.5];
+        let (total, _) = run_agent_1(&cfg, &model, x1, t_hat);
+        cfg.mpc.as_mut().unwrap().force_cost = ForceCost::Thrust;
+        let (thrust, _) = run_agent_1(&cfg, &model, x1, t_hat);
+        let m = cfg.mpc.as_ref().unwrap();
+        let c = m.adjacency_weight * 2.0 + m.pinning_weight;
+        let pred = Cw::new(MODEL.orbit_radius_m, MODEL.mass_kg).discretise(DT_S).prediction(NP);
+        let h =
+            pred.gamma.transpose() * qbar(&cfg) * &pred.gamma * (c * c) + DMatrix::identity(3 * NP, 3 * NP) * m.r_force;
+        let du = DVector::from_fn(3 * NP, |i, _| thrust.values[9 + i] - total.values[9 + i]);
+        let lhs = h * du;
+        for i in 0..3 * NP {
+            let want = m.r_force * t_hat[i % 3];
+            assert!((lhs[i] - want).abs() < 1e-9, "row {i}: {} vs {want}", lhs[i]);
+        }
+        assert!(lhs.iter().any(|x| x.abs() > 1e-4), "the two plans must differ");
+    }
+
+    #[test]
     fn with_neighbour_costs_the_solution_is_stationary_for_the_pareto_sum() {
         let cfg = case1("aemc");
         let model = TsnrModel { thrust_max_n: 1e4, ..MODEL };
@@ -518,10 +656,16 @@ mod tests {
         let xd = DVector::from_fn(6 * NP, |r, _| traj.at((1 + r / 6 + 1) as f64 * DT_S).state()[r % 6]);
         let errs: Vec<DVector<f64>> =
             [(2, &shares[0]), (3, &shares[1])].iter().map(|(j, sh)| neighbour_error(&cfg, *j, sh)).collect();
-        // ρⱼ\₁: agent 1 is slot 0 in both 2's list [1, 4] and 3's list [1, 4]; tail held.
-        let rhos: Vec<DVector<f64>> = shares
+        // ρⱼ\₁ = cⱼX̃ⱼ − aⱼ₄X̃₄ over j's horizon at step 0: agent 1 is slot 0 in both 2's list [1, 4]
+        // and 3's list [1, 4], agent 4 slot 1, forwarded with age 1. Seen at step 1, tail held.
+        let rhos: Vec<DVector<f64>> = [(2, &shares[0]), (3, &shares[1])]
             .iter()
-            .map(|sh| DVector::from_fn(6 * NP, |r, _| sh[9 + 9 * NP + 6 * (r / 6 + 1).min(NP - 1) + r % 6]))
+            .map(|(j, sh)| {
+                let (xj, uj) = plan_in(sh, None);
+                let (x4, u4) = plan_in(sh, Some(1));
+                let rho = plan_error(&cfg, *j, xj, &uj, 0, 0.0) * c - plan_error(&cfg, 4, x4, &u4, 1, 0.0) * a;
+                DVector::from_fn(6 * NP, |r, _| rho[6 * (r / 6 + 1).min(NP - 1) + r % 6])
+            })
             .collect();
         let q_bar = qbar(&cfg);
         let norm2 = |e: &DVector<f64>| (e.transpose() * &q_bar * e)[0];

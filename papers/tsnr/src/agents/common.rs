@@ -83,7 +83,7 @@ pub fn base_row(out: &mut Vec<f64>, u_n: &V3, sensed: &Sensed, d: &Desired) {
 
 #[cfg(test)]
 pub mod test_support {
-    //! Case 1 of reference.md as a configuration, and a closed loop of four MUs under pure CW
+    //! Case 1 of papers/tsnr/README.md as a configuration, and a closed loop of four MUs under pure CW
     //! dynamics (no net) exchanging shares as the lockstep driver does.
 
     use crate::config::formation::{TsnrFormation, TsnrModel, TsnrMpc, TsnrSmc, TsnrTrajectory, TsnrWaypoints};
@@ -91,7 +91,7 @@ pub mod test_support {
     use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 
     pub const DT_S: f64 = 0.1;
-    /// reference.md: r₀ = 42 164 km, MU mass 10 kg, 5 N per axis.
+    /// our choices: r₀ = 42 164 km, MU mass 10 kg, 5 N per axis.
     pub const MODEL: TsnrModel = TsnrModel { orbit_radius_m: 42_164e3, mass_kg: 10.0, thrust_max_n: 5.0 };
 
     /// The square net's graph: each MU reads the two corners it shares an edge with.
@@ -99,7 +99,7 @@ pub mod test_support {
         vec![vec![2, 3], vec![1, 4], vec![1, 4], vec![2, 3]]
     }
 
-    /// reference.md Case 1: start, deployed (x = −5, ±2.55), approach (x = 3), closed (x = 5, ±0.5).
+    /// The paper's Case 1: start, deployed (x = −5, ±2.55), approach (x = 3), closed (x = 5, ±0.5).
     pub fn case1(method: &str) -> TsnrFormation {
         let signs = [(1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0)];
         let agents = signs
@@ -130,6 +130,10 @@ pub mod test_support {
                 tension_forecast: crate::config::formation::Forecast::HoldMeasured,
                 tension_weights: None,
                 max_iter: 100,
+                qp_solver: Default::default(),
+                tension_oracle: None,
+                oracle_series: None,
+                force_cost: Default::default(),
             }),
             smc: Some(TsnrSmc { lambda_per_s: 1.5, switching_gain_mps2: 0.3, boundary_layer_mps: 0.2 }),
         }

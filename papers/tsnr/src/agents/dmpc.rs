@@ -8,7 +8,8 @@
 //! min_U (ΓU + Φx_k − X^d)ᵀ Q̄ (ΓU + Φx_k − X^d) + Uᵀ R̄ U   s.t.  |û_{k+p} − T_k| ≤ ū per axis,
 //! ```
 //!
-//! (U the total-force sequence, as in AEMC), and applies u_k = û_k − T_k. This is AEMC's QP with
+//! (U the total-force sequence, as in AEMC), and applies u_k = û_k − T_k. With `force_cost =
+//! "thrust"` (an ablation) R weighs the thrust U − T instead of U. This is AEMC's QP with
 //! every neighbour term removed and the consensus error reduced to the tracking error x̃ᵢ. AEMC
 //! weighs a common error of the whole formation (every MU off by the same x̃) with bᵢ²Q, so with
 //! bᵢ = 1 (the scenario files) Q and R mean the same thing in both; AEMC adds weight on the
@@ -17,7 +18,7 @@
 //! A failed solve (any status but Solved) is counted, and the MU applies the previous solve's
 //! plan for this step, less the measured tension, saturated (zero thrust before any plan).
 
-use crate::config::formation::{TsnrFormation, TsnrModel};
+use crate::config::formation::{ForceCost, TsnrFormation, TsnrModel};
 use crate::cw::Cw;
 use crate::trajectory::{Desired, Trajectory};
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
@@ -32,6 +33,8 @@ pub struct TsnrDmpc {
     hz: Horizon,
     qp: BoxQp,
     bound_n: f64,
+    /// With `force_cost = "thrust"`: R, then on the thrust instead of the total force.
+    thrust_cost: Option<f64>,
     plan: Plan,
     // This step, for telemetry.
     sensed: Sensed,
@@ -47,12 +50,13 @@ impl TsnrDmpc {
         let m = cfg.mpc.as_ref().expect("validated: dmpc needs [algorithm.mpc]");
         let np = m.horizon_steps as usize;
         let hz = Horizon::new(Cw::new(model.orbit_radius_m, model.mass_kg), dt_s, np, m.q_position, m.q_velocity);
-        let qp = BoxQp::new(&hz.hessian(1.0, m.r_force), model.thrust_max_n, m.max_iter);
+        let qp = BoxQp::new(&hz.hessian(1.0, m.r_force), model.thrust_max_n, m.max_iter, m.qp_solver);
         Self {
             traj: trajectory_of(cfg, id),
             hz,
             qp,
             bound_n: model.thrust_max_n,
+            thrust_cost: (m.force_cost == ForceCost::Thrust).then_some(m.r_force),
             plan: Plan::default(),
             sensed: Sensed::default(),
             desired: Desired::default(),
@@ -62,14 +66,25 @@ impl TsnrDmpc {
         }
     }
 
+    /// The QP this agent solves (its last problem, its statistics).
+    pub fn qp(&self) -> &BoxQp {
+        &self.qp
+    }
+
     /// The command at t_k from the state and the measured tension.
     fn command(&mut self, k: u64, t_s: f64) -> V3 {
         let np = self.hz.np;
         let x0 = self.sensed.state;
         let t = self.sensed.tension_n;
         let s = self.hz.free_error(&x0, &self.hz.desired(&self.traj, t_s));
-        let q: DVector<f64> = (&self.hz.gt_q * s) * 2.0;
+        let mut q: DVector<f64> = (&self.hz.gt_q * s) * 2.0;
         let offset: Vec<f64> = (0..np).flat_map(|_| t).collect();
+        if let Some(r) = self.thrust_cost {
+            // R on u = û − T: r|U − T|² adds −2r Tᵀ U.
+            for (qi, t) in q.iter_mut().zip(&offset) {
+                *qi -= 2.0 * r * t;
+            }
+        }
         let (status, iterations, x) = self.qp.solve(q.as_slice(), &offset);
         (self.status, self.iterations) = (status, iterations);
         if let Some(u) = x {

@@ -100,6 +100,9 @@ pub enum Forecast {
     HoldMeasured,
     /// The paper's estimator (7)–(11), weights from `tension_weights`.
     Dnn,
+    /// The tension an earlier run recorded (`tension_oracle`, its plant telemetry), replayed:
+    /// an upper bound on what a forecast can give (`crate::oracle_forecast`).
+    Oracle,
 }
 
 impl Forecast {
@@ -107,6 +110,7 @@ impl Forecast {
         match self {
             Forecast::HoldMeasured => "hold-measured",
             Forecast::Dnn => "dnn",
+            Forecast::Oracle => "oracle",
         }
     }
 }
@@ -174,9 +178,46 @@ pub struct TsnrMpc {
     /// train`), relative to the scenario file. Its Δt must be `scenario.dt_s`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tension_weights: Option<String>,
-    /// Interior-point iteration limit per QP.
+    /// With `tension_forecast = "oracle"`: an earlier run's `telemetry/plant.csv`, relative to
+    /// the scenario file; it must cover this run's steps at this Δt.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tension_oracle: Option<String>,
+    /// That file's tension series, loaded by validation.
+    #[serde(skip)]
+    pub oracle_series: Option<Arc<crate::oracle_forecast::Series>>,
+    /// Which force R (and R_ij) weighs; see [`ForceCost`].
+    #[serde(default)]
+    pub force_cost: ForceCost,
+    /// Iteration limit per QP (of the active-set method, and of Clarabel's interior point).
     #[serde(default = "default_max_iter")]
     pub max_iter: u32,
+    /// How the QP is solved; see [`QpSolver`].
+    #[serde(default)]
+    pub qp_solver: QpSolver,
+}
+
+/// `algorithm.mpc.force_cost`: the force the MPCs' weight R is on.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ForceCost {
+    /// The total force ûᵢ = uᵢ + T̂ᵢ, as the paper's cost (23) writes it.
+    #[default]
+    Total,
+    /// The MU's own thrust uᵢ = ûᵢ − T̂ᵢ (what it spends fuel on): R|û − T̂|², the same Hessian
+    /// and a linear term −2R T̂.
+    Thrust,
+}
+
+/// `algorithm.mpc.qp_solver`: how AEMC and DMPC solve their box-constrained QP (25).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum QpSolver {
+    /// Exact primal–dual active set, warm-started from the previous step's active set; Clarabel
+    /// when it stalls (`crate::agents::active_set`).
+    #[default]
+    ActiveSet,
+    /// Clarabel's interior point alone (tolerances 1e-10).
+    Clarabel,
 }
 
 fn default_true() -> bool {
@@ -210,11 +251,34 @@ pub struct TsnrSmc {
 
 impl TsnrFormation {
     /// Values per share for a graph whose largest neighbour list has `max_degree` entries:
-    /// the header, plus for AEMC Uᵢ (3N_p), Xᵢ (6N_p) and one 6N_p residual per neighbour.
+    /// the header, plus for AEMC Uᵢ (3N_p) and each neighbour's age, state and plan (7 + 3N_p;
+    /// `crate::agents::aemc` has the layout).
     pub fn share_values(&self, max_degree: usize) -> usize {
         match (self.method, &self.mpc) {
-            (Method::Aemc, Some(m)) => SHARE_HEADER + (9 + 6 * max_degree) * m.horizon_steps as usize,
+            (Method::Aemc, Some(m)) => crate::agents::aemc::share_len(m.horizon_steps as usize, max_degree),
             _ => SHARE_HEADER,
+        }
+    }
+}
+
+impl TsnrFormation {
+    /// AEMC agent `id`'s tension forecast, as `mpc.tension_forecast` selects it (validated: the
+    /// MPC table is present and its files load).
+    pub fn forecast_of(&self, id: u32) -> Box<dyn crate::forecast::TensionForecast> {
+        let m = self.mpc.as_ref().expect("validated: aemc needs [algorithm.mpc]");
+        match m.tension_forecast {
+            Forecast::HoldMeasured => Box::new(crate::forecast::HoldMeasured),
+            Forecast::Oracle => {
+                let series = m.oracle_series.clone().expect("validated: oracle needs tension_oracle, loaded");
+                Box::new(crate::oracle_forecast::OracleForecast::new(series, id))
+            }
+            Forecast::Dnn => {
+                let path = m.tension_weights.as_deref().expect("validated: dnn needs tension_weights");
+                // Validation loaded this file already; it can only fail here if it changed since.
+                let predictor = crate::predictor::TensionPredictor::load(std::path::Path::new(path))
+                    .unwrap_or_else(|e| panic!("{e}"));
+                Box::new(crate::dnn_forecast::DnnForecast::new(Arc::new(predictor), id))
+            }
         }
     }
 }
@@ -252,6 +316,29 @@ fn validate_algorithm(c: &mut Checker, s: &Scenario, a: &mut TsnrFormation) {
         }
         if let Some(path) = &mut m.tension_weights {
             *path = s.resolve_path(path);
+        }
+        if let Some(path) = &mut m.tension_oracle {
+            *path = s.resolve_path(path);
+        }
+        match (m.tension_forecast, &m.tension_oracle) {
+            (Forecast::Oracle, None) => c.problems.push(Problem::new(
+                "algorithm.mpc.tension_oracle",
+                None,
+                "required by tension_forecast = \"oracle\" (an earlier run's telemetry/plant.csv)",
+            )),
+            (Forecast::Oracle, Some(path)) => {
+                let steps = s.n_steps();
+                match crate::oracle_forecast::load(std::path::Path::new(path), n as u32, steps, s.scenario.dt_s) {
+                    Ok(series) => m.oracle_series = Some(Arc::new(series)),
+                    Err(e) => c.fail("algorithm.mpc.tension_oracle", format!("{path:?}"), e),
+                }
+            }
+            (_, Some(path)) => c.fail(
+                "algorithm.mpc.tension_oracle",
+                format!("{path:?}"),
+                "only used with tension_forecast = \"oracle\"",
+            ),
+            _ => {}
         }
         match (m.tension_forecast, &m.tension_weights) {
             (Forecast::Dnn, None) => c.problems.push(Problem::new(
@@ -415,17 +502,7 @@ impl AlgorithmSetup for TsnrFormation {
         let model = TsnrModel::of(&plant.config);
         match self.method {
             Method::Aemc => {
-                let m = self.mpc.as_ref().expect("validated: aemc needs [algorithm.mpc]");
-                let forecast: Box<dyn crate::forecast::TensionForecast> = match m.tension_forecast {
-                    Forecast::HoldMeasured => Box::new(crate::forecast::HoldMeasured),
-                    Forecast::Dnn => {
-                        let path = m.tension_weights.as_deref().expect("validated: dnn needs tension_weights");
-                        // Validation loaded this file already; it can only fail here if it changed since.
-                        let predictor = crate::predictor::TensionPredictor::load(std::path::Path::new(path))
-                            .unwrap_or_else(|e| panic!("{e}"));
-                        Box::new(crate::dnn_forecast::DnnForecast::new(Arc::new(predictor), id))
-                    }
-                };
+                let forecast = self.forecast_of(id);
                 let graph = setup.topology().neighbours;
                 Box::new(TsnrAemc::new(self, &model, dt_s, setup.run.link_delay_steps, id, &graph, forecast))
             }
@@ -490,6 +567,42 @@ mod tests {
             assert_eq!(s.to_toml().unwrap(), again.to_toml().unwrap());
             assert_eq!(again.algorithm_as::<TsnrFormation>(), Some(a));
         }
+    }
+
+    #[test]
+    fn the_clarabel_case_differs_from_case_1_in_its_solver_alone() {
+        let read = |name: &str| -> toml::Table {
+            let path = format!("{}/../../topologies/{name}", env!("CARGO_MANIFEST_DIR"));
+            std::fs::read_to_string(path).unwrap().parse().unwrap()
+        };
+        let (mut a, mut b) = (read("tsnr-case1.toml"), read("tsnr-case1-clarabel.toml"));
+        for t in [&mut a, &mut b] {
+            let sc = t["scenario"].as_table_mut().unwrap();
+            sc.remove("name");
+            sc.remove("description");
+        }
+        let solver = |t: &mut toml::Table| {
+            t["algorithm"].as_table_mut().unwrap()["mpc"].as_table_mut().unwrap().remove("qp_solver")
+        };
+        assert_eq!(solver(&mut a), Some(toml::Value::String("active-set".into())));
+        assert_eq!(solver(&mut b), Some(toml::Value::String("clarabel".into())));
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn an_oracle_forecast_needs_a_readable_series_covering_the_run() {
+        let base = case(1).replace("tension_forecast = \"dnn\"", "tension_forecast = \"oracle\"");
+        let e = problems(&base);
+        assert!(
+            e.contains("algorithm.mpc.tension_weights") && e.contains("only used with tension_forecast = \"dnn\""),
+            "{e}"
+        );
+        let no_weights = base.replace("tension_weights = \"../papers/tsnr/weights/tension.safetensors\"\n", "");
+        let e = problems(&no_weights);
+        assert!(e.contains("algorithm.mpc.tension_oracle: required by tension_forecast = \"oracle\""), "{e}");
+        let missing = no_weights.replace("max_iter = 100", "max_iter = 100\ntension_oracle = \"no/such/plant.csv\"");
+        let e = problems(&missing);
+        assert!(e.contains("algorithm.mpc.tension_oracle = ") && e.contains("no/such/plant.csv"), "{e}");
     }
 
     #[test]

@@ -1,12 +1,12 @@
 //! Training data for the tension predictor, generated with our own net plant
-//! (`crate::net`, our parameters, 1 ms RK4 sub-steps).
+//! (`crate::net`, our parameters (papers/tsnr/README.md), 1 ms RK4 sub-steps).
 //!
 //! Each trajectory is a random capture manoeuvre in the paper's three phases (Sec. 4: "capture
 //! trajectories with random position of the target"), flown by a simple tracker:
 //! - start: the folded net at the paper's start ([−10, ±0.75, ±0.75] m), each coordinate
 //!   perturbed by up to ±5 cm, at rest;
 //! - deploy (to t₁ ≈ 10 s): a square of half-width 2.2–2.7 m (slack to 8 % stretch; 2.55 m is
-//!   our 2 % "micro-tension") centred near x = −5 m, turned by up to ±0.15 rad;
+//!   the 2 % "micro-tension") centred near x = −5 m, turned by up to ±0.15 rad;
 //! - approach (to t₂ ≈ 20 s): the same size, 1.5–2.5 m before the target along the net's normal,
 //!   the net plane turned by ψ ∈ ±0.7 rad about z (Case 2 turns it by ≈ 0.5 rad);
 //! - close (to 30 s): a square of half-width 0.3–0.8 m around the target, which sits at x ∈ [3, 7],
