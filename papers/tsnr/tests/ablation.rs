@@ -74,7 +74,8 @@ fn bad_arguments_and_scenarios_exit_2_naming_the_fault() {
     let ring = repo_root().join("topologies/consensus-ring.toml");
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec![case1.to_str().unwrap(), "--oracle-iterations", "0"], "--oracle-iterations 0: must be 1..=10"),
-        (vec![case1.to_str().unwrap(), "--duration", "-1"], "--duration -1: must be > 0 s"),
+        // clap reads a bare `-1` as a flag; the `=` form reaches our range check.
+        (vec![case1.to_str().unwrap(), "--duration=-1"], "--duration -1: must be > 0 s"),
         (vec![ring.to_str().unwrap()], "needs a tsnr-formation scenario"),
         (vec![case1.to_str().unwrap(), case1.to_str().unwrap()], "given twice"),
         (vec!["no/such/file.toml"], "cannot read"),
