@@ -3,6 +3,10 @@
 //! Observation (VTXO): a leader (Outer Satellite, agent 1) and a follower (Inner Satellite,
 //! agent 2) 1 km apart in a highly elliptical orbit.
 //!
+//! The paper's kinds are the `vtxo` plant and the `vtxo-formation` algorithm ([`kinds`]), and
+//! [`Vtxo`] its registry entry (host side: [`analysis`], [`figures`]). Scenarios:
+//! `topologies/vtxo*.toml`.
+//!
 //! What is here (the flight layer; the supervisor and the DNNs are not):
 //! - the truth: [`plant::VtxoPlant`] (orbits, attitude, actuators, disturbances, sensors);
 //! - the agents: [`leader::Leader`] and [`follower::Follower`] (MEKF, attitude laws, relative
@@ -17,13 +21,16 @@
 
 pub mod acs;
 pub mod actuators;
+pub mod analysis;
 pub mod attitude;
 pub mod attitude_control;
 pub mod config;
 pub mod config_algorithm;
 pub mod config_plant;
 pub mod ecrv;
+pub mod figures;
 pub mod follower;
+pub mod kinds;
 pub mod layout;
 pub mod leader;
 pub mod mekf;
@@ -39,13 +46,48 @@ pub mod sensors;
 pub mod share;
 pub mod sim;
 
+use std::path::Path;
+
+use cohort_host::{FigureSource, Metrics, PaperHost, RunView};
 use cohort_runtime::model::Algorithm;
+use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind, Setup};
 use cohort_scenario::Problem;
 
 use acs::Acs;
 use config_algorithm::VtxoAlgorithmConfig;
 use config_plant::VtxoPlantConfig;
 use quaternion::{Quat, V3};
+
+/// The paper (see the crate docs).
+pub struct Vtxo;
+
+impl Paper for Vtxo {
+    fn name(&self) -> &'static str {
+        "vtxo"
+    }
+    fn plants(&self) -> &'static [&'static dyn PlantKind] {
+        &[&kinds::VtxoPlantKind]
+    }
+    fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
+        &[&kinds::VtxoFormationKind]
+    }
+}
+
+impl PaperHost for Vtxo {
+    fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
+        // The join needs both of this paper's sides.
+        if run.setup.plant_as::<VtxoPlantConfig>().is_none()
+            || run.setup.algorithm_as::<VtxoAlgorithmConfig>().is_none()
+        {
+            return Ok(Metrics::new());
+        }
+        analysis::analyse(run.dirs)
+    }
+    fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
+        let p = setup.plant_as::<VtxoPlantConfig>()?;
+        Some(Box::new(figures::VtxoFigures::of(p)))
+    }
+}
 
 /// The plant of a scenario, or every problem with its key path.
 pub fn build_plant(
