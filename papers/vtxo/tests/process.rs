@@ -190,3 +190,53 @@ fn the_science_sweep_draws_the_initial_attitude_from_the_seed() {
     assert!(e.iter().all(|x| *x > 1e-4 && *x < 1.0), "{e:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `orchestrator vtxo sec7` on shortened copies of the three Sec. 7 scenarios: every case at each
+/// step and with the accelerometer bias off, the scenario's own step multi-process and the others
+/// in-process, in one table with the sign law's predicted band.
+#[test]
+fn the_sec7_campaign_runs_every_case_and_tabulates_it() {
+    let _g = heavy();
+    let dir = scratch_dir("vtxo-sec7-campaign");
+    let topo = dir.join("topologies");
+    std::fs::create_dir_all(&topo).unwrap();
+    for f in ["vtxo-sec7.toml", "vtxo-sec7-sat.toml", "vtxo-sec7-pd.toml"] {
+        let text = std::fs::read_to_string(cohort::repo_root().join("topologies").join(f)).unwrap();
+        assert!(text.contains("duration_s = 9300.0"), "{f}");
+        std::fs::write(topo.join(f), text.replace("duration_s = 9300.0", "duration_s = 2.0")).unwrap();
+    }
+    let out = dir.join("table");
+    let o = orchestrator_command()
+        .args(["vtxo", "sec7", "--steps-ms", "10,5", "--topologies"])
+        .arg(&topo)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("running the orchestrator");
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let csv = std::fs::read_to_string(out.join("sec7.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 12, "{csv}");
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"));
+    for r in &rows {
+        let (law, dt, mode) = (r[col("law")], r[col("dt_s")], r[col("mode")]);
+        assert_eq!(mode, if dt == "0.01" { "multi-process" } else { "reference" }, "{r:?}");
+        let band: f64 = r[col("band_m")].parse().unwrap();
+        match law {
+            "SMC-sign" => assert_eq!(band, dt.parse::<f64>().unwrap() / 2.0, "Z = k = 1: Z·dt/(2k) = dt/2"),
+            _ => assert!(band.is_nan(), "{r:?}"),
+        }
+        let dir = std::path::PathBuf::from(r[col("run_dir")]);
+        let scenario = std::fs::read_to_string(dir.join("scenario.toml")).unwrap();
+        let bias_off = scenario.lines().any(|l| l == "bias_3sigma_mps2 = 0.0");
+        assert_eq!(bias_off, r[col("accelerometer_bias")] == "false", "{}", dir.display());
+        assert!(dir.join("plots/vtxo_formation.png").is_file());
+    }
+    let md = std::fs::read_to_string(out.join("sec7.md")).unwrap();
+    assert!(
+        md.contains("| SMC-sign | 10 | on | multi-process |") && md.contains("| PD | 5 | off | reference |"),
+        "{md}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
