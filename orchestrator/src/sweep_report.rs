@@ -1,5 +1,5 @@
 //! The results of `orchestrator sweep`: every seed's summary metrics (`sweep.csv`) and their
-//! distribution (`sweep.md`), with seed 000's published criterion checked when its metrics are
+//! distribution (`sweep.md`: min, median, max, mean and the nearest-rank 99th percentile), with seed 000's published criterion checked when its metrics are
 //! present.
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -15,6 +15,12 @@ fn stats(xs: &mut [f64]) -> (f64, f64, f64, f64) {
     let n = xs.len();
     let median = if n % 2 == 1 { xs[n / 2] } else { 0.5 * (xs[n / 2 - 1] + xs[n / 2]) };
     (xs[0], median, xs[n - 1], xs.iter().sum::<f64>() / n as f64)
+}
+
+/// The 99th percentile by the nearest-rank rule (the ⌈0.99 n⌉-th smallest) of sorted `xs`.
+fn p99(sorted: &[f64]) -> f64 {
+    let n = sorted.len();
+    sorted[((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1]
 }
 
 fn g(x: f64) -> String {
@@ -88,10 +94,11 @@ pub fn write(root: &Path, file: &Path, mode: &str, rows: &[(u64, BTreeMap<String
         md.push('\n');
     }
     if !other.is_empty() {
-        md.push_str("| metric | min | median | max | mean |\n|---|---|---|---|---|\n");
+        md.push_str("| metric | min | median | max | mean | p99 |\n|---|---|---|---|---|---|\n");
         for (k, xs) in &other {
-            let (lo, med, hi, mean) = stats(&mut xs.clone());
-            let _ = writeln!(md, "| {k} | {} | {} | {} | {} |", g(lo), g(med), g(hi), g(mean));
+            let mut sorted = xs.clone();
+            let (lo, med, hi, mean) = stats(&mut sorted);
+            let _ = writeln!(md, "| {k} | {} | {} | {} | {} | {} |", g(lo), g(med), g(hi), g(mean), g(p99(&sorted)));
         }
         md.push('\n');
     }
@@ -120,4 +127,18 @@ pub fn write(root: &Path, file: &Path, mode: &str, rows: &[(u64, BTreeMap<String
     let md_path = root.join("sweep.md");
     std::fs::write(&md_path, &md).map_err(|e| format!("{}: {e}", md_path.display()))?;
     Ok(md)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn p99_is_the_nearest_rank() {
+        let xs: Vec<f64> = (1..=100).map(f64::from).collect();
+        assert_eq!(p99(&xs), 99.0);
+        let xs: Vec<f64> = (1..=10).map(f64::from).collect();
+        assert_eq!(p99(&xs), 10.0);
+        assert_eq!(p99(&[3.0]), 3.0);
+    }
 }

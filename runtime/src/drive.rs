@@ -98,6 +98,8 @@ pub struct DriveParams {
     pub degrade: bool,
     /// `run.checkpoint_every_steps` (0: none).
     pub checkpoint_every: u64,
+    /// `run.telemetry_every_steps` (≥ 1): see [`DriveParams::writes_row`].
+    pub telemetry_every: u64,
     /// The agent's algorithm kind (names checkpoints).
     pub algorithm_kind: String,
     /// How long a hold for the orchestrator (a process fault) may take, at most.
@@ -124,6 +126,7 @@ impl DriveParams {
             faults: Arc::new(FaultPlan::default()),
             degrade: true,
             checkpoint_every: 0,
+            telemetry_every: 1,
             algorithm_kind: String::new(),
             hold_timeout: Duration::from_secs(60),
             key: None,
@@ -153,6 +156,7 @@ impl DriveParams {
             faults: Arc::new(FaultPlan::from_scenario(s)),
             degrade: s.run.on_agent_loss == cohort_scenario::OnAgentLoss::Degrade,
             checkpoint_every: s.run.checkpoint_every_steps,
+            telemetry_every: s.run.telemetry_every_steps.max(1),
             algorithm_kind: setup.algorithm.kind().to_string(),
             hold_timeout: Duration::from_secs_f64(s.run.startup_timeout_s + 2.0 * s.run.step_timeout_s),
             key: None,
@@ -213,6 +217,11 @@ impl DriveParams {
     fn t_s(&self, k: u64) -> f64 {
         // Sim time from the step index, never accumulated, so every process agrees exactly.
         k as f64 * self.dt_s
+    }
+
+    /// Whether step k gets a telemetry row: every `telemetry_every`-th step from 0, and the last.
+    pub fn writes_row(&self, k: u64) -> bool {
+        k.is_multiple_of(self.telemetry_every.max(1)) || k + 1 == self.n_steps
     }
 }
 
@@ -758,9 +767,12 @@ fn plant_loop<T: Transport + ?Sized>(
             for (i, u) in commands.iter().enumerate() {
                 model.apply_command(i as u32 + 1, u);
             }
-            row.clear();
-            row.push(t_s);
-            model.row(&mut row);
+            let write_row = p.writes_row(k);
+            if write_row {
+                row.clear();
+                row.push(t_s);
+                model.row(&mut row);
+            }
             let round_ns = monotonic_ns() - round_start;
             model.advance(p.dt_s);
             if let Some(rate) = p.realtime_rate {
@@ -780,7 +792,9 @@ fn plant_loop<T: Transport + ?Sized>(
             if k + 1 < p.n_steps {
                 send_measurements(waiter.t, model, rng, k + 1, &mut roster)?;
             }
-            tel.row(k, &row).map_err(io("plant telemetry"))?;
+            if write_row {
+                tel.row(k, &row).map_err(io("plant telemetry"))?;
+            }
             timing.row_u64(&[k, round_ns, inbox.latency_max_ns]).map_err(io("plant timing"))?;
             report.steps_completed = k + 1;
             if last_progress.elapsed() >= PROGRESS_EVERY {
@@ -1384,10 +1398,12 @@ fn agent_loop<T: Transport + ?Sized>(
             }
             let mut compute_ns = monotonic_ns() - compute_start;
             // Formatting the row overlaps the wait for the neighbours' shares.
-            row.clear();
-            row.push(t_s);
-            algo.row(&mut row);
-            tel.row(k, &row).map_err(io("agent telemetry"))?;
+            if p.writes_row(k) {
+                row.clear();
+                row.push(t_s);
+                algo.row(&mut row);
+                tel.row(k, &row).map_err(io("agent telemetry"))?;
+            }
 
             let wait_start = monotonic_ns();
             if delay == 0 {
@@ -1514,6 +1530,8 @@ mod tests {
         wrong_key: Option<u32>,
         /// A measurement to slip into agent 1's inbox before the run starts.
         inject: Option<Measurement>,
+        /// `run.telemetry_every_steps` (0 taken as 1).
+        telemetry_every: u64,
     }
 
     /// Run 4 agents on a ring; returns (plant report, agent reports, in-memory shared values).
@@ -1531,6 +1549,7 @@ mod tests {
         if let Some(m) = &setup.inject {
             bus.endpoint(Proc::Plant).send_measurement(1, m).unwrap();
         }
+        p.telemetry_every = setup.telemetry_every.max(1);
         let shared: Vec<Arc<Mutex<Vec<f64>>>> = (0..4).map(|_| Arc::new(Mutex::new(Vec::new()))).collect();
         std::thread::scope(|sc| {
             let plant = {
@@ -1598,6 +1617,34 @@ mod tests {
         let xs: Vec<f64> = last.split(',').skip(2).map(|v| v.parse().unwrap()).collect();
         let spread = xs.iter().cloned().fold(f64::MIN, f64::max) - xs.iter().cloned().fold(f64::MAX, f64::min);
         assert!(spread < 1.0, "spread {spread} (started at 5.5)");
+        let _ = std::fs::remove_dir_all(&base);
+    }
+
+    /// `run.telemetry_every_steps`: rows at k = 0, n, 2n, … and the last step, each equal to
+    /// the same step's row of a run that writes every step (the models run every step either way).
+    #[test]
+    fn a_telemetry_stride_keeps_every_nth_row_and_the_last_unchanged() {
+        let base = std::env::temp_dir().join(format!("cohort-drive-stride-{}", std::process::id()));
+        let (all, every7) = (base.join("all"), base.join("every7"));
+        let (pa, _, _) = run(&all, Setup::default());
+        let (pb, rb, _) = run(&every7, Setup { telemetry_every: 7, ..Default::default() });
+        assert!(pa.error.is_none() && pb.error.is_none() && rb.iter().all(|r| r.error.is_none()));
+        for f in ["plant.csv", "agent-1.csv", "agent-4.csv"] {
+            let full = std::fs::read_to_string(all.join("telemetry").join(f)).unwrap();
+            let strided = std::fs::read_to_string(every7.join("telemetry").join(f)).unwrap();
+            let (mut full, mut strided) = (full.lines(), strided.lines());
+            assert_eq!(full.next(), strided.next(), "{f}: header");
+            let want: Vec<&str> = full
+                .filter(|l| l.split(',').next().unwrap().parse::<u64>().unwrap() % 7 == 0 || l.starts_with("49,"))
+                .collect();
+            let got: Vec<&str> = strided.collect();
+            let ks: Vec<&str> = got.iter().map(|l| l.split(',').next().unwrap()).collect();
+            assert_eq!(ks, ["0", "7", "14", "21", "28", "35", "42", "49"], "{f}");
+            assert_eq!(got, want, "{f}");
+        }
+        // Timing keeps every step.
+        let timing = std::fs::read_to_string(every7.join("timing/plant.csv")).unwrap();
+        assert_eq!(timing.lines().count(), 51);
         let _ = std::fs::remove_dir_all(&base);
     }
 

@@ -122,6 +122,20 @@ pub struct RunSettings {
     /// the same user, at a cost measured by `orchestrator bench`.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub authenticate: bool,
+    /// The plant and every agent write a telemetry row at every this-many-th step (k = 0, n,
+    /// 2n, …) and at the last step; 1: every step. A long run at a short step (millions of steps)
+    /// would otherwise write gigabytes. Only the telemetry files: timing, checkpoints and the
+    /// plant's own metrics still see every step.
+    #[serde(default = "default_telemetry_every_steps", skip_serializing_if = "is_one")]
+    pub telemetry_every_steps: u64,
+}
+
+fn default_telemetry_every_steps() -> u64 {
+    1
+}
+
+fn is_one(x: &u64) -> bool {
+    *x == 1
 }
 
 fn default_on_agent_loss() -> OnAgentLoss {
@@ -160,6 +174,7 @@ impl Default for RunSettings {
             on_agent_loss: default_on_agent_loss(),
             checkpoint_every_steps: default_checkpoint_every_steps(),
             authenticate: false,
+            telemetry_every_steps: default_telemetry_every_steps(),
         }
     }
 }

@@ -86,6 +86,9 @@ fn run(c: &mut Checker, r: &RunSettings) {
     if r.link_delay_steps > 1 {
         c.fail("run.link_delay_steps", r.link_delay_steps, "must be 0 or 1");
     }
+    if r.telemetry_every_steps == 0 {
+        c.fail("run.telemetry_every_steps", 0, "must be ≥ 1 (1: a telemetry row at every step)");
+    }
     for (path, x) in [("run.step_timeout_s", r.step_timeout_s), ("run.startup_timeout_s", r.startup_timeout_s)] {
         if !c.positive(path, x) {
             continue;

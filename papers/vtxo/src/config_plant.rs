@@ -24,6 +24,9 @@ fn arcmin_rad(x: f64) -> f64 {
 }
 const G0_MPS2: f64 = 9.80665;
 
+/// Why a vtxo scenario has exactly two agents.
+pub const AGENTS_REASON: &str = "the vtxo plant flies exactly 2 agents: 1 = leader, 2 = follower";
+
 /// `[plant]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -361,17 +364,22 @@ impl Default for MetricsConfig {
 }
 
 impl VtxoPlantConfig {
-    /// Every problem, with key paths under `prefix` (normally "plant").
+    /// Every problem, with key paths under `prefix` (normally "plant"), and the agent count and
+    /// step a standalone loop ([`crate::sim`]) is given (a scenario's are checked by the runtime
+    /// and [`crate::kinds`]).
     pub fn validate(&self, prefix: &str, n_agents: u32, dt_s: f64) -> Vec<Problem> {
         let mut c = Checker::new();
         if n_agents != 2 {
-            c.fail(
-                "agents",
-                Some(n_agents.to_string()),
-                "the vtxo plant flies exactly 2 agents: 1 = leader, 2 = follower",
-            );
+            c.fail("agents", Some(n_agents.to_string()), AGENTS_REASON);
         }
         c.positive("scenario.dt_s", dt_s);
+        c.problems.extend(self.validate_section(prefix));
+        c.problems
+    }
+
+    /// Every problem of the section itself, with key paths under `prefix`.
+    pub fn validate_section(&self, prefix: &str) -> Vec<Problem> {
+        let mut c = Checker::new();
         self.orbit.check(&mut c, &format!("{prefix}.orbit"));
         self.spacecraft.check(&mut c, &format!("{prefix}.spacecraft"));
         self.attitude.check(&mut c, &format!("{prefix}.attitude"));

@@ -130,7 +130,8 @@ impl Algorithm for Follower {
         self.acs.row(out);
         out.extend((self.mass_kg * self.u_cmd_mps2).iter());
         out.extend(self.nav.r_rel_m.iter());
-        out.extend(self.nav.v_rel_mps.unwrap_or_default().iter());
+        // NaN until v̂_rel is known (step 0): a zero would read as an estimate.
+        out.extend(self.nav.v_rel_mps.unwrap_or(V3::repeat(f64::NAN)).iter());
         out.extend(self.sliding().iter());
     }
 }

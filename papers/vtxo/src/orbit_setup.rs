@@ -8,7 +8,7 @@
 //!   the leader (91)–(90), which is not on the follower orbit of Table D.9 (at the same anomaly the
 //!   two orbits are ≈ 950 km apart at apogee): `FollowerStart::Relative` (default) places it so;
 //!   `FollowerStart::Elements` puts it on its own Table D.9 orbit at the leader's true anomaly.
-//! - a = 45 300 km gives a period of 2π√(a³/μ) = 95 945 s = 26.65 h, not the 32.5 h the paper
+//! - a = 45 300 km gives a period of 2π√(a³/μ) = 95 953 s = 26.65 h, not the 32.5 h the paper
 //!   quotes (that needs a ≈ 51 700 km). The plant flies Table D.9; see the crate README.
 
 use nalgebra::Matrix3;
