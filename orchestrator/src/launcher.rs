@@ -91,7 +91,7 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
             return (outcome, summary::build(s, dirs, o));
         }
     };
-    let (outcome, mode) = match coupled(s, dirs, &progress) {
+    let (mut outcome, mode) = match coupled(s, dirs, &progress) {
         Some(o) => o,
         None if reference => (reference::launch(s, dirs, run_id, key, &progress), "reference"),
         None => (supervise::launch(s, dirs, &IoxRun::new(run_id).with_key(key), &progress), "multi-process"),
@@ -110,6 +110,7 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
             timeline: outcome.timeline.clone(),
         },
     );
+    mark_divergence(s, &mut outcome, &mut summary);
     // Derived quantities come from the telemetry alone, so a partial run gets them too.
     let view = RunView { setup: s, dirs };
     for host in cohort_registry::hosts_of(s) {
@@ -136,6 +137,28 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
         }
     }
     (outcome, summary)
+}
+
+/// A failed run whose cause is a process's model going non-finite has diverged: its status says
+/// so and `diverged_at_s` gives the time. A divergence study (`scenario.expect = "diverge"`)
+/// ends so by design: exit code 0.
+fn mark_divergence(s: &Setup, outcome: &mut LaunchOutcome, summary: &mut summary::Summary) {
+    use cohort_runtime::record::ErrorKind;
+    if outcome.status != "failed" {
+        return;
+    }
+    let Some(e) = summary.processes.iter().filter_map(|p| p.error.as_ref()).find(|e| e.kind == ErrorKind::Diverged)
+    else {
+        return;
+    };
+    if let Some(t) = e.t_s {
+        summary.metrics.insert("diverged_at_s".into(), t);
+    }
+    outcome.status = "diverged";
+    summary.status = "diverged";
+    if s.scenario.expect == cohort_scenario::Expect::Diverge {
+        outcome.exit_code = 0;
+    }
 }
 
 /// Create the run directory and write the resolved scenario into it.

@@ -432,8 +432,28 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         s.scenario.seed,
         dirs.root.display()
     );
+    for n in &s.notes {
+        errln!("note: {n}");
+    }
+    if reference && let Some(c) = s.algorithm.coupled() {
+        errln!(
+            "note: --reference changes nothing here: the scenario is {} by design; there is no \
+             separate multi-process run to compare",
+            c.describe()
+        );
+    }
     let (outcome, summary) = run_once(&s, &dirs, reference, true);
-    if let Some(e) = &outcome.error {
+    let expect_divergence = s.scenario.expect == cohort_scenario::Expect::Diverge;
+    if outcome.status == "diverged" {
+        // A divergence is a result: its time and last metrics are printed and plotted like a
+        // completed run's (the run directory holds the telemetry up to it).
+        let e = outcome.error.as_deref().unwrap_or_default();
+        if expect_divergence {
+            errln!("diverged, as this study expects (scenario.expect = \"diverge\"): {e}");
+        } else {
+            errln!("error: {e}");
+        }
+    } else if let Some(e) = &outcome.error {
         // The root cause first, then what it left undone.
         errln!("error: {e}");
         for w in &summary.warnings {
@@ -442,8 +462,12 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         errln!("run directory (partial): {}", dirs.root.display());
         return ExitCode::from(outcome.exit_code);
     }
+    if expect_divergence && outcome.status == "ok" {
+        errln!("warning: scenario.expect = \"diverge\", but the run completed every step");
+    }
     outln!(
-        "done: {} steps in {:.3} s wall ({:.0} steps/s); run directory: {}",
+        "{}: {} steps in {:.3} s wall ({:.0} steps/s); run directory: {}",
+        if outcome.status == "diverged" { "diverged" } else { "done" },
         summary.steps_completed,
         outcome.wall_s,
         summary.steps_per_s,

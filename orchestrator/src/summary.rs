@@ -34,7 +34,7 @@ pub struct Summary {
     pub seed: u64,
     pub mode: &'static str,
     pub run_id: String,
-    /// "ok", "failed" or "interrupted".
+    /// "ok", "degraded", "diverged", "failed" or "interrupted".
     pub status: &'static str,
     pub error: Option<String>,
     pub n_agents: u32,

@@ -64,7 +64,11 @@ impl RunError {
             RunError::Io { .. } => ErrorKind::Io,
             RunError::Diverged { .. } => ErrorKind::Diverged,
         };
-        crate::record::ProcessError::new(kind, self.to_string())
+        let e = crate::record::ProcessError::new(kind, self.to_string());
+        match self {
+            RunError::Diverged { t_s, .. } => e.at(*t_s),
+            _ => e,
+        }
     }
 }
 

@@ -144,6 +144,8 @@ pub struct Setup {
     pub algorithm: Arc<dyn AlgorithmSetup>,
     /// Names of the papers whose kinds it uses (the plant's first), for the host side.
     pub papers: Vec<&'static str>,
+    /// What configuring took differently from the file on purpose ([`Checker::note`]).
+    pub notes: Vec<String>,
 }
 
 impl Deref for Setup {
@@ -319,7 +321,8 @@ pub fn configure(scenario: Scenario, papers: &[&'static dyn Paper]) -> Result<Se
     if !names.contains(&algorithm_paper) {
         names.push(algorithm_paper);
     }
-    let setup = Setup { parsed: scenario, plant, algorithm, papers: names };
+    let notes = std::mem::take(&mut c.notes);
+    let setup = Setup { parsed: scenario, plant, algorithm, papers: names, notes };
     if ids_ok {
         setup.message_sizes().check(&mut c);
     }

@@ -138,11 +138,18 @@ pub enum ErrorKind {
 pub struct ProcessError {
     pub kind: ErrorKind,
     pub message: String,
+    /// Simulated time of the failure, s, when it belongs to a step (a divergence).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t_s: Option<f64>,
 }
 
 impl ProcessError {
     pub fn new(kind: ErrorKind, message: impl Into<String>) -> Self {
-        Self { kind, message: message.into() }
+        Self { kind, message: message.into(), t_s: None }
+    }
+    /// The same error, at simulated time `t_s`.
+    pub fn at(self, t_s: f64) -> Self {
+        Self { t_s: Some(t_s), ..self }
     }
     pub fn is_stop(&self) -> bool {
         self.kind == ErrorKind::Stopped
@@ -174,7 +181,9 @@ pub struct ProcessReport {
     /// Peak resident set size of the process, kB (the whole process in the reference run).
     #[serde(default)]
     pub max_rss_kb: u64,
-    /// Headline metrics (plant only).
+    /// Headline metrics (plant only). JSON has no NaN: a non-finite metric is written as `null`
+    /// and read back as NaN, so a diverged run's report still loads.
+    #[serde(deserialize_with = "metrics_with_nulls")]
     pub metrics: std::collections::BTreeMap<String, f64>,
     /// Why the process ended early, if it did.
     pub error: Option<ProcessError>,
@@ -194,6 +203,13 @@ pub struct ProcessReport {
     /// times (see [`crate::model::Algorithm::solver_stats`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solver: Option<crate::solver_stats::SolverStats>,
+}
+
+fn metrics_with_nulls<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<std::collections::BTreeMap<String, f64>, D::Error> {
+    let m: std::collections::BTreeMap<String, Option<f64>> = serde::Deserialize::deserialize(d)?;
+    Ok(m.into_iter().map(|(k, v)| (k, v.unwrap_or(f64::NAN))).collect())
 }
 
 /// A latency histogram (HdrHistogram, 3 significant figures, 100 ns to 60 s) kept by a receiver

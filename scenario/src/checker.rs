@@ -7,6 +7,9 @@ use crate::error::Problem;
 /// passed, so callers can skip checks that depend on it. Papers validate their sections with it.
 pub struct Checker {
     pub problems: Vec<Problem>,
+    /// What the configuration changed or ignored without it being an error (`path = value:
+    /// reason`); `launch` prints each as a `note:` line.
+    pub notes: Vec<String>,
 }
 
 impl Default for Checker {
@@ -17,7 +20,11 @@ impl Default for Checker {
 
 impl Checker {
     pub fn new() -> Self {
-        Self { problems: Vec::new() }
+        Self { problems: Vec::new(), notes: Vec::new() }
+    }
+    /// Record a note: something taken differently from the file, on purpose.
+    pub fn note(&mut self, path: &str, value: impl std::fmt::Display, reason: &str) {
+        self.notes.push(format!("{path} = {value}: {reason}"));
     }
     pub fn fail(&mut self, path: impl Into<String>, value: impl ToString, reason: impl Into<String>) {
         self.problems.push(Problem::new(path, Some(value.to_string()), reason));

@@ -73,6 +73,7 @@ pub fn parse_all(text: &str, file: &Path, overrides: &Overrides) -> Result<(Scen
     let Some(mut s) = s else { return Err(err(problems)) };
     s.source = text.into();
     s.faults_in_file = faults_in_file;
+    s.duration_from_command_line = overrides.duration_s.is_some();
     Ok((s, problems))
 }
 
@@ -192,6 +193,7 @@ fn parse_table(mut table: toml::Table, base_dir: std::path::PathBuf) -> (Option<
                 base_dir,
                 source: "".into(),
                 faults_in_file,
+                duration_from_command_line: false,
             })
         }
         _ => None,

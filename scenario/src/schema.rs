@@ -24,6 +24,9 @@ pub struct Scenario {
     pub source: std::sync::Arc<str>,
     /// How many of `faults` the file holds; the rest came from the command line (`--fault`).
     pub faults_in_file: usize,
+    /// `scenario.duration_s` came from the command line (`--duration`), not the file: a paper
+    /// may then drop what falls past the shortened end (with a note) instead of refusing it.
+    pub duration_from_command_line: bool,
 }
 
 /// A `kind`-tagged table (`[plant]`, `[algorithm]`): the kind, and the rest of the table as
@@ -46,6 +49,26 @@ pub struct Meta {
     /// Lockstep step, s: the plant's and the agents' sample time.
     pub dt_s: f64,
     pub duration_s: f64,
+    /// What a run of this scenario is meant to do: `"complete"` (the default), or `"diverge"`
+    /// for a divergence study, whose run ends with the status `diverged`, the time and the last
+    /// metrics, and exit code 0.
+    #[serde(default, skip_serializing_if = "Expect::is_complete")]
+    pub expect: Expect,
+}
+
+/// `scenario.expect`: see [`Meta::expect`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Expect {
+    #[default]
+    Complete,
+    Diverge,
+}
+
+impl Expect {
+    pub fn is_complete(&self) -> bool {
+        *self == Expect::Complete
+    }
 }
 
 /// How a process waits for its next message (`run.wait`). Never changes results, only speed

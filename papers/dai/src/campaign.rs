@@ -72,6 +72,8 @@ pub(crate) fn edited(
     s.algorithm.body = table_of(a)?;
     // A diverged loop ends on the step timeout: keep that short.
     s.run.step_timeout_s = s.run.step_timeout_s.min(2.0);
+    // Whether a variant diverges is what the tables measure, not what its run expects.
+    s.scenario.expect = cohort_scenario::Expect::Complete;
     launcher.configure(s, name).map_err(|e| e.to_string())
 }
 

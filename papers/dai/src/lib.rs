@@ -56,7 +56,7 @@ enum DaiCmd {
         /// Output directory (tables, plots, and every run's directory under runs/).
         #[arg(long, default_value = "runs/dai-tables")]
         out: PathBuf,
-        /// Directory holding dai.toml and dai-sampled.toml.
+        /// Directory holding dai.toml and dai-sampled-diverges.toml.
         #[arg(long, default_value = "topologies")]
         topologies: PathBuf,
         /// Control periods of the sampled-data study, ms (none: skip the study).

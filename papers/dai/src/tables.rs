@@ -1,7 +1,7 @@
 //! `orchestrator dai tables`: seed 004's tables, measured. Runs the paper's case (Sec. 3.2,
 //! `topologies/dai.toml`) continuous-time for the three laws (the analogue of Table 2) and for the
 //! specific law at r = 0.5, 1, 2, 4 (Table 4), then the sampled-data study: the multi-process
-//! runtime (`topologies/dai-sampled.toml`) at control periods 0.1, 1, 10 and 100 ms for each law.
+//! runtime (`topologies/dai-sampled-diverges.toml`) at control periods 0.1, 1, 10 and 100 ms for each law.
 //! Writes `dai-tables.md` and one CSV per table beside the published values, and PNG plots of the
 //! tracking errors and the inertia estimates. Every run keeps its own run directory under
 //! `runs/`, so each figure can be traced to its telemetry.
@@ -46,7 +46,7 @@ pub fn run_all(o: &Options, launcher: &dyn Launcher) -> Result<String, String> {
         launcher.load(&path, &Overrides::default()).map_err(|e| e.to_string())
     };
     let cont = load("dai.toml")?;
-    let sampled = load("dai-sampled.toml")?;
+    let sampled = load("dai-sampled-diverges.toml")?;
     let base = cont.algorithm_as::<DaiAttitude>().ok_or("dai.toml: not dai-attitude")?;
     if !base.is_continuous() {
         return Err("topologies/dai.toml must have algorithm.coupling = \"continuous\"".into());
@@ -92,7 +92,7 @@ pub fn run_all(o: &Options, launcher: &dyn Launcher) -> Result<String, String> {
          e = ω − ω_d (rad/s), mean and sample deviation over all components and output samples; parameter \
          error ‖θ̂ − θ‖/‖θ‖; final ratios at the last sample. Each run's directory is under `runs/`.\n",
         o.topologies.join("dai.toml").display(),
-        o.topologies.join("dai-sampled.toml").display()
+        o.topologies.join("dai-sampled-diverges.toml").display()
     );
 
     // Table 2 analogue.

@@ -85,7 +85,7 @@ fn sampled_data_multi_process_run_is_bit_identical_to_the_reference() {
     let dir = scratch_dir("dai-sampled");
     // The specific law's sampled loop diverges after ≈ 2.4 s at 1 ms (a finding, see the note):
     // 2 s keep it finite; the general law (matrix-exponential update) runs the full 5 s.
-    for (file, duration) in [("dai-sampled.toml", "2"), ("dai-sampled-general.toml", "5")] {
+    for (file, duration) in [("dai-sampled-diverges.toml", "2"), ("dai-sampled-general.toml", "5")] {
         let mp = dir.join(format!("{file}-mp"));
         let rf = dir.join(format!("{file}-ref"));
         let o = launch(&topology(file), &mp, &["--duration", duration]);
