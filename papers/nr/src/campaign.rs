@@ -196,34 +196,6 @@ pub fn summarise(o: &CampaignOptions, runs: &[RunResult]) -> Vec<MethodSummary> 
         .collect()
 }
 
-/// The summaries as a Markdown table.
-pub fn markdown(s: &[MethodSummary]) -> String {
-    let mut t = String::from(
-        "| method | runs | error median (m) | p99 (m) | max (m) | mean ± std (m) | ≤ 200 m | Δv median / max (m/s) | > budget | step p50 / p99 (ms) | ≤ b_e(t_f) |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
-    );
-    for m in s {
-        t += &format!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} ± {:.2} | {:.0} % | {:.3} / {:.3} | {} | {:.3} / {:.3} | {} |\n",
-            m.method.name(),
-            m.runs,
-            m.error_median_m,
-            m.error_p99_m,
-            m.error_max_m,
-            m.error_mean_m,
-            m.error_std_m,
-            100.0 * m.share_within_200m,
-            m.dv_median_mps,
-            m.dv_max_mps,
-            m.runs_over_dv_budget,
-            1e3 * m.compute_p50_s,
-            1e3 * m.compute_p99_s,
-            m.within_bound.map_or("–".to_string(), |k| format!("{k}/{}", m.runs)),
-        );
-    }
-    t
-}
-
 /// Per-ISO comparisons of Neural-Rendezvous with every other method of the campaign: the share
 /// of ISOs where NR's delivery error is smaller, and NR's Δv over the other's (median, max, and
 /// how many ISOs exceed 1.25×), as Markdown (empty without NR runs).
