@@ -144,6 +144,13 @@ fn stopped(launcher: &dyn Launcher) -> Result<(), CommandError> {
     }
 }
 
+/// Every run of `o`; a signal stops them between runs (the runs under way finish first).
+fn fly(o: &CampaignOptions, launcher: &dyn Launcher) -> Result<Vec<RunResult>, CommandError> {
+    let runs = run_all(o, &|| launcher.interrupted().is_some());
+    stopped(launcher)?;
+    runs.map_err(CommandError::failed)
+}
+
 /// The sweeps fly the methods of the campaign that use the SN-DNN.
 fn learned(methods: &[Method]) -> Vec<Method> {
     [Method::NeuralRendezvous, Method::SnDnn].into_iter().filter(|m| methods.contains(m)).collect()
@@ -158,7 +165,7 @@ fn dt_sweep(p: &Plan, launcher: &dyn Launcher) -> Result<Vec<SweepPoint>, Comman
     for &dt in &p.dts {
         stopped(launcher)?;
         let o = CampaignOptions { methods: learned(&p.base.methods), dt_s: dt, ..p.base.clone() };
-        out.extend(points(&o, &run_all(&o).map_err(CommandError::failed)?, dt, "noisy"));
+        out.extend(points(&o, &fly(&o, launcher)?, dt, "noisy"));
     }
     Ok(out)
 }
@@ -186,7 +193,7 @@ fn gamma_sweep(
             let mut c = CampaignOptions { methods: learned(&p.base.methods), net: Some(net.clone()), ..p.base.clone() };
             c.plant.nav_scale = scale;
             c.algorithm.weights = Some(path.clone());
-            out.extend(points(&c, &run_all(&c).map_err(CommandError::failed)?, gamma, nav));
+            out.extend(points(&c, &fly(&c, launcher)?, gamma, nav));
         }
     }
     Ok(out)
@@ -215,7 +222,7 @@ pub fn run(a: &CampaignArgs, launcher: &dyn Launcher) -> Result<String, CommandE
     let started = Instant::now();
     let p = plan(a, launcher)?;
     std::fs::create_dir_all(&p.out).map_err(|e| CommandError::invalid(format!("--out {}: {e}", p.out.display())))?;
-    let runs = run_all(&p.base).map_err(CommandError::failed)?;
+    let runs = fly(&p.base, launcher)?;
     let mut rows: Vec<Row> =
         summarise(&p.base, &runs).into_iter().map(|s| Row { label: s.method.name().to_string(), summary: s }).collect();
     let mut all_runs: Vec<(String, RunResult)> = runs.iter().map(|r| ("noisy".to_string(), r.clone())).collect();
@@ -223,7 +230,7 @@ pub fn run(a: &CampaignArgs, launcher: &dyn Launcher) -> Result<String, CommandE
         stopped(launcher)?;
         let mut o = CampaignOptions { methods: vec![Method::Nmpc], ..p.base.clone() };
         o.plant.nav_scale = 0.0;
-        let perfect = run_all(&o).map_err(CommandError::failed)?;
+        let perfect = fly(&o, launcher)?;
         let s = summarise(&o, &perfect).remove(0);
         rows.push(Row { label: "nmpc, perfect navigation".into(), summary: s });
         all_runs.extend(perfect.into_iter().map(|r| ("perfect".to_string(), r)));
