@@ -47,6 +47,13 @@ pub trait PaperHost: Paper {
     fn trainers(&self) -> Vec<clap::Command> {
         Vec::new()
     }
+    /// Environment variables trainer `name` wants set before it starts (each only when the user
+    /// has not set it): e.g. the thread count of a library that reads it from the environment.
+    /// The orchestrator sets them while it is still single-threaded, before
+    /// [`PaperHost::run_trainer`].
+    fn trainer_env(&self, _name: &str) -> Vec<(&'static str, &'static str)> {
+        Vec::new()
+    }
     /// Run trainer `name` (one of [`PaperHost::trainers`]) with its own `matches`. Returns what
     /// to print on stdout.
     fn run_trainer(&self, name: &str, _matches: &clap::ArgMatches) -> Result<String, CommandError> {

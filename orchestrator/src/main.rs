@@ -245,7 +245,17 @@ fn main() -> ExitCode {
             };
             let host = HOSTS.iter().find(|h| h.trainers().iter().any(|t| t.get_name() == name));
             match host {
-                Some(h) => finish(h.run_trainer(name, sub)),
+                Some(h) => {
+                    for (key, value) in h.trainer_env(name) {
+                        if std::env::var_os(key).is_none() {
+                            // SAFETY: no other thread exists yet: `train` installs no signal
+                            // handler and nothing before this point spawns a thread, so nothing
+                            // can read the environment while it changes.
+                            unsafe { std::env::set_var(key, value) };
+                        }
+                    }
+                    finish(h.run_trainer(name, sub))
+                }
                 None => {
                     errln!("error: no trainer {name:?}");
                     ExitCode::from(EXIT_INVALID)

@@ -98,6 +98,13 @@ pub trait AlgorithmSetup: Send + Sync + Any {
     fn coupled(&self) -> Option<&dyn CoupledRun> {
         None
     }
+    /// Whether the agents need a connected communication graph (a decentralised method: the
+    /// default). An algorithm whose agents never read a neighbour's share (independent
+    /// spacecraft) says false: the graph's connectivity is then neither required by validation
+    /// nor watched when the roster changes.
+    fn needs_connected_graph(&self) -> bool {
+        true
+    }
     /// Non-numeric labels for the run's summary (e.g. which learning law ran).
     fn labels(&self) -> BTreeMap<String, String> {
         BTreeMap::new()
@@ -213,9 +220,13 @@ impl Setup {
     pub fn algorithm_as<T: 'static>(&self) -> Option<&T> {
         self.algorithm.as_any().downcast_ref()
     }
-    /// Every roster warning: the graph's, then the plant's.
+    /// Every roster warning: the graph's (if the algorithm needs it connected), then the plant's.
     pub fn roster_warnings(&self, live: &[bool]) -> Vec<String> {
-        let mut w = cohort_scenario::live_graph::warnings(&self.parsed.agents, live);
+        let mut w = if self.algorithm.needs_connected_graph() {
+            cohort_scenario::live_graph::warnings(&self.parsed.agents, live)
+        } else {
+            Vec::new()
+        };
         w.extend(self.plant.roster_warnings(&self.parsed, live));
         w
     }
@@ -313,6 +324,10 @@ pub fn configure(scenario: Scenario, papers: &[&'static dyn Paper]) -> Result<Se
     }
     let plant = plant_kind.and_then(|(_, k)| k.configure(&ctx, &mut c));
     let algorithm = algorithm_kind.and_then(|(_, k)| k.configure(&ctx, plant.as_deref(), &mut c));
+    // Checked unless the (configured) algorithm's agents never talk.
+    if algorithm.as_ref().is_none_or(|a| a.needs_connected_graph()) {
+        cohort_scenario::validate::connectivity(&mut c, &scenario.agents);
+    }
     let (Some(plant), Some(algorithm)) = (plant, algorithm) else {
         return Err(c.problems);
     };

@@ -101,7 +101,7 @@ fn run(c: &mut Checker, r: &RunSettings) {
     }
 }
 
-/// Ids, neighbour lists and connectivity. Returns whether ids are exactly 1..=N (later checks
+/// Ids and neighbour lists ([`connectivity`] is separate). Returns whether ids are exactly 1..=N (later checks
 /// index agents by id).
 fn agents(c: &mut Checker, agents: &[AgentConfig]) -> bool {
     let n = agents.len();
@@ -126,33 +126,38 @@ fn agents(c: &mut Checker, agents: &[AgentConfig]) -> bool {
             seen[a.id as usize] = true;
         }
     }
-    let mut nbrs_ok = true;
     for (k, a) in agents.iter().enumerate() {
         let mut listed = Vec::new();
         for (m, &j) in a.neighbours.iter().enumerate() {
             let path = format!("agents[{k}].neighbours[{m}]");
             if !agents.iter().any(|b| b.id == j) {
                 c.fail(path, j, "not an agent of this scenario");
-                nbrs_ok = false;
             } else if j == a.id {
                 c.fail(path, j, "an agent cannot be its own neighbour");
-                nbrs_ok = false;
             } else if listed.contains(&j) {
                 c.fail(path, j, "listed twice");
-                nbrs_ok = false;
             }
             listed.push(j);
         }
     }
-    if ids_ok && nbrs_ok && n > 1 {
-        connectivity(c, agents);
-    }
     ids_ok
 }
 
-/// The (undirected) communication graph must be connected: every decentralised method here needs
-/// it (information must be able to reach every agent).
-fn connectivity(c: &mut Checker, agents: &[AgentConfig]) {
+/// The (undirected) communication graph must be connected: a decentralised method needs it
+/// (information must be able to reach every agent). Not part of [`validate`]: the runtime asks
+/// the algorithm whether its agents talk at all (independent spacecraft do not). Checks nothing
+/// when the ids or neighbour lists are wrong ([`validate`] reports those).
+pub fn connectivity(c: &mut Checker, agents: &[AgentConfig]) {
+    let n = agents.len();
+    let ids_ok = {
+        let mut ids: Vec<u32> = agents.iter().map(|a| a.id).collect();
+        ids.sort_unstable();
+        ids.iter().enumerate().all(|(k, id)| *id as usize == k + 1)
+    };
+    let nbrs_ok = agents.iter().all(|a| a.neighbours.iter().all(|j| *j != a.id && (1..=n as u32).contains(j)));
+    if n < 2 || !ids_ok || !nbrs_ok {
+        return;
+    }
     let groups = crate::live_graph::components(agents, &vec![true; agents.len()]);
     if groups.len() > 1 {
         let g: Vec<String> = groups

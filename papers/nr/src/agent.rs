@@ -63,6 +63,8 @@ struct Outputs {
     b_s_mps: f64,
     drive_mps2: f64,
     scp_miss_m: f64,
+    /// The desired position p_d(t_k) being tracked (LVLH of the estimated ISO), NaN when none.
+    p_d_m: V3,
 }
 
 /// Everything that changes during a run (the checkpoint).
@@ -215,6 +217,7 @@ impl NrAgent {
         let k = d.node(t_s).expect("a fresh trajectory starts at t");
         let (u, tr) = self.min_norm_at(&r.x_hat, &d, k, &u_nom, r);
         self.st.out.v = tr.v;
+        self.st.out.p_d_m = pos(&d.x[k]);
         if with_bound {
             let (eps_p, eps_v) = relative_noise(r);
             if rebuilt || self.st.bound.is_none() {
@@ -286,11 +289,13 @@ impl NrAgent {
             }
             Method::Pd => {
                 let (d, k) = self.fixed_plan(inp);
+                self.st.out.p_d_m = pos(&d.x[k]);
                 let u = pd(&r.x_hat, &d.x[k], &d.u_n[k], r.m_kg, self.cfg.pd_lambda_per_s);
                 (u, d.u_n[k], MODE_TRACKING)
             }
             Method::RobustTracking => {
                 let (d, k) = self.fixed_plan(inp);
+                self.st.out.p_d_m = pos(&d.x[k]);
                 let (xd, pdd) = d.state_accel(k);
                 let tr = tracking(&r.x_hat, &xd, &pdd, self.cfg.lambda_per_s, r.m_kg, &OrbitRates::of(&r.iso_hat));
                 self.st.out.v = tr.v;
@@ -319,6 +324,9 @@ impl Algorithm for NrAgent {
             "b_s_mps",
             "drive_mps2",
             "scp_miss_m",
+            "p_d_x_m",
+            "p_d_y_m",
+            "p_d_z_m",
             "clipped_steps",
         ]
         .map(String::from)
@@ -332,7 +340,7 @@ impl Algorithm for NrAgent {
             Ok(r) => r,
             Err(_) => {
                 self.st.bad_readings += 1;
-                self.st.out = Outputs { mode: MODE_BAD_READINGS, ..Outputs::default() };
+                self.st.out = Outputs { mode: MODE_BAD_READINGS, p_d_m: V3::repeat(f64::NAN), ..Outputs::default() };
                 out.command.extend([0.0; 3]);
                 out.values.extend([MODE_BAD_READINGS, 0.0, 0.0, -1.0]);
                 return;
@@ -349,7 +357,7 @@ impl Algorithm for NrAgent {
             u_max_n: r.u_max_n,
             isp_s: r.isp_s,
         };
-        self.st.out = Outputs { scp_miss_m: self.st.out.scp_miss_m, ..Outputs::default() };
+        self.st.out = Outputs { scp_miss_m: self.st.out.scp_miss_m, p_d_m: V3::repeat(f64::NAN), ..Outputs::default() };
         let (mut u, u_nom, mode) =
             if inp.steps() == 0 { (V3::zeros(), V3::zeros(), MODE_COAST) } else { self.decide(&r, &inp) };
         let du = (u - u_nom).norm();
@@ -388,6 +396,9 @@ impl Algorithm for NrAgent {
             o.b_s_mps,
             o.drive_mps2,
             o.scp_miss_m,
+            o.p_d_m.x,
+            o.p_d_m.y,
+            o.p_d_m.z,
         ]);
         out.push(self.st.clipped_steps as f64);
     }

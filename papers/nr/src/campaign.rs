@@ -7,7 +7,7 @@
 
 use std::ops::Range;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use serde::Serialize;
 
@@ -138,26 +138,38 @@ fn fly_once(o: &CampaignOptions, method: Method, iso: u32) -> Result<RunResult, 
     })
 }
 
-/// Every (method, ISO) run, on `threads` threads; results in (method, ISO) order.
-pub fn run_all(o: &CampaignOptions) -> Result<Vec<RunResult>, String> {
+/// Every (method, ISO) run, on `threads` threads; results in (method, ISO) order. `stop` is
+/// asked by the calling thread every 50 ms while the runs go on (so it need not be `Sync`, e.g.
+/// "has a signal come?"): once it says true, no further run starts, the runs under way finish,
+/// and the result is an error.
+pub fn run_all(o: &CampaignOptions, stop: &dyn Fn() -> bool) -> Result<Vec<RunResult>, String> {
     let jobs: Vec<(Method, u32)> = o.methods.iter().flat_map(|m| o.isos.clone().map(move |i| (*m, i))).collect();
     let next = AtomicUsize::new(0);
+    let (halt, finished) = (AtomicBool::new(false), AtomicUsize::new(0));
+    let threads = o.threads.max(1);
     let mut results: Vec<Option<Result<RunResult, String>>> = vec![None; jobs.len()];
     let slots: Vec<std::sync::Mutex<&mut Option<Result<RunResult, String>>>> =
         results.iter_mut().map(std::sync::Mutex::new).collect();
     std::thread::scope(|s| {
-        for _ in 0..o.threads.max(1) {
+        for _ in 0..threads {
             s.spawn(|| {
-                loop {
+                while !halt.load(Ordering::Relaxed) {
                     let j = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&(m, i)) = jobs.get(j) else { break };
                     **slots[j].lock().expect("no thread panics while holding it") = Some(run_one(o, m, i));
                 }
+                finished.fetch_add(1, Ordering::Release);
             });
+        }
+        while finished.load(Ordering::Acquire) < threads {
+            if !halt.load(Ordering::Relaxed) && stop() {
+                halt.store(true, Ordering::Relaxed);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
         }
     });
     drop(slots);
-    results.into_iter().map(|r| r.expect("every job ran")).collect()
+    results.into_iter().map(|r| r.unwrap_or_else(|| Err("stopped before every run finished".into()))).collect()
 }
 
 /// Summaries per method (in the options' order).
@@ -194,34 +206,6 @@ pub fn summarise(o: &CampaignOptions, runs: &[RunResult]) -> Vec<MethodSummary> 
             }
         })
         .collect()
-}
-
-/// The summaries as a Markdown table.
-pub fn markdown(s: &[MethodSummary]) -> String {
-    let mut t = String::from(
-        "| method | runs | error median (m) | p99 (m) | max (m) | mean ± std (m) | ≤ 200 m | Δv median / max (m/s) | > budget | step p50 / p99 (ms) | ≤ b_e(t_f) |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
-    );
-    for m in s {
-        t += &format!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} ± {:.2} | {:.0} % | {:.3} / {:.3} | {} | {:.3} / {:.3} | {} |\n",
-            m.method.name(),
-            m.runs,
-            m.error_median_m,
-            m.error_p99_m,
-            m.error_max_m,
-            m.error_mean_m,
-            m.error_std_m,
-            100.0 * m.share_within_200m,
-            m.dv_median_mps,
-            m.dv_max_mps,
-            m.runs_over_dv_budget,
-            1e3 * m.compute_p50_s,
-            1e3 * m.compute_p99_s,
-            m.within_bound.map_or("–".to_string(), |k| format!("{k}/{}", m.runs)),
-        );
-    }
-    t
 }
 
 /// Per-ISO comparisons of Neural-Rendezvous with every other method of the campaign: the share

@@ -9,24 +9,36 @@
 //! trajectory ([`desired`]) with the delivery-error bound ([`bound`]). Every controller predicts
 //! with the relative model (2) ([`relative`]). [`sim`] and [`campaign`] run and evaluate it in
 //! one process. The crate README gives the set-up, the measured results and every departure.
+//!
+//! In the registry ([`Nr`]): the plant kind `iso-encounter` and the algorithm kind
+//! `neural-rendezvous` ([`kinds`]); the run analysis ([`analysis`]) and figures ([`figures`]);
+//! the trainer `orchestrator train nr-iso` ([`trainer`]); the command `orchestrator nr campaign`
+//! ([`campaign_cmd`], [`campaign_report`]). Scenarios: `topologies/nr-iso*.toml`.
 
 // Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
 #![allow(clippy::needless_range_loop)]
 
 pub mod agent;
+pub mod analysis;
 pub mod baselines;
 pub mod bound;
 pub mod campaign;
+pub mod campaign_cmd;
+pub mod campaign_report;
+pub mod cli;
 pub mod config;
 pub mod constants;
 pub mod desired;
 pub mod features;
+pub mod figures;
 pub mod iso_set;
+pub mod kinds;
 pub mod lvlh;
 pub mod messages;
 pub mod min_norm;
 pub mod navigation;
 pub mod plant;
+pub mod plots;
 pub mod qp;
 pub mod relative;
 pub mod scp;
@@ -34,4 +46,74 @@ pub mod sim;
 pub mod sn_dnn;
 pub mod tracking;
 pub mod train;
+pub mod trainer;
 pub mod two_body;
+
+use std::path::Path;
+
+use clap::{FromArgMatches, Parser, Subcommand};
+use cohort_host::{CommandError, FigureSource, Launcher, Metrics, PaperHost, RunView};
+use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind, Setup};
+
+/// The paper: see the crate docs.
+pub struct Nr;
+
+impl Paper for Nr {
+    fn name(&self) -> &'static str {
+        "nr"
+    }
+    fn plants(&self) -> &'static [&'static dyn PlantKind] {
+        &[&kinds::IsoEncounterKind]
+    }
+    fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
+        &[&kinds::NeuralRendezvousKind]
+    }
+}
+
+/// `orchestrator nr …`: seed 003's campaigns.
+#[derive(Parser)]
+#[command(name = "nr", about = "Seed 003 (Neural-Rendezvous, ISO encounter): the paper's evaluation, measured")]
+struct NrCli {
+    #[command(subcommand)]
+    command: NrCmd,
+}
+
+#[derive(Subcommand)]
+enum NrCmd {
+    /// Every method over the test ISOs in-process (delivery error, Δv, per-step compute, NR's
+    /// error against b_e(t_f)), the control-interval sweep (Fig. 11) and the γ sweep (Fig. 9,
+    /// one training per γ): campaign.md, CSV files and plots in --out. Run from the repository root.
+    Campaign(campaign_cmd::CampaignArgs),
+}
+
+impl PaperHost for Nr {
+    fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
+        analysis::analyse(run.setup, run.dirs)
+    }
+    fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
+        figures::NrFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>)
+    }
+    fn trainers(&self) -> Vec<clap::Command> {
+        vec![trainer::command()]
+    }
+    fn trainer_env(&self, _name: &str) -> Vec<(&'static str, &'static str)> {
+        // candle threads its CPU matrix products by this; one thread is the fastest on these
+        // small matrices, and the bytes written do not depend on it.
+        vec![("RAYON_NUM_THREADS", "1")]
+    }
+    fn run_trainer(&self, name: &str, matches: &clap::ArgMatches) -> Result<String, CommandError> {
+        if name != trainer::NAME {
+            return Err(CommandError::invalid(format!("nr has no trainer {name:?}")));
+        }
+        trainer::run(matches)
+    }
+    fn command(&self) -> Option<clap::Command> {
+        Some(<NrCli as clap::CommandFactory>::command())
+    }
+    fn run_command(&self, matches: &clap::ArgMatches, launcher: &dyn Launcher) -> Result<String, CommandError> {
+        let cli = NrCli::from_arg_matches(matches).map_err(|e| CommandError::invalid(e.to_string()))?;
+        match cli.command {
+            NrCmd::Campaign(a) => campaign_cmd::run(&a, launcher),
+        }
+    }
+}

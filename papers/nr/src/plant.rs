@@ -50,6 +50,8 @@ pub struct IsoEncounterPlant {
     t_s: f64,
     iso: Inertial,
     craft: Vec<Craft>,
+    /// Control intervals advanced so far.
+    steps: u64,
 }
 
 impl IsoEncounterPlant {
@@ -82,7 +84,7 @@ impl IsoEncounterPlant {
             })
             .collect();
         let iso = iso.unwrap_or_else(|| iso_set::ideal(set_seed, iso_index, 0, p.t_f_s, rho_radius_m).at(0.0).0);
-        Self { p, iso_index, t_s: 0.0, iso, craft }
+        Self { p, iso_index, t_s: 0.0, iso, craft, steps: 0 }
     }
 
     pub fn iso_index(&self) -> u32 {
@@ -120,7 +122,7 @@ impl PlantModel for IsoEncounterPlant {
         let mut c = Vec::new();
         for j in 1..=self.craft.len() {
             for name in ["p_x_m", "p_y_m", "p_z_m", "miss_m", "mass_kg", "dv_mps", "u_x_n", "u_y_n", "u_z_n"] {
-                c.push(format!("sc{j}_{name}"));
+                c.push(format!("a{j}_{name}"));
             }
         }
         c
@@ -170,6 +172,7 @@ impl PlantModel for IsoEncounterPlant {
             self.iso.step(h, &|_| V3::zeros());
         }
         self.t_s += dt_s;
+        self.steps += 1;
         if (self.t_s - self.p.t_f_s).abs() <= 1e-6 * dt_s {
             let misses: Vec<_> = self.craft.iter().map(|c| self.miss(c)).collect();
             for (c, m) in self.craft.iter_mut().zip(misses) {
@@ -194,18 +197,70 @@ impl PlantModel for IsoEncounterPlant {
             let j = j + 1;
             match c.at_tf {
                 Some((e, _)) => {
-                    m.push((format!("sc{j}_delivery_error_m"), e));
+                    m.push((format!("a{j}_delivery_error_m"), e));
                     worst = worst.max(e);
                 }
-                None => m.push((format!("sc{j}_miss_at_end_m"), self.miss(c).0)),
+                None => m.push((format!("a{j}_miss_at_end_m"), self.miss(c).0)),
             }
-            m.push((format!("sc{j}_dv_mps"), c.dv_mps));
-            m.push((format!("sc{j}_thrust_clamped_steps"), c.clamped_steps as f64));
+            m.push((format!("a{j}_dv_mps"), c.dv_mps));
+            m.push((format!("a{j}_thrust_clamped_steps"), c.clamped_steps as f64));
         }
         if self.craft.iter().all(|c| c.at_tf.is_some()) {
             m.push(("max_delivery_error_m".to_string(), worst));
         }
         m
+    }
+
+    /// `snapshots/encounter.csv`: one row (`k`, `t_s` at the end of the run) with each
+    /// spacecraft's true p and ρ_f at t_f (or at the end, if the run stopped before t_f), its
+    /// miss, mass, Δv and clamp count, and whether t_f was reached: what the per-step rows (the
+    /// state at each t_k before its command) never hold.
+    fn extra_telemetry(&self) -> Vec<(String, String)> {
+        vec![(ENCOUNTER_FILE.to_string(), self.encounter_csv())]
+    }
+}
+
+/// The plant's end-of-run file in the run's `snapshots/` (see `extra_telemetry`).
+pub const ENCOUNTER_FILE: &str = "encounter.csv";
+/// Its columns per spacecraft j (prefixed `a{j}_`).
+pub const ENCOUNTER_COLUMNS: [&str; 11] = [
+    "p_x_m",
+    "p_y_m",
+    "p_z_m",
+    "rho_f_x_m",
+    "rho_f_y_m",
+    "rho_f_z_m",
+    "miss_m",
+    "mass_kg",
+    "dv_mps",
+    "thrust_clamped_steps",
+    "reached_t_f",
+];
+
+impl IsoEncounterPlant {
+    fn encounter_csv(&self) -> String {
+        let mut header = vec!["k".to_string(), "t_s".to_string()];
+        let mut row = vec![self.steps.to_string(), format!("{:?}", self.t_s)];
+        for (j, c) in self.craft.iter().enumerate() {
+            header.extend(ENCOUNTER_COLUMNS.iter().map(|n| format!("a{}_{n}", j + 1)));
+            let (miss, p) = c.at_tf.unwrap_or_else(|| self.miss(c));
+            let values = [
+                p.x,
+                p.y,
+                p.z,
+                c.rho_f_m.x,
+                c.rho_f_m.y,
+                c.rho_f_m.z,
+                miss,
+                c.m_kg,
+                c.dv_mps,
+                c.clamped_steps as f64,
+                if c.at_tf.is_some() { 1.0 } else { 0.0 },
+            ];
+            // Rust's shortest round-trip form, as in every telemetry file.
+            row.extend(values.iter().map(|v| format!("{v:?}")));
+        }
+        format!("{}\n{}\n", header.join(","), row.join(","))
     }
 }
 

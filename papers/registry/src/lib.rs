@@ -26,6 +26,7 @@ registry! {
     cohort_paper_tsnr::Tsnr,
     cohort_paper_dai::Dai,
     cohort_paper_vtxo::Vtxo,
+    cohort_paper_nr::Nr,
 }
 
 /// Read, parse, validate and configure a scenario file with every registered paper.

@@ -132,13 +132,15 @@ pub struct TrainReport {
 }
 
 impl TrainReport {
-    pub fn markdown(&self) -> String {
+    /// The report file: deterministic (the same options give the same bytes), so no wall-clock
+    /// times and no word of the cache (see [`TrainReport::timings`]). `command` reproduces it.
+    pub fn markdown(&self, command: &str) -> String {
         let l = &self.lemma1;
         format!(
             "# SN-DNN training (seed {seed})\n\n\
+             Reproduce: `{command}` (from the repository root).\n\n\
              Weights: `{w}`; {h:?} tanh, C_sn = {c}, γ = {g}, {ep} epochs.\n\n\
-             Data: {nc} control samples, {ns} state samples ({soft} with the target out of reach){cache}; \
-             generation {ds:.1} s, test samples {ts:.1} s, training {tr:.1} s.\n\n\
+             Data: {nc} control samples, {ns} state samples ({soft} with the target out of reach).\n\n\
              Loss (control, state): first epoch ({f0:.4e}, {f1:.4e}), last ({l0:.4e}, {l1:.4e}); output scale {us:.4} N.\n\n\
              ## Lemma 1 ({nt} training, {ne} test samples)\n\n\
              | term | value |\n|---|---|\n\
@@ -157,10 +159,6 @@ impl TrainReport {
             nc = self.control_samples,
             ns = self.state_samples,
             soft = self.soft_samples,
-            cache = if self.data_from_cache { " (from the cache)" } else { "" },
-            ds = self.data_s,
-            ts = self.test_data_s,
-            tr = self.train_s,
             f0 = self.first_epoch.0,
             f1 = self.first_epoch.1,
             l0 = self.last_epoch.0,
@@ -177,6 +175,17 @@ impl TrainReport {
             b = l.bound_n,
             st = l.sup_test_n,
             rte = l.rms_test_n,
+        )
+    }
+
+    /// The wall-clock times of the run, in words (not part of the report file).
+    pub fn timings(&self) -> String {
+        format!(
+            "data generation {:.1} s{}, test samples {:.1} s, training {:.1} s",
+            self.data_s,
+            if self.data_from_cache { " (from the cache)" } else { "" },
+            self.test_data_s,
+            self.train_s
         )
     }
 }
@@ -436,6 +445,9 @@ mod tests {
         assert!(!rb.data_from_cache && rc.data_from_cache);
         let (ba, bb, bc) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), std::fs::read(&c).unwrap());
         assert!(ba == bb && bb == bc, "the weights files differ");
+        // The report file holds no wall-clock time: it is the same bytes too.
+        let text = |r: &TrainReport, path: &PathBuf| r.markdown("cmd").replace(&path.display().to_string(), "W");
+        assert_eq!(text(&ra, &a), text(&rc, &c));
         assert_eq!((ra.control_samples, ra.lemma1.test_samples), (12, 4));
         let l = &ra.lemma1;
         assert!(l.eps_train_n > 0.0 && l.r > 0.0 && l.l_mpc_empirical_n > 0.0);

@@ -1,0 +1,114 @@
+//! Seed 003's orchestrator commands end to end, each on a tiny case: `orchestrator train nr-iso`
+//! (two training ISOs, two epochs) writes the weights and a report naming the command that
+//! reproduces them, and the same arguments give the same bytes; `orchestrator nr campaign` (one
+//! test ISO, the two learned methods, one Δt) writes its tables; bad arguments are refused with
+//! exit code 2 naming the flag. The full runs are the commands in papers/nr/README.md. Build the
+//! binaries first (`scripts/test` does).
+
+use std::path::Path;
+use std::process::Output;
+
+use cohort::{describe_output, orchestrator_command, scratch_dir};
+
+fn orchestrator(args: &[&str]) -> Output {
+    orchestrator_command().args(args).output().expect("running the orchestrator")
+}
+
+fn train_tiny(out: &Path) -> Output {
+    let out = out.display().to_string();
+    orchestrator(&[
+        "train",
+        "nr-iso",
+        "--seed",
+        "7",
+        "--isos",
+        "0..2",
+        "--samples",
+        "3",
+        "--epochs",
+        "2",
+        "--cache",
+        "none",
+        "--out",
+        &out,
+    ])
+}
+
+#[test]
+fn the_trainer_writes_the_same_weights_and_report_twice() {
+    let dir = scratch_dir("nr-train");
+    let (a, b) = (dir.join("a/net.safetensors"), dir.join("b/net.safetensors"));
+    for w in [&a, &b] {
+        std::fs::create_dir_all(w.parent().unwrap()).unwrap();
+        let o = train_tiny(w);
+        assert!(o.status.success(), "{}", describe_output(&o));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("ε_train"), "{}", describe_output(&o));
+    }
+    let read = |p: &Path| std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    assert!(read(&a) == read(&b), "the weights differ between two identical trainings");
+    let (ra, rb) = (dir.join("a/net-report.md"), dir.join("b/net-report.md"));
+    let text = |p: &Path, w: &Path| String::from_utf8(read(p)).unwrap().replace(&w.display().to_string(), "W");
+    assert_eq!(text(&ra, &a), text(&rb, &b), "the reports differ (beyond the weights path)");
+    let report = text(&ra, &a);
+    assert!(
+        report.contains("orchestrator train nr-iso --seed 7 --out W --epochs 2 --isos 0..2 --samples 3"),
+        "{report}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_tiny_campaign_writes_its_tables() {
+    let dir = scratch_dir("nr-campaign");
+    let out = dir.join("c");
+    let o = orchestrator(&[
+        "nr",
+        "campaign",
+        "--isos",
+        "200..201",
+        "--methods",
+        "neural-rendezvous,sn-dnn",
+        "--dts",
+        "600",
+        "--gammas",
+        "none",
+        "--no-plots",
+        "--out",
+        &out.display().to_string(),
+    ]);
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let md = std::fs::read_to_string(out.join("campaign.md")).expect("campaign.md");
+    for row in ["| neural-rendezvous | 1 |", "| sn-dnn | 1 |"] {
+        assert!(md.contains(row), "campaign.md has no row {row:?}:\n{md}");
+    }
+    let runs = std::fs::read_to_string(out.join("runs.csv")).expect("runs.csv");
+    // A header and one row per (method, ISO).
+    assert_eq!(runs.lines().count(), 3, "{runs}");
+    assert!(out.join("dt_sweep.csv").is_file() && out.join("summary.csv").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_arguments_are_refused_with_exit_code_2_naming_the_flag() {
+    let dir = scratch_dir("nr-bad-args");
+    let out = dir.join("x").display().to_string();
+    let cases: [(&[&str], &str); 6] = [
+        (&["train", "nr-iso", "--gamma=-1", "--out", &out], "--gamma -1"),
+        (&["train", "nr-iso", "--isos", "5..3", "--out", &out], "--isos"),
+        (&["train", "nr-iso", "--inputs", "7", "--out", &out], "--inputs"),
+        (&["nr", "campaign", "--methods", "magic", "--out", &out], "--methods"),
+        (&["nr", "campaign", "--dts", "700", "--out", &out], "--dts"),
+        (&["nr", "campaign", "--isos", "200..400", "--out", &out], "--isos"),
+    ];
+    for (args, flag) in cases {
+        let o = orchestrator(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", describe_output(&o));
+        assert!(
+            String::from_utf8_lossy(&o.stderr).contains(flag),
+            "{args:?} does not name {flag}: {}",
+            describe_output(&o)
+        );
+    }
+    assert!(!dir.join("x").exists(), "a refused command wrote its output");
+    let _ = std::fs::remove_dir_all(&dir);
+}
