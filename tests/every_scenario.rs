@@ -1,6 +1,6 @@
 //! Every runnable scenario in `topologies/` runs to completion: each `topologies/*.toml` but the
-//! `invalid-*` cases is launched for at most 10 s of simulated time (`--duration 10` when the file
-//! is longer; a shorter file runs whole), in-process (`--reference`, the fastest mode; each
+//! `invalid-*` cases is launched for at most 10 s of simulated time, or ten steps when its step is
+//! longer than a second (`--duration` when the file is longer; a shorter file runs whole), in-process (`--reference`, the fastest mode; each
 //! paper's own tests compare it with the multi-process run bit for bit). A run must exit 0 with the
 //! status `ok` — or, for a divergence study (`scenario.expect = "diverge"`), with `diverged`, the
 //! time and the metrics up to it.
@@ -12,7 +12,7 @@ use std::path::Path;
 use cohort::{describe_output, launch_scenario, repo_root, scratch_dir, summary};
 use cohort_scenario::{Expect, Overrides};
 
-/// The longest stretch of simulated time a scenario is run for here, s.
+/// The longest stretch of simulated time a scenario is run for here, s (or this many steps).
 const MAX_DURATION_S: f64 = 10.0;
 
 fn runnable_scenarios() -> Vec<String> {
@@ -33,8 +33,9 @@ fn launch_one(name: &str, out: &Path) -> Option<String> {
         Ok(s) => s,
         Err(e) => return Some(format!("does not parse: {e}")),
     };
-    let shorten = s.scenario.duration_s > MAX_DURATION_S;
-    let duration = MAX_DURATION_S.to_string();
+    let max_s = MAX_DURATION_S * s.scenario.dt_s.max(1.0);
+    let shorten = s.scenario.duration_s > max_s;
+    let duration = max_s.to_string();
     let mut extra = vec!["--reference"];
     if shorten {
         extra.extend(["--duration", duration.as_str()]);
