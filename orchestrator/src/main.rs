@@ -47,8 +47,33 @@ pub(crate) use launcher::{load, prepare, run_once};
 const EXIT_FAILED: u8 = 1;
 const EXIT_INVALID: u8 = 2;
 
+const EXIT_CODES_HELP: &str = "Exit codes:
+  0        done (also a divergence study, scenario.expect = \"diverge\", that diverged)
+  1        a run failed, diverged unexpectedly or lost an agent it had not planned to; a soak or
+           bench check failed
+  2        invalid input: a scenario, argument or file, named on stderr
+  128 + N  stopped by signal N (every child stopped, the run directory kept)";
+
+/// `--version`: the package version, the git commit built from, and the build id (a digest of
+/// every source file, which the plant and agent binaries must share).
+fn version() -> &'static str {
+    let v = format!(
+        "{} (commit {}, build {})",
+        env!("CARGO_PKG_VERSION"),
+        env!("COHORT_GIT_COMMIT"),
+        cohort_wire::BUILD_ID
+    );
+    // Once per process, for clap's 'static string.
+    Box::leak(v.into_boxed_str())
+}
+
 #[derive(Parser)]
-#[command(name = "orchestrator", version = cohort_wire::BUILD_ID, about = "Cohort: run decentralised spacecraft-formation algorithms the way they would fly")]
+#[command(
+    name = "orchestrator",
+    version,
+    about = "Cohort: run decentralised spacecraft-formation algorithms the way they would fly",
+    after_help = EXIT_CODES_HELP
+)]
 struct Cli {
     #[command(subcommand)]
     command: Cmd,
@@ -118,6 +143,18 @@ enum Cmd {
     Report {
         /// A run directory written by `launch`.
         run_dir: PathBuf,
+    },
+    /// Print a shell completion script on stdout (e.g. `orchestrator completions bash >
+    /// ~/.local/share/bash-completion/completions/orchestrator`).
+    Completions {
+        /// bash, zsh, fish, elvish or powershell.
+        shell: clap_complete::Shell,
+    },
+    /// Write the manual pages: orchestrator.1 and one page per command (orchestrator-launch.1, …).
+    Man {
+        /// Directory for the pages (created if missing).
+        #[arg(long, default_value = "man")]
+        out: PathBuf,
     },
 }
 
@@ -218,7 +255,30 @@ fn command_line() -> clap::Command {
         .arg_required_else_help(true)
         .subcommands(trainers);
     let papers = HOSTS.iter().filter_map(|h| h.command().map(|c| c.name(h.name())));
-    Cli::command().subcommand(train).subcommands(papers)
+    Cli::command().version(version()).subcommand(train).subcommands(papers)
+}
+
+/// `orchestrator man --out DIR`: the top page and one per command, subcommands included.
+fn write_man_pages(out: &Path) -> Result<Vec<PathBuf>, String> {
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let mut written = Vec::new();
+    let mut stack = vec![("orchestrator".to_string(), command_line())];
+    while let Some((name, cmd)) = stack.pop() {
+        let path = out.join(format!("{name}.1"));
+        let mut buf = Vec::new();
+        // clap keeps names as 'static strings; a few dozen short ones for a one-shot command.
+        let page_name: &'static str = Box::leak(name.clone().into_boxed_str());
+        clap_mangen::Man::new(cmd.clone().name(page_name))
+            .render(&mut buf)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        std::fs::write(&path, buf).map_err(|e| format!("{}: {e}", path.display()))?;
+        written.push(path);
+        for sub in cmd.get_subcommands().filter(|s| s.get_name() != "help") {
+            stack.push((format!("{name}-{}", sub.get_name()), sub.clone()));
+        }
+    }
+    written.sort();
+    Ok(written)
 }
 
 fn main() -> ExitCode {
@@ -345,6 +405,23 @@ fn generic(command: Cmd) -> ExitCode {
                 }
             }
         }
+        Cmd::Completions { shell } => {
+            let mut cmd = command_line();
+            let mut buf = Vec::new();
+            clap_complete::generate(shell, &mut cmd, "orchestrator", &mut buf);
+            outln!("{}", String::from_utf8_lossy(&buf).trim_end());
+            ExitCode::SUCCESS
+        }
+        Cmd::Man { out } => match write_man_pages(&out) {
+            Ok(pages) => {
+                outln!("written: {} pages in {}", pages.len(), out.display());
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                errln!("error: {e}");
+                ExitCode::from(EXIT_FAILED)
+            }
+        },
         Cmd::Report { run_dir } => match launcher::report(&run_dir) {
             Ok(files) => {
                 for f in files {
