@@ -116,13 +116,19 @@ impl HostLink {
 
 /// The run's zenoh session and its host links.
 pub struct Remote {
+    /// The run's session (the processes' side).
     pub session: Session,
+    /// The daemons' session: requests, exit reports, logs, liveliness.
+    control: Session,
     pub run_id: u64,
     pub hosts: Vec<Arc<HostLink>>,
     /// Where the orchestrator's own (local) processes connect and listen.
     pub local_connect: String,
     pub local_listen: String,
     _subs: Vec<Subscriber<()>>,
+    /// The run's orchestrator token as the daemons see it (they kill the run's processes when
+    /// it goes).
+    _token: zenoh::liveliness::LivelinessToken,
 }
 
 impl Remote {
@@ -143,8 +149,21 @@ impl Remote {
         listen_ips.sort();
         listen_ips.dedup();
         let connect: Vec<String> = hosts.iter().map(|h| h.endpoint.clone()).collect();
-        let (session, listening) = open_on_free_ports(&listen_ips, &connect)
-            .map_err(|e| format!("cannot open the run's zenoh session: {e}"))?;
+        // Two sessions: the run's (listening; every plant and agent connects to it and gossip
+        // introduces them to each other) and the daemons' (connecting to each daemon, no gossip).
+        // On one session, gossip made the processes connect to the daemons too, and when they
+        // ended the daemons' queryables could vanish from the orchestrator's routes (end-of-run
+        // requests then went unanswered).
+        let (session, listening) =
+            open_on_free_ports(&listen_ips, &[]).map_err(|e| format!("cannot open the run's zenoh session: {e}"))?;
+        let mut cfg = session_config(&[], &connect).map_err(|e| e.to_string())?;
+        cfg.insert_json5("scouting/gossip/enabled", "false").map_err(|e| format!("zenoh config: {e}"))?;
+        let control = zenoh::open(cfg).wait().map_err(|e| format!("cannot open the daemons' zenoh session: {e}"))?;
+        let token = control
+            .liveliness()
+            .declare_token(cohort_wire::transport::zenoh::ZenohRun::new(run_id).orchestrator_token())
+            .wait()
+            .map_err(|e| format!("cannot declare the orchestrator's liveliness token: {e}"))?;
         let port_on = |ip: std::net::IpAddr| -> Result<String, String> {
             let k = listen_ips.iter().position(|&x| x == ip);
             k.map(|k| listening[k].clone())
@@ -165,7 +184,7 @@ impl Remote {
         let mut subs = Vec::new();
         let exits = links.clone();
         subs.push(
-            session
+            control
                 .declare_subscriber(hostproto::all_exits_key(run_id))
                 .callback(move |s| {
                     let host = s.key_expr().as_str().split('/').nth(3).unwrap_or("").to_string();
@@ -179,7 +198,7 @@ impl Remote {
         );
         let logs = dirs.logs();
         subs.push(
-            session
+            control
                 .declare_subscriber(hostproto::all_logs_key(run_id))
                 .callback(move |s| append_log(&logs, s.key_expr().as_str(), &s.payload().to_bytes()))
                 .wait()
@@ -188,7 +207,7 @@ impl Remote {
         for l in &links {
             let link = Arc::clone(l);
             subs.push(
-                session
+                control
                     .liveliness()
                     .declare_subscriber(hostproto::host_token(&l.name))
                     .history(true)
@@ -202,7 +221,7 @@ impl Remote {
         }
         let local_connect = port_on(local_ip)?;
         let local_listen = tcp_endpoint(local_ip, 0);
-        Ok(Self { session, run_id, hosts: links, local_connect, local_listen, _subs: subs })
+        Ok(Self { session, control, run_id, hosts: links, local_connect, local_listen, _subs: subs, _token: token })
     }
 
     pub fn host(&self, name: &str) -> Option<&Arc<HostLink>> {
@@ -211,7 +230,7 @@ impl Remote {
 
     fn ask(&self, host: &HostLink, verb: &str, body: Vec<u8>) -> Result<Vec<u8>, String> {
         let replies = self
-            .session
+            .control
             .get(request_key(&host.name, verb))
             .payload(body)
             .timeout(REQUEST_TIMEOUT)
@@ -244,8 +263,10 @@ impl Remote {
         use std::io::{Seek, SeekFrom, Write};
         let req = serde_json::to_vec(&RunRequest { run_id: self.run_id }).map_err(|e| e.to_string())?;
         let replies = self
-            .session
+            .control
             .get(request_key(&host.name, "collect"))
+            // Every piece is a reply on the same key: keep them all, in order.
+            .consolidation(zenoh::query::ConsolidationMode::None)
             .payload(req)
             .timeout(Duration::from_secs(300))
             .wait()

@@ -73,6 +73,13 @@ pub fn session_config(listen: &[String], connect: &[String]) -> Result<Config, T
         ("connect/endpoints", json(connect)),
         ("transport/unicast/lowlatency", "true".to_string()),
         ("transport/unicast/qos/enabled", "false".to_string()),
+        // Of two peers that learn of each other by gossip, only the one with the greater id
+        // connects: with both connecting at once ("always"), a pair was seen to end up with no
+        // link at all now and then (start-up timed out with a publisher unmatched).
+        (
+            "scouting/gossip/autoconnect_strategy",
+            "{ peer: { to_router: \"always\", to_peer: \"greater-zid\" } }".to_string(),
+        ),
     ] {
         c.insert_json5(key, &value).map_err(|e| TransportError::Other(format!("zenoh config {key} = {value}: {e}")))?;
     }
