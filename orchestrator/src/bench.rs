@@ -9,8 +9,12 @@
 //! computation); the UDP-loopback transport at N = 6 and 50; N = 100 over 10 000 steps (the
 //! no-stall target); agents idling behind a plant paced at 10 Hz (their CPU share); the N = 6 ring
 //! with two busy-loop hogs the bench starts and stops itself ("loaded": `event` against the
-//! default, goal ≤ 1.2× the time of `event`); and the cost of `run.authenticate` (the N = 6 ring
-//! with it, and ns to seal and check one share).
+//! default, goal ≤ 1.2× the time of `event`); the cost of `run.authenticate` (the N = 6 ring
+//! with it, and ns to seal and check one share); and zenoh (issue 20): the round trip between two
+//! processes, and steps/s of the headline (shortened to 2 000 steps) and the ring at N = 6 and 20
+//! over zenoh against iceoryx2 on one host, and over zenoh across three network namespaces
+//! ([`crate::netlab`], when this runs as root) with no delay and with 1 ms each way, each
+//! reported as steps/s × round trip (1.0: one round trip per step).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -38,6 +42,8 @@ struct Case {
     reference: bool,
     /// Run with two busy-loop hogs on the machine (the "loaded" rows).
     hogs: bool,
+    /// Across the lab's namespaces, with this netem on every link (empty: none).
+    lab: Option<&'static [&'static str]>,
 }
 
 /// What one run of a case measured.
@@ -102,6 +108,8 @@ struct RingRun<'a> {
     realtime: bool,
     /// run.authenticate: every message sealed and checked with the run's key.
     authenticate: bool,
+    /// A hosts file placing the processes (multi-host zenoh runs).
+    hosts: Option<&'a Path>,
 }
 
 const RING: RingRun<'static> = RingRun {
@@ -112,6 +120,7 @@ const RING: RingRun<'static> = RingRun {
     dt_s: 0.01,
     realtime: false,
     authenticate: false,
+    hosts: None,
 };
 
 /// The consensus ring with `n` agents (each hears i−1 and i+1), `steps` steps, as scenario text
@@ -154,12 +163,13 @@ fn ring(n: u32, steps: u64, r: RingRun<'_>) -> Result<Setup, String> {
         }
     }
     let file = PathBuf::from(format!("{name}.toml"));
-    let s = cohort_scenario::parse(&t, &file, &Overrides::default()).map_err(|e| e.to_string())?;
+    let hosts = r.hosts.map(cohort_scenario::hosts::HostsFile::load).transpose().map_err(|e| e.to_string())?;
+    let s = cohort_scenario::parse(&t, &file, &Overrides { hosts, ..Default::default() }).map_err(|e| e.to_string())?;
     cohort_runtime::paper::configure(s, cohort_registry::PAPERS)
         .map_err(|problems| cohort_scenario::ScenarioError { file, problems }.to_string())
 }
 
-fn cases(quick: bool, repo: &Path) -> Result<Vec<Case>, String> {
+fn cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<Case>, String> {
     let ns: &[u32] = if quick { &[6, 20] } else { &[6, 20, 50, 100] };
     let steps = if quick { 500 } else { 2000 };
     let mut out = Vec::new();
@@ -171,7 +181,17 @@ fn cases(quick: bool, repo: &Path) -> Result<Vec<Case>, String> {
             format!("{group}/N={n}/{variant}")
         };
         let hogs = group == "loaded";
-        out.push(Case { key, group, n, variant: variant.into(), label: label.into(), scenario, reference, hogs });
+        out.push(Case {
+            key,
+            group,
+            n,
+            variant: variant.into(),
+            label: label.into(),
+            scenario,
+            reference,
+            hogs,
+            lab: None,
+        });
     };
     for file in cohort_registry::HOSTS.iter().flat_map(|h| h.bench_scenarios()) {
         // Quick mode shortens a headline run to 20 s; a scenario that is not valid shortened (its
@@ -211,7 +231,122 @@ fn cases(quick: bool, repo: &Path) -> Result<Vec<Case>, String> {
     // Agents behind a plant paced at 10 Hz (dt 0.1 s, real time): how much CPU do they burn?
     let idle = ring(6, if quick { 20 } else { 50 }, RingRun { dt_s: 0.1, realtime: true, ..RING })?;
     push("idle", 6, "10Hz", "idle", idle, false);
+    out.extend(zenoh_cases(quick, repo, lab_dir)?);
     Ok(out)
+}
+
+/// netem of the lab's "1 ms" rows: every namespace delays what it sends by 1 ms.
+const DELAY_1MS: &[&str] = &["delay", "1ms"];
+
+/// Loads a zenoh-row scenario: (transport, hosts file) → the setup.
+type LoadFn = dyn Fn(&str, Option<&Path>) -> Result<Setup, String>;
+
+/// The zenoh rows: the headline shortened to 2 000 steps and the ring at N = 6 and 20, over
+/// iceoryx2 and zenoh on one host, and over zenoh across the lab (when there is one), without and
+/// with 1 ms delay.
+fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<Case>, String> {
+    let steps: u64 = if quick { 500 } else { 2000 };
+    let mut out = Vec::new();
+    let mut push = |label: String, n: u32, variant: &str, scenario: Setup, lab: Option<&'static [&'static str]>| {
+        let key = format!("zenoh/{label}/N={n}/{variant}");
+        out.push(Case {
+            key,
+            group: "zenoh",
+            n,
+            variant: variant.into(),
+            label,
+            scenario,
+            reference: false,
+            hogs: false,
+            lab,
+        });
+    };
+    let mut sets: Vec<(String, u32, Box<LoadFn>)> = Vec::new();
+    for file in cohort_registry::HOSTS.iter().flat_map(|h| h.bench_scenarios()) {
+        let path = repo.join(file);
+        let probe = crate::load(&path, &Overrides::default()).map_err(|e| e.to_string())?;
+        let duration = steps as f64 * probe.scenario.dt_s;
+        let load = move |transport: &str, hosts: Option<&Path>| {
+            let hosts = hosts.map(cohort_scenario::hosts::HostsFile::load).transpose().map_err(|e| e.to_string())?;
+            let o = Overrides {
+                duration_s: Some(duration),
+                transport: Some(transport.into()),
+                hosts,
+                ..Default::default()
+            };
+            crate::load(&path, &o).map_err(|e| e.to_string())
+        };
+        sets.push((probe.scenario.name.clone(), probe.n_agents(), Box::new(load)));
+    }
+    for n in [6u32, 20] {
+        let load = move |transport: &str, hosts: Option<&Path>| {
+            let transport: &'static str = if transport == "zenoh" { "zenoh" } else { "iceoryx2" };
+            ring(n, steps, RingRun { transport, hosts, ..RING })
+        };
+        sets.push(("ring".into(), n, Box::new(load)));
+    }
+    for (label, n, load) in &sets {
+        push(label.clone(), *n, "iceoryx2", load("iceoryx2", None)?, None);
+        push(label.clone(), *n, "zenoh", load("zenoh", None)?, None);
+        if let Some(dir) = lab_dir {
+            let hosts = crate::netlab::Lab::hosts_file(dir, *n)?;
+            push(label.clone(), *n, "zenoh-3ns", load("zenoh", Some(&hosts))?, Some(&[]));
+            push(label.clone(), *n, "zenoh-3ns-1ms", load("zenoh", Some(&hosts))?, Some(DELAY_1MS));
+        }
+    }
+    Ok(out)
+}
+
+/// Round trips measured in this bench run: (where, p50 µs, p99 µs).
+#[derive(Debug, Clone, Serialize)]
+struct Rtt {
+    place: String,
+    p50_us: f64,
+    p99_us: f64,
+    max_ms: f64,
+}
+
+/// The zenoh round trip between an echo process and a ping process, on one host or from lab
+/// namespace a to b.
+fn measure_rtt(lab: Option<&crate::netlab::Lab>, place: &str) -> Result<Rtt, String> {
+    use std::process::Stdio;
+    let me = std::env::current_exe().map_err(|e| e.to_string())?;
+    let (listen, connect) = match lab {
+        Some(_) => {
+            let e = crate::netlab::Lab::endpoint(1).replace(":7447", ":7500");
+            (e.clone(), e)
+        }
+        None => {
+            let port = std::net::TcpListener::bind("127.0.0.1:0")
+                .and_then(|l| l.local_addr())
+                .map_err(|e| e.to_string())?
+                .port();
+            (format!("tcp/127.0.0.1:{port}"), format!("tcp/127.0.0.1:{port}"))
+        }
+    };
+    let cmd = |x: &str| match lab {
+        Some(l) => l.command(x, &me),
+        None => std::process::Command::new(&me),
+    };
+    let mut echo = cmd("b")
+        .args(["zenoh-echo", "--listen", &listen])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .map_err(|e| format!("zenoh-echo: {e}"))?;
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let out = cmd("a").args(["zenoh-ping", "--connect", &connect]).output();
+    // SAFETY: kill(2) on the echo this bench started.
+    unsafe { libc::kill(echo.id() as libc::pid_t, libc::SIGKILL) };
+    let _ = echo.wait();
+    let out = out.map_err(|e| format!("zenoh-ping: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("zenoh-ping ({place}): {}", String::from_utf8_lossy(&out.stderr).trim()));
+    }
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).map_err(|e| format!("zenoh-ping output: {e}"))?;
+    let f = |k: &str| v[k].as_f64().unwrap_or(f64::NAN);
+    Ok(Rtt { place: place.into(), p50_us: f("p50_us"), p99_us: f("p99_us"), max_ms: f("max_ms") })
 }
 
 /// Two threads that burn a core each until dropped: a machine busy with other work (the
@@ -353,7 +488,17 @@ impl From<String> for BenchError {
 /// Run every case (or only those whose key starts with `only`), `reps` times interleaved.
 pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result<String, BenchError> {
     let repo = std::env::current_dir().map_err(|e| e.to_string())?;
-    let mut cases = cases(quick, &repo)?;
+    let scratch = std::env::temp_dir().join(format!("cohort-bench-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&scratch);
+    let lab = match crate::netlab::Lab::start() {
+        Ok(l) => Some(l),
+        Err(e) => {
+            errln!("no network-namespace lab (zenoh across namespaces not measured): {e}");
+            None
+        }
+    };
+    let lab_dir = scratch.join("lab");
+    let mut cases = cases(quick, &repo, lab.as_ref().map(|_| lab_dir.as_path()))?;
     if let Some(prefix) = only {
         let all: Vec<String> = cases.iter().map(|c| c.key.clone()).collect();
         cases.retain(|c| c.key.starts_with(prefix));
@@ -364,8 +509,24 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             )));
         }
     }
-    let scratch = std::env::temp_dir().join(format!("cohort-bench-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&scratch);
+    let mut rtts = vec![measure_rtt(None, "one host (TCP loopback)")?];
+    if let Some(l) = &lab {
+        rtts.push(measure_rtt(Some(l), "namespace a → b")?);
+        // A kernel without the netem qdisc (sch_netem) has the lab but no delayed links: the
+        // delayed rows are left out, saying why, instead of failing the whole campaign.
+        match l.netem(Some(DELAY_1MS)) {
+            Ok(()) => {
+                let r = measure_rtt(Some(l), "namespace a → b, 1 ms netem each way");
+                l.netem(None)?;
+                rtts.push(r?);
+            }
+            Err(e) => {
+                l.netem(None)?;
+                errln!("no netem on this kernel (the 1 ms rows are not measured): {e}");
+                cases.retain(|c| c.lab.is_none_or(|netem| netem.is_empty()));
+            }
+        }
+    }
     let mut samples: BTreeMap<String, Vec<Sample>> = BTreeMap::new();
     let started = Instant::now();
     // Interleaved: every case once per repetition, so slow phases of a shared machine hit all.
@@ -375,7 +536,13 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             let dirs =
                 crate::prepare(&c.scenario, Some(&dir)).map_err(|_| format!("{}: cannot prepare", dir.display()))?;
             let hogs = c.hogs.then(Hogs::start);
+            if let (Some(l), Some(netem)) = (&lab, c.lab) {
+                l.netem((!netem.is_empty()).then_some(netem))?;
+            }
             let (outcome, summary) = crate::run_once(&c.scenario, &dirs, c.reference, false);
+            if let (Some(l), Some(_)) = (&lab, c.lab) {
+                l.netem(None)?;
+            }
             drop(hogs);
             if let Some(e) = outcome.error {
                 let _ = std::fs::remove_dir_all(&scratch);
@@ -419,15 +586,18 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             }
         })
         .collect();
+    drop(lab);
     let mac = [6usize, 106, 512].map(|v| (v, mac_ns(v)));
     let mut md = markdown(&aggregates, quick, reps, only, started.elapsed().as_secs_f64());
     md.push_str(&mac_markdown(&aggregates, &mac));
+    md.push_str(&zenoh_markdown(&aggregates, &rtts));
     std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let json = serde_json::json!({
         "machine": machine(),
         "quick": quick,
         "repetitions": reps,
         "cases": aggregates,
+        "zenoh_rtt": rtts,
         "mac_seal_check_ns": mac.iter().map(|(v, (s, c))| serde_json::json!({"values": v, "seal_ns": s, "check_ns": c})).collect::<Vec<_>>(),
         "adaptive_spin_floor_us": cohort_runtime::drive::ADAPTIVE_FLOOR_US,
         "adaptive_spin_cap_us": cohort_runtime::drive::ADAPTIVE_CAP_US,
@@ -479,6 +649,50 @@ fn mac_markdown(a: &[Aggregate], mac: &[(usize, (f64, f64))]) -> String {
     md.push_str("| share values | seal ns | check ns |\n|---|---|---|\n");
     for (v, (seal, check)) in mac {
         let _ = writeln!(md, "| {v} | {seal:.0} | {check:.0} |");
+    }
+    md
+}
+
+/// The zenoh rows: steps/s and steps/s × the round trip of the same place.
+fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt]) -> String {
+    let mut md = String::from(
+        "\n## zenoh (multi-host transport)\n\nRound trip between two processes (256 B, 5 000 pings after 200 warm-up):\n\n| where | p50 µs | p99 µs | max ms |\n|---|---|---|---|\n",
+    );
+    for r in rtts {
+        let _ = writeln!(md, "| {} | {:.0} | {:.0} | {:.2} |", r.place, r.p50_us, r.p99_us, r.max_ms);
+    }
+    md.push_str(
+        "\n| case | N | transport, placement | steps/s | RTT p50 µs | steps/s × RTT |\n|---|---|---|---|---|---|\n",
+    );
+    let rtt_of = |variant: &str| -> Option<f64> {
+        let i = match variant {
+            "zenoh" => 0,
+            "zenoh-3ns" => 1,
+            "zenoh-3ns-1ms" => 2,
+            _ => return None,
+        };
+        rtts.get(i).map(|r| r.p50_us)
+    };
+    for x in a.iter().filter(|x| x.group == "zenoh") {
+        let place = match x.variant.as_str() {
+            "iceoryx2" => "iceoryx2, one host",
+            "zenoh" => "zenoh, one host (TCP loopback)",
+            "zenoh-3ns" => "zenoh, plant on a, agents on b and c",
+            "zenoh-3ns-1ms" => "zenoh, a / b / c, 1 ms netem each way",
+            other => other,
+        };
+        let rtt = rtt_of(&x.variant);
+        let ratio = rtt.map_or("–".to_string(), |r| format!("{:.2}", x.steps_per_s_median * r * 1e-6));
+        let _ = writeln!(
+            md,
+            "| {} | {} | {place} | {} [{}–{}] | {} | {ratio} |",
+            x.label,
+            x.n,
+            f0(x.steps_per_s_median),
+            f0(x.steps_per_s_min),
+            f0(x.steps_per_s_max),
+            rtt.map_or("–".to_string(), |r| format!("{r:.0}"))
+        );
     }
     md
 }

@@ -24,14 +24,19 @@ macro_rules! errln {
 }
 
 mod bench;
+mod daemon;
+mod hostproto;
 mod launcher;
+mod netlab;
 mod progress;
 mod reference;
+mod remote;
 mod rundir;
 mod soak;
 mod summary;
 mod supervise;
 mod sweep_report;
+mod zping;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -139,6 +144,33 @@ enum Cmd {
         #[arg(long, value_name = "PREFIX")]
         only: Option<String>,
     },
+    /// Serve this machine to multi-host runs: a long-lived daemon that starts, signals and
+    /// watches this machine's plant and agent processes for an orchestrator (see the README's
+    /// "Multi-host" section). Stops on Ctrl-C or SIGTERM, killing what it started.
+    Host {
+        /// The zenoh endpoint to listen on, tcp/<address>:<port> (e.g. tcp/0.0.0.0:7447).
+        #[arg(long)]
+        listen: String,
+        /// The name scenarios give this machine in [[hosts]] (default: the host name).
+        #[arg(long)]
+        name: Option<String>,
+    },
+    /// (bench) Echo zenoh pings, listening on an endpoint.
+    #[command(hide = true)]
+    ZenohEcho {
+        #[arg(long)]
+        listen: String,
+    },
+    /// (bench) Time zenoh round trips to a zenoh-echo; prints one JSON line.
+    #[command(hide = true)]
+    ZenohPing {
+        #[arg(long)]
+        connect: String,
+        #[arg(long, default_value_t = 200)]
+        warmup: u64,
+        #[arg(long, default_value_t = 5000)]
+        count: u64,
+    },
     /// Draw PNG plots of a run directory's telemetry into RUN_DIR/plots/.
     Report {
         /// A run directory written by `launch`.
@@ -190,9 +222,13 @@ struct LaunchArgs {
     /// Override run.link_delay_steps (0 or 1).
     #[arg(long)]
     link_delay: Option<u32>,
-    /// Override run.transport: iceoryx2 or udp.
+    /// Override run.transport: iceoryx2, udp or zenoh.
     #[arg(long)]
     transport: Option<String>,
+    /// Machines of a multi-host run: a TOML file of [[hosts]] (name, endpoint, and optionally
+    /// plant = true / agents = [ids] placing the processes), replacing the scenario's.
+    #[arg(long, value_name = "FILE")]
+    hosts: Option<PathBuf>,
     /// Pace the plant by the wall clock (sets run.realtime_rate).
     #[arg(long)]
     realtime: bool,
@@ -422,6 +458,24 @@ fn generic(command: Cmd) -> ExitCode {
                 ExitCode::from(EXIT_FAILED)
             }
         },
+        Cmd::Host { listen, name } => daemon::run(&listen, name),
+        Cmd::ZenohEcho { listen } => match zping::echo(&listen) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                errln!("error: {e}");
+                ExitCode::from(EXIT_FAILED)
+            }
+        },
+        Cmd::ZenohPing { connect, warmup, count } => match zping::ping(&connect, warmup, count) {
+            Ok(line) => {
+                outln!("{line}");
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                errln!("error: {e}");
+                ExitCode::from(EXIT_FAILED)
+            }
+        },
         Cmd::Report { run_dir } => match launcher::report(&run_dir) {
             Ok(files) => {
                 for f in files {
@@ -471,7 +525,15 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
             }
         }
     }
+    let hosts = match a.hosts.as_deref().map(cohort_scenario::hosts::HostsFile::load).transpose() {
+        Ok(h) => h,
+        Err(e) => {
+            errln!("{e}");
+            return ExitCode::from(EXIT_INVALID);
+        }
+    };
     let o = Overrides {
+        hosts,
         seed: a.seed,
         duration_s: a.duration,
         step_timeout_s: a.step_timeout,
@@ -500,6 +562,13 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
             f.agent
         );
         return ExitCode::from(EXIT_INVALID);
+    }
+    if !reference && !s.hosts.is_empty() {
+        // Every daemon reachable, named as the scenario says, of this build: before anything starts.
+        if let Err(e) = remote::preflight(&s.hosts) {
+            errln!("error: {}: {e}", file.display());
+            return ExitCode::from(EXIT_INVALID);
+        }
     }
     let dirs = match prepare(&s, out) {
         Ok(d) => d,

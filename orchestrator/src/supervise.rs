@@ -1,6 +1,13 @@
-//! Multi-process launch: create the run's iceoryx2 services, spawn one `plant` and one `agent`
-//! per agent, release the start barrier once all are ready, watch them, and on any exit path
-//! stop them in order and remove every iceoryx2 resource of the run.
+//! Multi-process launch: create the run's services (iceoryx2's, or the zenoh session with its
+//! host daemons), spawn one `plant` and one `agent` per agent (here, or through the daemon of the
+//! host `[[hosts]]` places it on), release the start barrier once all are ready, watch them, and
+//! on any exit path stop them in order and remove every resource of the run (for a multi-host
+//! run: fetch each host's files, then have its daemon kill whatever is left and clean up).
+//!
+//! A process on another host is a [`Handle::Remote`]: its end comes as the daemon's exit report
+//! (the raw `waitpid` status), signals go through the daemon. A host whose daemon disappears is
+//! lost: its processes count as killed, the timeline names the host, and in degrade mode the
+//! plant is told at once that its agents are dead.
 //!
 //! Shutdown ladder (dora-style), used on Ctrl-C, SIGTERM and any child's failure:
 //! 1. publish a stop request on the run's control service and wait [`STOP_GRACE`];
@@ -15,23 +22,28 @@
 use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use cohort_runtime::paper::Setup;
 use cohort_runtime::process::{EXIT_BUILD_MISMATCH, EXIT_STOPPED};
 use cohort_runtime::record::{RunDirs, TimelineEvent};
+use cohort_scenario::TransportKind;
 use cohort_scenario::faults::FaultPlan;
 use cohort_wire::auth::MacKey;
 use cohort_wire::msg::{
     PLANT_ID, Roster, STATUS_ALIVE, STATUS_DEAD, STATUS_HOLDING, STATUS_IDLE, STATUS_PROGRESS, STATUS_READY,
     STATUS_WAITING,
 };
-use cohort_wire::transport::Proc;
-use cohort_wire::transport::iox::{IoxRun, IoxServices};
+use cohort_wire::transport::iox::{IoxRun, IoxServices, RunClaim};
+use cohort_wire::transport::zenoh::{ZenohHub, ZenohRun};
+use cohort_wire::transport::{ControlHub, Proc};
 use cohort_wire::validate::Rejection;
 
+use crate::hostproto::SpawnRequest;
 use crate::progress::Progress;
+use crate::remote::{HostLink, Remote};
 
 /// After the stop request, how long children get to exit on their own.
 pub const STOP_GRACE: Duration = Duration::from_secs(3);
@@ -57,9 +69,76 @@ pub struct LaunchOutcome {
     pub timeline: Vec<TimelineEvent>,
 }
 
+/// How the supervisor reaches one child: a process of its own, or one a host daemon started.
+pub(crate) enum Handle {
+    Local(Child),
+    Remote { remote: Arc<Remote>, link: Arc<HostLink>, proc_name: String, pid: u32 },
+}
+
+impl Handle {
+    fn id(&self) -> u32 {
+        match self {
+            Handle::Local(c) => c.id(),
+            Handle::Remote { pid, .. } => *pid,
+        }
+    }
+    /// Its end, once known (`waitpid` here, or the daemon's report).
+    fn try_wait(&mut self) -> Option<ExitStatus> {
+        match self {
+            Handle::Local(c) => c.try_wait().ok().flatten(),
+            Handle::Remote { link, proc_name, pid, .. } => link.exit_of(proc_name, *pid).map(ExitStatus::from_raw),
+        }
+    }
+    fn signal(&self, sig: i32) {
+        match self {
+            // SAFETY: kill(2) on a pid we spawned and have not reaped.
+            Handle::Local(c) => unsafe {
+                libc::kill(c.id() as libc::pid_t, sig);
+            },
+            Handle::Remote { remote, link, proc_name, .. } => {
+                if !link.is_lost() {
+                    let _ = remote.signal(link, proc_name, sig);
+                }
+            }
+        }
+    }
+    /// SIGKILL and reap (a remote one: until its daemon reports it, or its host is lost).
+    fn kill_wait(&mut self) -> Option<ExitStatus> {
+        if let Handle::Local(c) = self {
+            let _ = c.kill();
+            return c.wait().ok();
+        }
+        self.signal(libc::SIGKILL);
+        let until = Instant::now() + TERM_GRACE + STOP_GRACE;
+        while Instant::now() < until && self.lost_host().is_none() {
+            if let Some(st) = self.try_wait() {
+                return Some(st);
+            }
+            std::thread::sleep(TICK);
+        }
+        self.try_wait()
+    }
+    /// The host it ran on, when that host is lost.
+    fn lost_host(&self) -> Option<&str> {
+        match self {
+            Handle::Remote { link, .. } if link.is_lost() => Some(&link.name),
+            _ => None,
+        }
+    }
+    /// " on host b" for a remote process.
+    fn on_host(&self) -> String {
+        match self {
+            Handle::Local(_) => String::new(),
+            Handle::Remote { link, .. } => format!(" on host {}", link.name),
+        }
+    }
+}
+
 struct Kid {
     proc_: Proc,
-    child: Child,
+    child: Handle,
+    /// Its host was lost (its end is unknown: it counts as killed).
+    lost_with: Option<String>,
     exit: Option<ExitStatus>,
     ready: bool,
     /// Ended by the fault plan (kill, or the kill half of a restart).
@@ -73,10 +152,11 @@ struct Kid {
 }
 
 impl Kid {
-    fn new(proc_: Proc, child: Child) -> Self {
+    fn new(proc_: Proc, child: Handle) -> Self {
         Self {
             proc_,
             child,
+            lost_with: None,
             exit: None,
             ready: false,
             planned_exit: false,
@@ -86,8 +166,28 @@ impl Kid {
         }
     }
     fn signal(&self, sig: i32) {
-        // SAFETY: kill(2) on a pid we spawned and have not reaped.
-        unsafe { libc::kill(self.child.id() as libc::pid_t, sig) };
+        self.child.signal(sig);
+    }
+    /// Reap it if it ended (or its host was lost).
+    fn reap(&mut self) {
+        if self.exit.is_some() {
+            return;
+        }
+        if let Some(st) = self.child.try_wait() {
+            self.exit = Some(st);
+        } else if let Some(h) = self.child.lost_host() {
+            self.lost_with = Some(h.to_string());
+            self.exit = Some(ExitStatus::from_raw(libc::SIGKILL));
+        }
+    }
+    /// "agent-3 (pid 1234 on host b) was killed by signal 9 (SIGKILL)", or lost with its host.
+    fn describe(&self) -> String {
+        let head = format!("{} (pid {}{})", self.proc_.name(), self.child.id(), self.child.on_host());
+        match (&self.lost_with, self.exit) {
+            (Some(h), _) => format!("{head} was lost with host {h} (its daemon disappeared)"),
+            (None, Some(st)) => format!("{head} {}", describe_exit(st)),
+            (None, None) => format!("{head} is running"),
+        }
     }
 }
 
@@ -130,11 +230,11 @@ pub fn sibling_binary(name: &str) -> Result<PathBuf, String> {
 }
 
 /// The descriptor number a child reads the run's MAC key from (`--key-fd`).
-const KEY_FD: i32 = 3;
+pub const KEY_FD: i32 = 3;
 
 /// A pipe holding the run's key, its read end for one child to inherit as [`KEY_FD`]. The key
 /// never appears in argv or the environment, which other users can read.
-fn key_pipe(key: &MacKey) -> Result<std::fs::File, String> {
+pub fn key_pipe(key: &MacKey) -> Result<std::fs::File, String> {
     use std::io::Write;
     use std::os::fd::FromRawFd;
     let mut fds = [0i32; 2];
@@ -149,6 +249,30 @@ fn key_pipe(key: &MacKey) -> Result<std::fs::File, String> {
     Ok(read)
 }
 
+/// What a child needs between fork and exec: the key pipe's read end as [`KEY_FD`], its own
+/// process group (a terminal's Ctrl-C reaches only us), and death with its parent.
+pub fn child_setup(cmd: &mut Command, key_raw: Option<i32>) {
+    // SAFETY: only async-signal-safe calls (dup2, setpgid, prctl, getppid) between fork and exec.
+    unsafe {
+        cmd.pre_exec(move || {
+            // The key pipe's read end becomes KEY_FD, without close-on-exec (dup2 clears it).
+            if let Some(fd) = key_raw
+                && libc::dup2(fd, KEY_FD) < 0
+            {
+                return Err(std::io::Error::last_os_error());
+            }
+            libc::setpgid(0, 0);
+            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong, 0, 0, 0);
+            // The parent may have died between fork and prctl.
+            if libc::getppid() == 1 {
+                libc::_exit(1);
+            }
+            Ok(())
+        });
+    }
+}
+
+/// Start a child on this machine; `zenoh`: its (connect, listen) endpoints.
 fn spawn(
     bin: &Path,
     p: Proc,
@@ -156,6 +280,7 @@ fn spawn(
     run: &IoxRun,
     step_timeout_s: f64,
     restore_at: Option<u64>,
+    zenoh: Option<(&str, &str)>,
 ) -> Result<Child, String> {
     let restore = restore_at.is_some();
     let log_path = dirs.logs().join(format!("{}.log", p.name()));
@@ -179,6 +304,9 @@ fn spawn(
     if key_read.is_some() {
         cmd.arg("--key-fd").arg(KEY_FD.to_string());
     }
+    if let Some((connect, listen)) = zenoh {
+        cmd.arg("--zenoh-connect").arg(connect).arg("--zenoh-listen").arg(listen);
+    }
     let key_raw = key_read.as_ref().map(std::os::fd::AsRawFd::as_raw_fd);
     cmd.arg("--run-dir")
         .arg(&dirs.root)
@@ -191,24 +319,7 @@ fn spawn(
         .stdin(Stdio::null())
         .stdout(Stdio::from(log))
         .stderr(Stdio::from(log2));
-    // SAFETY: only async-signal-safe calls (dup2, setpgid, prctl, getppid) between fork and exec.
-    unsafe {
-        cmd.pre_exec(move || {
-            // The key pipe's read end becomes KEY_FD, without close-on-exec (dup2 clears it).
-            if let Some(fd) = key_raw
-                && libc::dup2(fd, KEY_FD) < 0
-            {
-                return Err(std::io::Error::last_os_error());
-            }
-            libc::setpgid(0, 0);
-            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong, 0, 0, 0);
-            // The orchestrator may have died between fork and prctl.
-            if libc::getppid() == 1 {
-                libc::_exit(1);
-            }
-            Ok(())
-        });
-    }
+    child_setup(&mut cmd, key_raw);
     let child = cmd.spawn().map_err(|e| format!("cannot start {}: {e}", bin.display()));
     drop(key_read); // the child has its own copy of the read end
     child
@@ -230,6 +341,123 @@ fn check_descriptors(n_agents: u32, spare: usize) -> Result<(), String> {
     Ok(())
 }
 
+/// The run's messaging resources, held by the orchestrator for the run's life.
+enum Resources {
+    /// iceoryx2 (also run control of the UDP baseline): the services and the run's claim.
+    Iox { services: IoxServices, claim: RunClaim },
+    /// zenoh: the run-control hub on the run's session, with the host daemons' links.
+    Zenoh { hub: ZenohHub, remote: Arc<Remote> },
+}
+
+impl Resources {
+    fn hub(&self) -> &dyn ControlHub {
+        match self {
+            Resources::Iox { services, .. } => services,
+            Resources::Zenoh { hub, .. } => hub,
+        }
+    }
+    fn remote(&self) -> Option<&Arc<Remote>> {
+        match self {
+            Resources::Iox { .. } => None,
+            Resources::Zenoh { remote, .. } => Some(remote),
+        }
+    }
+    /// Create them; `spare`: agent relaunches the fault plan needs.
+    fn create(s: &Setup, dirs: &RunDirs, run: &IoxRun, spare: usize) -> Result<Self, String> {
+        if s.run.transport == TransportKind::Zenoh {
+            let remote = Remote::open(run.run_id, &s.hosts, dirs)?;
+            let zrun = ZenohRun::new(run.run_id).with_key(run.key);
+            let hub = ZenohHub::create(&zrun, &remote.session).map_err(|e| e.to_string())?;
+            return Ok(Resources::Zenoh { hub, remote: Arc::new(remote) });
+        }
+        check_descriptors(s.n_agents(), spare)?;
+        for id in IoxRun::sweep_stale() {
+            errln!("removed the iceoryx2 resources of run {id:016x}, whose orchestrator is gone");
+        }
+        let claim =
+            run.claim().map_err(|e| format!("cannot claim the run's directory {}: {e}", run.root_dir().display()))?;
+        match IoxServices::create(run, &s.topology(), spare) {
+            Ok(services) => Ok(Resources::Iox { services, claim }),
+            Err(e) => {
+                run.remove_all_resources();
+                Err(format!("cannot create the run's iceoryx2 services: {e}"))
+            }
+        }
+    }
+    /// Release them: remove iceoryx2's resources; or fetch every live host's files (its
+    /// processes are gone by now), then have its daemon clean up. Problems, as warnings.
+    fn finish(self, run: &IoxRun, dirs: &RunDirs) -> Vec<String> {
+        let mut warnings = Vec::new();
+        match self {
+            Resources::Iox { services, claim } => {
+                drop(services);
+                run.remove_all_resources();
+                drop(claim);
+            }
+            Resources::Zenoh { hub, remote } => {
+                for link in &remote.hosts {
+                    if link.is_lost() {
+                        warnings.push(format!(
+                            "host {} was lost: the files of its processes are not in the run directory",
+                            link.name
+                        ));
+                        continue;
+                    }
+                    if let Err(e) = remote.collect(link, dirs) {
+                        warnings.push(format!("cannot fetch host {}'s files: {e}", link.name));
+                    }
+                    if let Err(e) = remote.end(link) {
+                        warnings.push(format!("cannot end the run on host {}: {e}", link.name));
+                    }
+                }
+                drop(hub);
+            }
+        }
+        warnings
+    }
+}
+
+/// Starts processes where the scenario places them.
+struct Spawner<'a> {
+    s: &'a Setup,
+    dirs: &'a RunDirs,
+    run: &'a IoxRun,
+    bins: (PathBuf, PathBuf),
+    remote: Option<Arc<Remote>>,
+    scenario_toml: String,
+}
+
+impl Spawner<'_> {
+    fn spawn(&self, p: Proc, restore_at: Option<u64>) -> Result<Handle, String> {
+        let bin = if p == Proc::Plant { &self.bins.0 } else { &self.bins.1 };
+        let step_timeout_s = self.s.run.step_timeout_s;
+        let Some(remote) = &self.remote else {
+            return spawn(bin, p, self.dirs, self.run, step_timeout_s, restore_at, None).map(Handle::Local);
+        };
+        let Some(host) = self.s.host_of(p) else {
+            let zenoh = Some((remote.local_connect.as_str(), remote.local_listen.as_str()));
+            return spawn(bin, p, self.dirs, self.run, step_timeout_s, restore_at, zenoh).map(Handle::Local);
+        };
+        let link = remote.host(&host.name).ok_or_else(|| format!("host {} has no link", host.name))?;
+        if link.is_lost() {
+            return Err(format!("cannot start {} on host {}: the host is lost", p.name(), host.name));
+        }
+        let req = SpawnRequest {
+            run_id: self.run.run_id,
+            build_id: cohort_wire::BUILD_ID.into(),
+            proc_name: p.name(),
+            restore_at,
+            step_timeout_s,
+            scenario_toml: self.scenario_toml.clone(),
+            key_hex: self.run.key.map(|k| k.bytes().iter().map(|b| format!("{b:02x}")).collect()),
+            connect: vec![link.connect.clone()],
+            listen: vec![link.listen.clone()],
+        };
+        let pid = remote.spawn(link, &req)?;
+        Ok(Handle::Remote { remote: Arc::clone(remote), link: Arc::clone(link), proc_name: p.name(), pid })
+    }
+}
+
 /// Launch and supervise one multi-process run.
 pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> LaunchOutcome {
     let started = Instant::now();
@@ -245,30 +473,21 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> L
         (Ok(p), Ok(a)) => (p, a),
         (Err(e), _) | (_, Err(e)) => return failed(e),
     };
+    let scenario_toml = match std::fs::read_to_string(dirs.root.join("scenario.toml")) {
+        Ok(t) => t,
+        Err(e) => return failed(format!("{}: {e}", dirs.root.join("scenario.toml").display())),
+    };
     let plan = FaultPlan::from_scenario(s);
     let spare = plan.faults.iter().filter(|f| f.spec.kind == "restart").count();
-    if let Err(e) = check_descriptors(s.n_agents(), spare) {
-        return failed(e);
-    }
-    for id in IoxRun::sweep_stale() {
-        errln!("removed the iceoryx2 resources of run {id:016x}, whose orchestrator is gone");
-    }
-    let claim = match run.claim() {
-        Ok(c) => c,
-        Err(e) => return failed(format!("cannot claim the run's directory {}: {e}", run.root_dir().display())),
+    let resources = match Resources::create(s, dirs, run, spare) {
+        Ok(r) => r,
+        Err(e) => return failed(e),
     };
-    let services = match IoxServices::create(run, &s.topology(), spare) {
-        Ok(sv) => sv,
-        Err(e) => {
-            run.remove_all_resources();
-            return failed(format!("cannot create the run's iceoryx2 services: {e}"));
-        }
-    };
+    let spawner = Spawner { s, dirs, run, bins, remote: resources.remote().cloned(), scenario_toml };
     let mut kids: Vec<Kid> = Vec::new();
     let mut failure: Option<String> = None;
     for p in std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)) {
-        let bin = if p == Proc::Plant { &bins.0 } else { &bins.1 };
-        match spawn(bin, p, dirs, run, s.run.step_timeout_s, None) {
+        match spawner.spawn(p, None) {
             Ok(child) => kids.push(Kid::new(p, child)),
             Err(e) => {
                 failure = Some(e);
@@ -279,18 +498,18 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> L
     let mut sup = Supervisor {
         s,
         dirs,
-        run,
-        services: &services,
-        agent_bin: &bins.1,
+        services: resources.hub(),
+        spawner: &spawner,
         plan,
         started,
         timeline: Vec::new(),
         unplanned: Vec::new(),
         waiting: Vec::new(),
+        hosts_lost: Vec::new(),
     };
     let mut startup_s = None;
     let outcome = if failure.is_none() { sup.supervise(&mut kids, progress, &mut startup_s) } else { (failure, None) };
-    let (failure, signal) = outcome;
+    let (mut failure, signal) = outcome;
     // Thaw whoever is still frozen, so that the stop request reaches it.
     for k in kids.iter_mut().filter(|k| k.frozen && k.exit.is_none()) {
         k.signal(libc::SIGCONT);
@@ -301,11 +520,15 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> L
     drop(sup);
     let any_alive = kids.iter().any(|k| k.exit.is_none());
     if any_alive {
-        shut_down(&services, &mut kids);
+        shut_down(resources.hub(), &mut kids);
     }
-    drop(services);
-    run.remove_all_resources();
-    drop(claim);
+    drop(spawner);
+    for w in resources.finish(run, dirs) {
+        errln!("warning: {w}");
+        if failure.is_none() && signal.is_none() && !w.starts_with("host ") {
+            failure = Some(w);
+        }
+    }
     let wall_s = started.elapsed().as_secs_f64();
     if !timeline.is_empty()
         && let Ok(text) = serde_json::to_string_pretty(&timeline)
@@ -343,9 +566,8 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> L
 struct Supervisor<'a> {
     s: &'a Setup,
     dirs: &'a RunDirs,
-    run: &'a IoxRun,
-    services: &'a IoxServices,
-    agent_bin: &'a Path,
+    services: &'a dyn ControlHub,
+    spawner: &'a Spawner<'a>,
     plan: FaultPlan,
     started: Instant,
     timeline: Vec<TimelineEvent>,
@@ -353,6 +575,8 @@ struct Supervisor<'a> {
     unplanned: Vec<String>,
     /// Each process's latest waiting report (index 0 the plant).
     waiting: Vec<Option<Waiting>>,
+    /// Hosts found lost so far.
+    hosts_lost: Vec<String>,
 }
 
 /// A hold of the plant for the process faults due at `step`.
@@ -408,11 +632,14 @@ impl Supervisor<'_> {
                     self.event(k, f.agent, "skipped", detail);
                     continue;
                 }
-                let pid = kid.child.id();
+                let pid = format!("{}{}", kid.child.id(), kid.child.on_host());
                 match f.spec.kind.as_str() {
                     "kill" | "restart" => {
-                        let _ = kid.child.kill();
-                        kid.exit = kid.child.wait().ok();
+                        kid.exit = kid.child.kill_wait();
+                        if kid.exit.is_none() {
+                            kid.lost_with = kid.child.lost_host().map(str::to_string);
+                            kid.exit = Some(ExitStatus::from_raw(libc::SIGKILL));
+                        }
                         kid.planned_exit = true;
                         h.dead.set(f.agent, true);
                         self.event(k, f.agent, "kill", format!("SIGKILL to pid {pid} (faults[{}])", f.index));
@@ -436,14 +663,7 @@ impl Supervisor<'_> {
                         self.event(k, f.agent, "thaw", detail);
                     }
                     "restart" if kids[idx].exit.is_some() => {
-                        let child = spawn(
-                            self.agent_bin,
-                            Proc::Agent(f.agent),
-                            self.dirs,
-                            self.run,
-                            self.s.run.step_timeout_s,
-                            Some(k),
-                        )?;
+                        let child = self.spawner.spawn(Proc::Agent(f.agent), Some(k))?;
                         let detail =
                             format!("pid {} resumes from its latest checkpoint (faults[{}])", child.id(), f.index);
                         kids[idx] = Kid::new(Proc::Agent(f.agent), child);
@@ -462,8 +682,10 @@ impl Supervisor<'_> {
             if kid.ready {
                 h.alive.set(a, true);
                 h.relaunching.swap_remove(i);
-            } else if let Ok(Some(st)) = kid.child.try_wait() {
-                kid.exit = Some(st);
+            } else if let Some(st) = {
+                kid.reap();
+                kid.exit
+            } {
                 kid.planned_exit = true; // it never joined; the plant keeps it dead
                 let why = last_log_line(&self.dirs.logs().join(format!("agent-{a}.log"))).unwrap_or_default();
                 self.event(k, a, "restore-failed", format!("the relaunched agent {}: {why}", describe_exit(st)));
@@ -515,7 +737,7 @@ impl Supervisor<'_> {
             }
             let mut mismatch = None;
             let mut statuses = Vec::new();
-            let _ = self.services.poll_status(|st| statuses.push(*st));
+            let _ = self.services.poll_status(&mut |st| statuses.push(*st));
             for st in statuses {
                 let idx = st.sender as usize;
                 if idx >= kids.len() {
@@ -605,11 +827,10 @@ impl Supervisor<'_> {
                 );
             }
             // Reap.
-            for k in kids.iter_mut().filter(|k| k.exit.is_none()) {
-                if let Ok(Some(st)) = k.child.try_wait() {
-                    k.exit = Some(st);
-                }
+            for k in kids.iter_mut() {
+                k.reap();
             }
+            self.note_lost_hosts(kids, plant_step);
             if let Some(h) = &mut hold {
                 match self.advance_hold(h, kids) {
                     Ok(true) => hold = None,
@@ -681,9 +902,30 @@ impl Supervisor<'_> {
         }
     }
 
+    /// A host found lost: the timeline names it and the processes it took.
+    fn note_lost_hosts(&mut self, kids: &[Kid], plant_step: u64) {
+        let mut lost: Vec<String> = kids.iter().filter_map(|k| k.lost_with.clone()).collect();
+        lost.dedup();
+        for h in lost {
+            if self.hosts_lost.contains(&h) {
+                continue;
+            }
+            let on: Vec<String> =
+                kids.iter().filter(|k| k.lost_with.as_deref() == Some(h.as_str())).map(|k| k.proc_.name()).collect();
+            let msg = format!(
+                "host {h} lost at or after step {plant_step}: its daemon disappeared (liveliness token withdrawn), \
+                 taking {} with it",
+                on.join(", ")
+            );
+            errln!("warning: {msg}");
+            self.event(plant_step, 0, "host-lost", msg);
+            self.hosts_lost.push(h);
+        }
+    }
+
     fn describe_kid(&self, k: &Kid) -> String {
         let st = k.exit.expect("exited");
-        let mut m = format!("{} (pid {}) {}", k.proc_.name(), k.child.id(), describe_exit(st));
+        let mut m = k.describe();
         if st.signal().is_none()
             && let Some(line) = last_log_line(&self.dirs.logs().join(format!("{}.log", k.proc_.name())))
         {
@@ -742,7 +984,7 @@ fn blame(s: &Setup, dirs: &RunDirs, kids: &[Kid], waiting: &[Option<Waiting>], p
     let t = |step: u64| step as f64 * s.scenario.dt_s;
     let describe = |k: &Kid| {
         let st = k.exit.expect("failed kids have exited");
-        let mut m = format!("{} (pid {}) {}", k.proc_.name(), k.child.id(), describe_exit(st));
+        let mut m = k.describe();
         if st.code() == Some(i32::from(EXIT_STOPPED)) {
             m.push_str(" (it was stopped)");
         }
@@ -803,27 +1045,24 @@ fn blame(s: &Setup, dirs: &RunDirs, kids: &[Kid], waiting: &[Option<Waiting>], p
 }
 
 /// Stop every live child: stop request, then SIGTERM, then SIGKILL (see the module docs).
-fn shut_down(services: &IoxServices, kids: &mut [Kid]) {
+fn shut_down(services: &dyn ControlHub, kids: &mut [Kid]) {
     let _ = services.request_stop();
     wait_all(kids, STOP_GRACE);
     for k in kids.iter().filter(|k| k.exit.is_none()) {
-        // SAFETY: kill(2) on a pid we spawned and have not reaped.
-        unsafe { libc::kill(k.child.id() as libc::pid_t, libc::SIGTERM) };
+        k.signal(libc::SIGTERM);
     }
     wait_all(kids, TERM_GRACE);
     for k in kids.iter_mut().filter(|k| k.exit.is_none()) {
-        let _ = k.child.kill();
-        k.exit = k.child.wait().ok();
+        k.exit = k.child.kill_wait();
+        k.reap();
     }
 }
 
 fn wait_all(kids: &mut [Kid], grace: Duration) {
     let until = Instant::now() + grace;
     while Instant::now() < until {
-        for k in kids.iter_mut().filter(|k| k.exit.is_none()) {
-            if let Ok(Some(st)) = k.child.try_wait() {
-                k.exit = Some(st);
-            }
+        for k in kids.iter_mut() {
+            k.reap();
         }
         if kids.iter().all(|k| k.exit.is_some()) {
             return;

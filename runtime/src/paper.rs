@@ -201,6 +201,14 @@ impl Setup {
             .map(|a| ser("agents", toml::Table::try_from(a)).map(toml::Value::Table))
             .collect::<Result<_, _>>()?;
         t.insert("agents".into(), toml::Value::Array(agents));
+        if !s.hosts.is_empty() {
+            let hosts: Vec<toml::Value> = s
+                .hosts
+                .iter()
+                .map(|h| ser("hosts", toml::Table::try_from(h)).map(toml::Value::Table))
+                .collect::<Result<_, _>>()?;
+            t.insert("hosts".into(), toml::Value::Array(hosts));
+        }
         if !s.faults.is_empty() {
             let faults: Vec<toml::Value> = s
                 .faults

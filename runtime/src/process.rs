@@ -1,5 +1,5 @@
 //! What the `plant` and `agent` binaries share: the handshake checks, signals, opening the
-//! iceoryx2 transport, running the driver, writing the report, and the exit code.
+//! run's transport (iceoryx2, UDP or zenoh), running the driver, writing the report, and the exit code.
 //!
 //! Exit codes (the orchestrator reads them):
 //! - 0: every step done;
@@ -18,6 +18,7 @@ use cohort_scenario::TransportKind;
 use cohort_wire::auth::MacKey;
 use cohort_wire::transport::iox::{IoxData, IoxRun};
 use cohort_wire::transport::udp;
+use cohort_wire::transport::zenoh::{ZenohData, ZenohRun};
 use cohort_wire::transport::{Proc, Transport};
 
 use crate::drive::DriveParams;
@@ -49,6 +50,13 @@ pub struct CommonArgs {
     /// itself: argv and the environment are readable by others).
     #[arg(long)]
     pub key_fd: Option<i32>,
+    /// `run.transport = "zenoh"`: the orchestrator's zenoh endpoint to connect to.
+    #[arg(long)]
+    pub zenoh_connect: Vec<String>,
+    /// `run.transport = "zenoh"`: the endpoint this process listens on for its peers (on its
+    /// host's address, port 0).
+    #[arg(long)]
+    pub zenoh_listen: Vec<String>,
 }
 
 impl CommonArgs {
@@ -60,6 +68,8 @@ impl CommonArgs {
             build_id: self.build_id,
             step_timeout_s: self.step_timeout_s,
             key_fd: self.key_fd,
+            zenoh_connect: self.zenoh_connect,
+            zenoh_listen: self.zenoh_listen,
         }
     }
 }
@@ -73,6 +83,8 @@ pub struct ChildSpec {
     pub build_id: String,
     pub step_timeout_s: Option<f64>,
     pub key_fd: Option<i32>,
+    pub zenoh_connect: Vec<String>,
+    pub zenoh_listen: Vec<String>,
 }
 
 /// One line to this process's log (its stderr). A failed write (a full disk) is ignored: the
@@ -155,6 +167,13 @@ pub fn child_main(
             udp::open(&iox_run, &topo, me, &spec.run_dir.join("udp"), timeout).map(|t| Box::new(t) as _)
         }
         TransportKind::Iceoryx2 => IoxData::open(&iox_run, &topo, me).map(|t| Box::new(t) as _),
+        TransportKind::Zenoh => {
+            let timeout = Duration::from_secs_f64(scenario.run.startup_timeout_s);
+            let run = ZenohRun::new(run_id).with_key(key);
+            ZenohData::declare(&run, &topo, me, &spec.zenoh_listen, &spec.zenoh_connect)
+                .and_then(|p| p.ready(timeout))
+                .map(|t| Box::new(t) as _)
+        }
     };
     let mut transport = match opened {
         Ok(t) => t,

@@ -6,6 +6,7 @@
 pub mod checker;
 pub mod error;
 pub mod faults;
+pub mod hosts;
 pub mod live_graph;
 pub mod locate;
 pub mod parse;

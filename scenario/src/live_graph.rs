@@ -66,6 +66,7 @@ mod tests {
             .map(|i| AgentConfig {
                 id: i,
                 neighbours: vec![if i == 1 { n } else { i - 1 }, if i == n { 1 } else { i + 1 }],
+                host: None,
                 extra: toml::Table::new(),
             })
             .collect()

@@ -28,6 +28,8 @@ pub struct Overrides {
     pub faults: Vec<crate::faults::FaultSpec>,
     pub on_agent_loss: Option<String>,
     pub authenticate: Option<bool>,
+    /// `--hosts FILE`: replaces the scenario's `[[hosts]]`, and its placement when it gives one.
+    pub hosts: Option<crate::hosts::HostsFile>,
 }
 
 /// Read and parse a scenario file: the generic sections typed and checked for their own form
@@ -69,8 +71,11 @@ pub fn parse_all(text: &str, file: &Path, overrides: &Overrides) -> Result<(Scen
     };
     apply_overrides(&mut table, overrides);
     let base_dir = file.parent().unwrap_or(Path::new("")).to_path_buf();
-    let (s, problems) = parse_table(table, base_dir);
+    let (s, mut problems) = parse_table(table, base_dir);
     let Some(mut s) = s else { return Err(err(problems)) };
+    if let Some(h) = &overrides.hosts {
+        problems.extend(crate::hosts::unplaced_ids(h, &s));
+    }
     s.source = text.into();
     s.faults_in_file = faults_in_file;
     s.duration_from_command_line = overrides.duration_s.is_some();
@@ -133,6 +138,9 @@ fn apply_overrides(table: &mut toml::Table, o: &Overrides) {
     if let Some(a) = o.authenticate {
         set("run", "authenticate", Value::Boolean(a));
     }
+    if let Some(h) = &o.hosts {
+        crate::hosts::apply(table, h);
+    }
     if !o.faults.is_empty() {
         let entry = table.entry("faults").or_insert_with(|| Value::Array(Vec::new()));
         if let Value::Array(list) = entry {
@@ -143,7 +151,7 @@ fn apply_overrides(table: &mut toml::Table, o: &Overrides) {
     }
 }
 
-const TOP_KEYS: &[&str] = &["scenario", "run", "plant", "algorithm", "agents", "faults"];
+const TOP_KEYS: &[&str] = &["scenario", "run", "plant", "algorithm", "agents", "faults", "hosts"];
 
 /// The typed scenario, if its meta, paper sections and agents parsed (a bad `[run]` or
 /// `[[faults]]` falls back to the defaults), with every problem found.
@@ -174,6 +182,10 @@ fn parse_table(mut table: toml::Table, base_dir: std::path::PathBuf) -> (Option<
         Some(v) => section::<Vec<crate::faults::FaultSpec>>(v, "faults", &mut problems),
         None => Some(Vec::new()),
     };
+    let hosts = match table.remove("hosts") {
+        Some(v) => section::<Vec<HostSpec>>(v, "hosts", &mut problems).unwrap_or_default(),
+        None => Vec::new(),
+    };
     let run = match table.remove("run") {
         Some(v) => section::<RunSettings>(v, "run", &mut problems),
         None => Some(RunSettings::default()),
@@ -189,6 +201,7 @@ fn parse_table(mut table: toml::Table, base_dir: std::path::PathBuf) -> (Option<
                 plant,
                 algorithm,
                 agents,
+                hosts,
                 faults,
                 base_dir,
                 source: "".into(),

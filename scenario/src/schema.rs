@@ -15,6 +15,10 @@ pub struct Scenario {
     pub plant: Section,
     pub algorithm: Section,
     pub agents: Vec<AgentConfig>,
+    /// The machines of a multi-host run (`[[hosts]]`, or `--hosts FILE`): each runs a host
+    /// daemon (`orchestrator host`) the orchestrator asks to start that machine's processes.
+    /// Empty: every process runs on the orchestrator's machine.
+    pub hosts: Vec<HostSpec>,
     /// The fault plan (`[[faults]]`), see [`crate::faults`].
     pub faults: Vec<crate::faults::FaultSpec>,
     /// The directory of the scenario file: relative file paths inside paper sections (weights,
@@ -92,6 +96,19 @@ pub enum TransportKind {
     Iceoryx2,
     /// Loopback datagrams (the comparison baseline); run control stays on iceoryx2.
     Udp,
+    /// zenoh publish–subscribe over TCP, data and run control: processes may sit on several
+    /// machines (`[[hosts]]`).
+    Zenoh,
+}
+
+/// One machine of a multi-host run (`[[hosts]]`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HostSpec {
+    /// What agents' `host` and `run.plant_host` call it; the daemon's `--name`.
+    pub name: String,
+    /// Where its daemon listens: a zenoh TCP endpoint, `tcp/<address>:<port>`.
+    pub endpoint: String,
 }
 
 /// What a dead or silent agent does to the run (`run.on_agent_loss`).
@@ -151,6 +168,10 @@ pub struct RunSettings {
     /// plant's own metrics still see every step.
     #[serde(default = "default_telemetry_every_steps", skip_serializing_if = "is_one")]
     pub telemetry_every_steps: u64,
+    /// Multi-host runs: the `[[hosts]]` entry the plant runs on (absent: the orchestrator's
+    /// machine).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plant_host: Option<String>,
 }
 
 fn default_telemetry_every_steps() -> u64 {
@@ -198,6 +219,7 @@ impl Default for RunSettings {
             checkpoint_every_steps: default_checkpoint_every_steps(),
             authenticate: false,
             telemetry_every_steps: default_telemetry_every_steps(),
+            plant_host: None,
         }
     }
 }
@@ -212,6 +234,10 @@ pub struct AgentConfig {
     pub id: u32,
     /// The agents whose shares this one reads.
     pub neighbours: Vec<u32>,
+    /// Multi-host runs: the `[[hosts]]` entry this agent's process runs on (required when the
+    /// scenario has hosts).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub host: Option<String>,
     /// The plant's per-agent keys, as written.
     #[serde(flatten)]
     pub extra: toml::Table,
@@ -228,6 +254,14 @@ impl Scenario {
     /// Agent config by id (ids are validated to be 1..=N, each once).
     pub fn agent(&self, id: u32) -> &AgentConfig {
         self.agents.iter().find(|a| a.id == id).expect("validated: ids are 1..=N")
+    }
+    /// The host a process runs on (None: the orchestrator's machine).
+    pub fn host_of(&self, p: cohort_wire::transport::Proc) -> Option<&HostSpec> {
+        let name = match p {
+            cohort_wire::transport::Proc::Plant => self.run.plant_host.as_deref(),
+            cohort_wire::transport::Proc::Agent(id) => self.agents.iter().find(|a| a.id == id)?.host.as_deref(),
+        };
+        name.and_then(|n| self.hosts.iter().find(|h| h.name == n))
     }
     /// The messaging graph.
     pub fn topology(&self) -> cohort_wire::transport::Topology {

@@ -24,6 +24,7 @@ pub fn validate(s: &Scenario) -> (bool, Vec<Problem>) {
     meta(&mut c, &s.scenario);
     run(&mut c, &s.run);
     let ids_ok = agents(&mut c, &s.agents);
+    crate::hosts::check(&mut c, s);
     let (dt, dur) = (s.scenario.dt_s, s.scenario.duration_s);
     if dt.is_finite() && dt > 0.0 && dur.is_finite() && dur > 0.0 {
         crate::faults::check(&mut c, &s.faults, s.faults_in_file, s.n_agents(), dt, dur);

@@ -1,5 +1,5 @@
 //! One conformance suite for every `Transport`: what the lockstep drivers rely on, checked the
-//! same way against the in-memory bus, iceoryx2 and UDP loopback (the way iceoryx2-tunnel runs one
+//! same way against the in-memory bus, iceoryx2, UDP loopback and zenoh over TCP loopback (the way iceoryx2-tunnel runs one
 //! suite per backend). A new transport gets a harness and one `conformance!` line.
 //!
 //! Every endpoint of a run is opened in the test's own thread (iceoryx2 ports are not `Send`);
@@ -13,7 +13,8 @@ use cohort_wire::msg::{
 use cohort_wire::transport::iox::{IoxData, IoxRun, IoxServices, RunClaim};
 use cohort_wire::transport::memory::MemoryBus;
 use cohort_wire::transport::udp::UdpData;
-use cohort_wire::transport::{Incoming, Proc, Split, Topology, Transport};
+use cohort_wire::transport::zenoh::{ZenohData, ZenohHub, ZenohRun, open_on_free_ports};
+use cohort_wire::transport::{ControlHub, Incoming, Proc, Split, Topology, Transport};
 use cohort_wire::validate::{Expect, RejectCounts, Rejection, validate_share};
 
 /// One backend: opens every endpoint of a run and plays the orchestrator's part.
@@ -148,6 +149,65 @@ impl Harness for Iox {
     fn statuses(&mut self) -> Vec<Status> {
         let mut out = Vec::new();
         self.services().poll_status(|s| out.push(*s)).expect("status");
+        out
+    }
+}
+
+/// zenoh data and control over TCP loopback: the orchestrator's session listens, every process
+/// connects to it and listens on its own port, and gossip connects the processes to each other.
+struct Zenoh {
+    run: ZenohRun,
+    hub: Option<ZenohHub>,
+    session: Option<zenoh::Session>,
+}
+
+impl Zenoh {
+    fn new() -> Self {
+        Self { run: ZenohRun::new(fresh_run_id()), hub: None, session: None }
+    }
+    fn hub(&self) -> &ZenohHub {
+        self.hub.as_ref().expect("opened")
+    }
+}
+
+impl Harness for Zenoh {
+    fn open(&mut self, topo: &Topology) -> (Box<dyn Transport>, Vec<Box<dyn Transport>>) {
+        let loopback = std::net::Ipv4Addr::LOCALHOST.into();
+        let (session, hub_at) = open_on_free_ports(&[loopback], &[]).expect("orchestrator session");
+        self.hub = Some(ZenohHub::create(&self.run, &session).expect("hub"));
+        self.session = Some(session);
+        let procs: Vec<Proc> = std::iter::once(Proc::Plant).chain((1..=topo.n_agents()).map(Proc::Agent)).collect();
+        // Declare every endpoint first, then wait for each to be connected: the order a real run
+        // gets from its processes starting together.
+        let pending: Vec<_> = procs
+            .iter()
+            .map(|&p| ZenohData::declare(&self.run, topo, p, &["tcp/127.0.0.1:0".into()], &hub_at).expect("declare"))
+            .collect();
+        let mut endpoints: Vec<Box<dyn Transport>> = pending
+            .into_iter()
+            .map(|p| Box::new(p.ready(Duration::from_secs(20)).expect("ready")) as Box<dyn Transport>)
+            .collect();
+        let agents = endpoints.split_off(1);
+        (endpoints.pop().expect("the plant"), agents)
+    }
+    fn run_id(&self) -> u64 {
+        self.run.run_id
+    }
+    fn request_stop(&mut self) {
+        self.hub().request_stop().expect("stop");
+    }
+    fn grant_start(&mut self) {
+        self.hub().grant_start().expect("start");
+    }
+    fn send_control(&mut self, c: RunControl) {
+        match c.command {
+            CONTROL_RESUME => self.hub().resume(c.step, c.dead, c.alive).expect("resume"),
+            _ => self.hub().report_dead(c.dead).expect("dead"),
+        }
+    }
+    fn statuses(&mut self) -> Vec<Status> {
+        let mut out = Vec::new();
+        self.hub().poll_status(&mut |s| out.push(*s)).expect("status");
         out
     }
 }
@@ -396,3 +456,4 @@ macro_rules! conformance {
 conformance!(memory, Memory::new());
 conformance!(iceoryx2, Iox::new(false));
 conformance!(udp, Iox::new(true));
+conformance!(zenoh_tcp, Zenoh::new());

@@ -40,7 +40,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::{event as ev_factory, publish_subscribe as ps_factory};
 
-use super::{DataPath, Incoming, Proc, RunControlPort, Split, Topology, TransportError, monotonic_ns};
+use super::{ControlHub, DataPath, Incoming, Proc, RunControlPort, Split, Topology, TransportError, monotonic_ns};
 use crate::msg::{
     CONTROL_DEAD, CONTROL_RESUME, CONTROL_START, CONTROL_STOP, Measurement, Roster, RunControl, SCHEMA_VERSION, Share,
     Status,
@@ -488,6 +488,27 @@ impl IoxServices {
     /// Status messages dropped so far (another version or run, or a wrong tag).
     pub fn rejected(&self) -> u64 {
         self.rejected.get()
+    }
+}
+
+impl ControlHub for IoxServices {
+    fn request_stop(&self) -> Result<(), TransportError> {
+        IoxServices::request_stop(self)
+    }
+    fn grant_start(&self) -> Result<(), TransportError> {
+        IoxServices::grant_start(self)
+    }
+    fn resume(&self, step: u64, dead: Roster, alive: Roster) -> Result<(), TransportError> {
+        IoxServices::resume(self, step, dead, alive)
+    }
+    fn report_dead(&self, dead: Roster) -> Result<(), TransportError> {
+        IoxServices::report_dead(self, dead)
+    }
+    fn poll_status(&self, f: &mut dyn FnMut(&Status)) -> Result<(), TransportError> {
+        IoxServices::poll_status(self, f)
+    }
+    fn rejected(&self) -> u64 {
+        IoxServices::rejected(self)
     }
 }
 

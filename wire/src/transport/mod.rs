@@ -4,17 +4,20 @@
 //! out). A [`Transport`] is both; [`Split`] joins a data path and a control port of different
 //! kinds. Implementations: iceoryx2 zero-copy publish–subscribe ([`iox`], both parts), UDP
 //! loopback datagrams ([`udp`], data path only, with iceoryx2 run control) and in-memory inboxes
-//! for threads of one process ([`memory`], both parts). The step drivers in `cohort-runtime` are
+//! for threads of one process ([`memory`], both parts), and zenoh publish–subscribe over TCP for runs
+//! across machines ([`zenoh`], both parts). The orchestrator's side of run control is a
+//! [`ControlHub`] (iceoryx2's `IoxServices`, zenoh's `ZenohHub`). The step drivers in `cohort-runtime` are
 //! generic over it, so the multi-process run and the in-process reference run execute the same
 //! code; `tests/conformance.rs` runs one suite against every implementation.
 
 pub mod iox;
 pub mod memory;
 pub mod udp;
+pub mod zenoh;
 
 use std::time::Duration;
 
-use crate::msg::{Measurement, RunControl, Share, Status};
+use crate::msg::{Measurement, Roster, RunControl, Share, Status};
 
 /// Which process an endpoint belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -123,6 +126,25 @@ pub trait RunControlPort {
     fn control_events(&mut self, out: &mut Vec<RunControl>);
 }
 
+/// The orchestrator's side of run control: requests out to every process, status in. One per
+/// run; `IoxServices` (iceoryx2) and `zenoh::ZenohHub` implement it.
+pub trait ControlHub {
+    /// Ask every process to stop (a process that opens its ports later still sees it where the
+    /// transport keeps history: iceoryx2 does, zenoh does not, and the supervisor signals anyway).
+    fn request_stop(&self) -> Result<(), TransportError>;
+    /// Tell the plant that every process is ready (see [`RunControlPort::start_granted`]).
+    fn grant_start(&self) -> Result<(), TransportError>;
+    /// Let the plant go on past the hold at `step`, with these roster changes.
+    fn resume(&self, step: u64, dead: Roster, alive: Roster) -> Result<(), TransportError>;
+    /// Tell the plant these agents died outside the fault plan.
+    fn report_dead(&self, dead: Roster) -> Result<(), TransportError>;
+    /// Hand every status received so far to `f`; messages of another version or run, or with a
+    /// wrong tag when the run has a key, are skipped and counted ([`ControlHub::rejected`]).
+    fn poll_status(&self, f: &mut dyn FnMut(&Status)) -> Result<(), TransportError>;
+    /// Status messages dropped so far.
+    fn rejected(&self) -> u64;
+}
+
 /// One process's messaging endpoint: a data path and a run-control port.
 pub trait Transport: DataPath + RunControlPort {}
 
@@ -164,6 +186,22 @@ impl<D, C: RunControlPort> RunControlPort for Split<D, C> {
     fn control_events(&mut self, out: &mut Vec<RunControl>) {
         self.control.control_events(out);
     }
+}
+
+/// The bytes of a plain-old-data payload (datagrams and zenoh samples carry them as they are).
+pub(crate) fn bytes_of<T: Copy>(x: &T) -> &[u8] {
+    // SAFETY: T is one of the `#[repr(C)]` payloads of `msg`, made only of integers and floats;
+    // every byte is initialised (constructors fill every field, padding included, as they build
+    // from zeroed arrays and the headers have no padding).
+    unsafe { std::slice::from_raw_parts((x as *const T).cast::<u8>(), std::mem::size_of::<T>()) }
+}
+
+/// A payload read back from received bytes (`bytes.len() == size_of::<T>()`, checked by callers).
+pub(crate) fn read_payload<T: Copy>(bytes: &[u8]) -> T {
+    assert_eq!(bytes.len(), std::mem::size_of::<T>());
+    // SAFETY: the length matches, and every bit pattern is a valid value of these payloads
+    // (integers and floats only); read_unaligned copes with any alignment.
+    unsafe { std::ptr::read_unaligned(bytes.as_ptr().cast::<T>()) }
 }
 
 /// CLOCK_MONOTONIC in ns: system-wide, so send and receive stamps of two processes compare.

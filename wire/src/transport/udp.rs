@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use super::iox::{IoxControl, IoxRun};
-use super::{DataPath, Incoming, Proc, Split, Topology, TransportError, monotonic_ns};
+use super::{DataPath, Incoming, Proc, Split, Topology, TransportError, bytes_of, monotonic_ns, read_payload};
 use crate::msg::{Measurement, PLANT_ID, Share};
 
 /// Big enough for the largest payload, in u64 words so the buffer is 8-byte aligned.
@@ -47,22 +47,6 @@ fn port_file(dir: &Path, p: Proc) -> PathBuf {
 
 fn io(what: &str) -> impl FnOnce(std::io::Error) -> TransportError + '_ {
     move |e| TransportError::Other(format!("udp {what}: {e}"))
-}
-
-/// The bytes of a plain-old-data payload.
-fn bytes_of<T: Copy>(x: &T) -> &[u8] {
-    // SAFETY: T is one of the `#[repr(C)]` payloads of `msg`, made only of integers and floats;
-    // every byte is initialised (constructors fill every field, padding included, as they build
-    // from zeroed arrays and the headers have no padding).
-    unsafe { std::slice::from_raw_parts((x as *const T).cast::<u8>(), std::mem::size_of::<T>()) }
-}
-
-/// A payload read back from datagram bytes (`bytes.len() == size_of::<T>()`).
-fn read_payload<T: Copy>(bytes: &[u8]) -> T {
-    assert_eq!(bytes.len(), std::mem::size_of::<T>());
-    // SAFETY: the length matches, and every bit pattern is a valid value of these payloads
-    // (integers and floats only); read_unaligned copes with any alignment.
-    unsafe { std::ptr::read_unaligned(bytes.as_ptr().cast::<T>()) }
 }
 
 /// A process's endpoint: bind, publish this process's port, wait for every peer's (up to

@@ -1,0 +1,403 @@
+//! `orchestrator host --listen <zenoh endpoint> [--name NAME]`: the long-lived daemon of one
+//! machine of a multi-host run. On the orchestrator's request (a zenoh queryable, see
+//! [`crate::hostproto`]) it starts this machine's plant and agent processes from the binaries
+//! beside its own executable, refusing a request from an orchestrator of another build; it
+//! reports each child's end as `waitpid` saw it, relays signals (the fault plan's kill, freeze
+//! and thaw, the shutdown ladder's SIGTERM), streams each child's output line by line, and at the
+//! end sends the run's telemetry, timing, status and checkpoint files back.
+//!
+//! Nothing outlives its run: the daemon watches the orchestrator's liveliness token of every run
+//! it serves and kills that run's children when the token goes (the orchestrator ended, was
+//! killed, or its network went), and the children run with `PR_SET_PDEATHSIG = SIGKILL`, so a
+//! daemon that dies takes them with it. A run's files live under the user's own base directory
+//! (`<base>/hosts/<name>/<run id>/`, 0700, as the orchestrator's runs) and are removed at the end.
+//!
+//! Trust: whoever reaches the daemon's endpoint can make it start this build's plant and agent
+//! binaries (never anything else) with a scenario it sends; bind it to a network of your own.
+
+use std::collections::HashMap;
+use std::io::{BufRead, Write};
+use std::os::unix::process::ExitStatusExt;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use cohort_runtime::record::RunDirs;
+use cohort_wire::transport::zenoh::open_session;
+use zenoh::handlers::FifoChannelHandler;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::Subscriber;
+use zenoh::qos::CongestionControl;
+use zenoh::query::{Query, Queryable};
+use zenoh::sample::SampleKind;
+use zenoh::{Session, Wait};
+
+use crate::hostproto::{
+    self, COLLECTED, ExitReport, Info, RunRequest, SignalRequest, SpawnRequest, Spawned, chunk, request_key,
+};
+use crate::supervise::{KEY_FD, SIGNALLED, sibling_binary};
+
+/// One child of a run on this host.
+struct Kid {
+    pid: u32,
+    /// Set by its reaper once `waitpid` returned (the pid may then be reused: never signal it).
+    done: Arc<AtomicBool>,
+}
+
+/// What this host keeps of one run.
+struct RunState {
+    dir: PathBuf,
+    kids: HashMap<String, Kid>,
+    /// Set when the orchestrator's liveliness token of the run is withdrawn.
+    orphaned: Arc<AtomicBool>,
+    _watch: Subscriber<()>,
+}
+
+struct Daemon {
+    name: String,
+    session: Session,
+    base: PathBuf,
+    runs: HashMap<u64, RunState>,
+}
+
+/// This machine's host name, as a daemon name (letters, digits, '-' and '_').
+fn default_name() -> String {
+    let mut buf = [0u8; 256];
+    // SAFETY: gethostname writes at most buf.len() bytes into the buffer we own.
+    let ok = unsafe { libc::gethostname(buf.as_mut_ptr().cast(), buf.len()) } == 0;
+    let raw = if ok {
+        String::from_utf8_lossy(&buf[..buf.iter().position(|&b| b == 0).unwrap_or(0)]).to_string()
+    } else {
+        String::new()
+    };
+    let name: String =
+        raw.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '-' }).take(64).collect();
+    if name.is_empty() { "host".into() } else { name }
+}
+
+/// Run the daemon until SIGINT/SIGTERM/SIGHUP. Exit 2 on a bad argument, 1 when the endpoint
+/// cannot be listened on.
+pub fn run(listen: &str, name: Option<String>) -> ExitCode {
+    let name = name.unwrap_or_else(default_name);
+    if name.is_empty() || name.len() > 64 || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+        errln!("error: --name {name:?}: must be 1 to 64 letters, digits, '-' or '_'");
+        return ExitCode::from(crate::EXIT_INVALID);
+    }
+    if let Some(why) = cohort_scenario::hosts::endpoint_problem(listen) {
+        errln!("error: --listen {listen:?}: {why}");
+        return ExitCode::from(crate::EXIT_INVALID);
+    }
+    for bin in ["plant", "agent"] {
+        if let Err(e) = sibling_binary(bin) {
+            errln!("error: {e}");
+            return ExitCode::from(crate::EXIT_FAILED);
+        }
+    }
+    let base = match cohort_wire::transport::iox::ensure_user_base() {
+        Ok(b) => b.join("hosts").join(&name),
+        Err(e) => {
+            errln!("error: {e}");
+            return ExitCode::from(crate::EXIT_FAILED);
+        }
+    };
+    if let Err(e) = std::fs::create_dir_all(&base) {
+        errln!("error: {}: {e}", base.display());
+        return ExitCode::from(crate::EXIT_FAILED);
+    }
+    let session = match open_session(&[listen.to_string()], &[]) {
+        Ok(s) => s,
+        Err(e) => {
+            errln!("error: cannot listen on {listen}: {e}");
+            return ExitCode::from(crate::EXIT_FAILED);
+        }
+    };
+    let queryable: Queryable<FifoChannelHandler<Query>> =
+        match session.declare_queryable(request_key(&name, "*")).wait() {
+            Ok(q) => q,
+            Err(e) => {
+                errln!("error: cannot declare the daemon's queryable: {e}");
+                return ExitCode::from(crate::EXIT_FAILED);
+            }
+        };
+    let _token: LivelinessToken = match session.liveliness().declare_token(hostproto::host_token(&name)).wait() {
+        Ok(t) => t,
+        Err(e) => {
+            errln!("error: cannot declare the daemon's liveliness token: {e}");
+            return ExitCode::from(crate::EXIT_FAILED);
+        }
+    };
+    errln!("host {name}: listening on {listen} (build {}), runs under {}", cohort_wire::BUILD_ID, base.display());
+    let mut d = Daemon { name, session, base, runs: HashMap::new() };
+    loop {
+        let sig = SIGNALLED.load(Ordering::SeqCst);
+        if sig != 0 {
+            errln!("host {}: signal {sig}: stopping every child", d.name);
+            let ids: Vec<u64> = d.runs.keys().copied().collect();
+            for id in ids {
+                d.end_run(id);
+            }
+            return ExitCode::SUCCESS;
+        }
+        if let Ok(Some(q)) = queryable.recv_timeout(Duration::from_millis(50)) {
+            d.answer(&q);
+        }
+        let orphaned: Vec<u64> =
+            d.runs.iter().filter(|(_, r)| r.orphaned.load(Ordering::SeqCst)).map(|(id, _)| *id).collect();
+        for id in orphaned {
+            errln!("host {}: run {id:016x}: its orchestrator is gone; killing its processes", d.name);
+            d.end_run(id);
+        }
+    }
+}
+
+fn parse<T: serde::de::DeserializeOwned>(q: &Query) -> Result<T, String> {
+    let bytes = q.payload().map(|p| p.to_bytes().to_vec()).unwrap_or_default();
+    serde_json::from_slice(&bytes).map_err(|e| format!("malformed request: {e}"))
+}
+
+impl Daemon {
+    fn answer(&mut self, q: &Query) {
+        let verb = q.key_expr().as_str().rsplit('/').next().unwrap_or("").to_string();
+        let result: Result<Vec<u8>, String> = match verb.as_str() {
+            "info" => serde_json::to_vec(&Info {
+                name: self.name.clone(),
+                build_id: cohort_wire::BUILD_ID.into(),
+                pid: std::process::id(),
+            })
+            .map_err(|e| e.to_string()),
+            "spawn" => parse::<SpawnRequest>(q).and_then(|r| self.spawn(&r)),
+            "signal" => parse::<SignalRequest>(q).and_then(|r| self.signal(&r)).map(|_| b"{}".to_vec()),
+            "collect" => match parse::<RunRequest>(q) {
+                Ok(r) => {
+                    self.collect(q, r.run_id);
+                    return;
+                }
+                Err(e) => Err(e),
+            },
+            "end" => parse::<RunRequest>(q).map(|r| {
+                self.end_run(r.run_id);
+                b"{}".to_vec()
+            }),
+            other => Err(format!("unknown request {other:?}")),
+        };
+        let _ = match result {
+            Ok(body) => q.reply(q.key_expr().clone(), body).wait(),
+            Err(e) => {
+                errln!("host {}: {verb}: {e}", self.name);
+                q.reply_err(e.into_bytes()).wait()
+            }
+        };
+    }
+
+    /// Start one process of a run (see [`SpawnRequest`]).
+    fn spawn(&mut self, r: &SpawnRequest) -> Result<Vec<u8>, String> {
+        if r.build_id != cohort_wire::BUILD_ID {
+            return Err(format!(
+                "host {} was built from other sources ({}) than the orchestrator ({}): rebuild both from one checkout",
+                self.name,
+                cohort_wire::BUILD_ID,
+                r.build_id
+            ));
+        }
+        let bin_name = if r.proc_name == "plant" {
+            "plant"
+        } else if r.proc_name.strip_prefix("agent-").and_then(|i| i.parse::<u32>().ok()).is_some_and(|i| i > 0) {
+            "agent"
+        } else {
+            return Err(format!("no process {:?}", r.proc_name));
+        };
+        let bin = sibling_binary(bin_name)?;
+        let run_id = r.run_id;
+        if !self.runs.contains_key(&run_id) {
+            let state = self.open_run(run_id)?;
+            self.runs.insert(run_id, state);
+        }
+        let state = self.runs.get_mut(&run_id).expect("inserted above");
+        let dirs = RunDirs::new(&state.dir);
+        dirs.create_all().map_err(|e| format!("{}: {e}", dirs.root.display()))?;
+        cohort_runtime::record::write_atomic(&dirs.root.join("scenario.toml"), r.scenario_toml.as_bytes())
+            .map_err(|e| format!("scenario.toml: {e}"))?;
+        let key = match &r.key_hex {
+            Some(h) => Some(crate::supervise::key_pipe(&parse_key(h)?)?),
+            None => None,
+        };
+        let (reader, writer) = std::io::pipe().map_err(|e| format!("output pipe: {e}"))?;
+        let writer2 = writer.try_clone().map_err(|e| format!("output pipe: {e}"))?;
+        let mut cmd = Command::new(&bin);
+        if let Some(id) = r.proc_name.strip_prefix("agent-") {
+            cmd.arg("--id").arg(id);
+        }
+        if let Some(k) = r.restore_at {
+            cmd.arg("--restore-at").arg(k.to_string());
+        }
+        if key.is_some() {
+            cmd.arg("--key-fd").arg(KEY_FD.to_string());
+        }
+        for e in &r.connect {
+            cmd.arg("--zenoh-connect").arg(e);
+        }
+        for e in &r.listen {
+            cmd.arg("--zenoh-listen").arg(e);
+        }
+        cmd.arg("--run-dir")
+            .arg(&dirs.root)
+            .arg("--run-id")
+            .arg(format!("{run_id:016x}"))
+            .arg("--build-id")
+            .arg(cohort_wire::BUILD_ID)
+            .arg("--step-timeout-s")
+            .arg(format!("{:?}", r.step_timeout_s))
+            .stdin(Stdio::null())
+            .stdout(Stdio::from(writer))
+            .stderr(Stdio::from(writer2));
+        crate::supervise::child_setup(&mut cmd, key.as_ref().map(std::os::fd::AsRawFd::as_raw_fd));
+        let mut child = cmd.spawn().map_err(|e| format!("cannot start {}: {e}", bin.display()))?;
+        drop(cmd); // our copies of the pipe's write end, so the reader sees EOF when the child ends
+        drop(key);
+        let pid = child.id();
+        let done = Arc::new(AtomicBool::new(false));
+        let log_path = dirs.logs().join(format!("{}.log", r.proc_name));
+        let logger = {
+            let (session, key) = (self.session.clone(), hostproto::log_key(run_id, &self.name, &r.proc_name));
+            std::thread::spawn(move || forward_output(reader, &log_path, &session, &key))
+        };
+        {
+            let (session, done) = (self.session.clone(), Arc::clone(&done));
+            let (key, proc_name) = (hostproto::exit_key(run_id, &self.name), r.proc_name.clone());
+            std::thread::spawn(move || {
+                let status = child.wait().map(|s| s.into_raw()).unwrap_or(libc::SIGKILL);
+                let _ = logger.join(); // every line out before the exit report
+                done.store(true, Ordering::SeqCst);
+                let report = ExitReport { proc_name, pid, wait_status: status };
+                if let Ok(body) = serde_json::to_vec(&report) {
+                    let _ = session.put(key, body).congestion_control(CongestionControl::Block).wait();
+                }
+            });
+        }
+        state.kids.insert(r.proc_name.clone(), Kid { pid, done });
+        serde_json::to_vec(&Spawned { pid }).map_err(|e| e.to_string())
+    }
+
+    /// A run's directory and the watch on its orchestrator's liveliness token.
+    fn open_run(&self, run_id: u64) -> Result<RunState, String> {
+        use std::os::unix::fs::DirBuilderExt;
+        let dir = self.base.join(format!("{run_id:016x}"));
+        std::fs::DirBuilder::new()
+            .recursive(true)
+            .mode(0o700)
+            .create(&dir)
+            .map_err(|e| format!("{}: {e}", dir.display()))?;
+        let orphaned = Arc::new(AtomicBool::new(false));
+        let flag = Arc::clone(&orphaned);
+        let token = cohort_wire::transport::zenoh::ZenohRun::new(run_id).orchestrator_token();
+        let watch = self
+            .session
+            .liveliness()
+            .declare_subscriber(token)
+            .history(true)
+            .callback(move |s| {
+                if s.kind() == SampleKind::Delete {
+                    flag.store(true, Ordering::SeqCst);
+                }
+            })
+            .wait()
+            .map_err(|e| format!("cannot watch the orchestrator: {e}"))?;
+        Ok(RunState { dir, kids: HashMap::new(), orphaned, _watch: watch })
+    }
+
+    fn signal(&self, r: &SignalRequest) -> Result<(), String> {
+        let kid = self
+            .runs
+            .get(&r.run_id)
+            .and_then(|s| s.kids.get(&r.proc_name))
+            .ok_or_else(|| format!("run {:016x} has no {} here", r.run_id, r.proc_name))?;
+        if !kid.done.load(Ordering::SeqCst) {
+            // SAFETY: kill(2) on a child of ours that its reaper has not reaped yet.
+            unsafe { libc::kill(kid.pid as libc::pid_t, r.signal) };
+        }
+        Ok(())
+    }
+
+    /// Reply with every file of the run's data subdirectories, in pieces.
+    fn collect(&self, q: &Query, run_id: u64) {
+        let Some(state) = self.runs.get(&run_id) else {
+            let _ = q.reply_err(format!("run {run_id:016x} has nothing here").into_bytes()).wait();
+            return;
+        };
+        for sub in COLLECTED {
+            for path in files_under(&state.dir.join(sub)) {
+                let Ok(rel) = path.strip_prefix(&state.dir) else { continue };
+                let rel = rel.to_string_lossy().to_string();
+                let Ok(bytes) = std::fs::read(&path) else { continue };
+                let mut offset = 0usize;
+                loop {
+                    let end = (offset + hostproto::CHUNK_BYTES).min(bytes.len());
+                    let piece = chunk(&rel, offset as u64, &bytes[offset..end]);
+                    if q.reply(q.key_expr().clone(), piece).wait().is_err() {
+                        return;
+                    }
+                    offset = end;
+                    if offset >= bytes.len() {
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Kill whatever of the run is left, wait for its reapers, remove its directory.
+    fn end_run(&mut self, run_id: u64) {
+        let Some(state) = self.runs.remove(&run_id) else { return };
+        for k in state.kids.values().filter(|k| !k.done.load(Ordering::SeqCst)) {
+            // SAFETY: kill(2) on the process group of a child of ours (it made its own group).
+            unsafe { libc::kill(-(k.pid as libc::pid_t), libc::SIGKILL) };
+        }
+        let until = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < until && state.kids.values().any(|k| !k.done.load(Ordering::SeqCst)) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let _ = std::fs::remove_dir_all(&state.dir);
+    }
+}
+
+fn parse_key(hex: &str) -> Result<cohort_wire::auth::MacKey, String> {
+    let bytes: Vec<u8> = (0..hex.len())
+        .step_by(2)
+        .map(|i| hex.get(i..i + 2).and_then(|b| u8::from_str_radix(b, 16).ok()))
+        .collect::<Option<_>>()
+        .ok_or("malformed key")?;
+    let arr: [u8; 32] = bytes.try_into().map_err(|_| "the key must be 32 bytes")?;
+    Ok(cohort_wire::auth::MacKey::from_bytes(arr))
+}
+
+/// Every regular file under `dir`, recursively, in name order.
+fn files_under(dir: &Path) -> Vec<PathBuf> {
+    let Ok(rd) = std::fs::read_dir(dir) else { return Vec::new() };
+    let mut entries: Vec<PathBuf> = rd.flatten().map(|e| e.path()).collect();
+    entries.sort();
+    let mut out = Vec::new();
+    for p in entries {
+        match std::fs::symlink_metadata(&p) {
+            Ok(m) if m.is_dir() => out.extend(files_under(&p)),
+            Ok(m) if m.is_file() => out.push(p),
+            _ => {}
+        }
+    }
+    out
+}
+
+/// Copy a child's output to its local log and, line by line, to the orchestrator.
+fn forward_output(reader: std::io::PipeReader, log_path: &Path, session: &Session, key: &str) {
+    let mut log = std::fs::OpenOptions::new().create(true).append(true).open(log_path).ok();
+    let mut lines = std::io::BufReader::new(reader);
+    let mut line = Vec::new();
+    while lines.read_until(b'\n', &mut line).is_ok_and(|n| n > 0) {
+        if let Some(f) = log.as_mut() {
+            let _ = f.write_all(&line);
+        }
+        let _ = session.put(key, line.clone()).congestion_control(CongestionControl::Block).wait();
+        line.clear();
+    }
+}

@@ -1,0 +1,320 @@
+//! The orchestrator's side of a zenoh run: its session (which every plant and agent connects to),
+//! and for a multi-host run the links to the host daemons of `[[hosts]]` — checked before
+//! anything starts ([`preflight`]), then asked to start processes, relay signals, and at the end
+//! to send the run's files back ([`Remote`]). Each daemon's liveliness token is watched: when it
+//! goes, the host is lost, and the supervisor declares every process on it dead.
+
+use std::collections::HashMap;
+use std::net::{SocketAddr, ToSocketAddrs, UdpSocket};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use cohort_runtime::record::RunDirs;
+use cohort_scenario::HostSpec;
+use cohort_wire::transport::zenoh::{open_on_free_ports, session_config, tcp_endpoint};
+use zenoh::pubsub::Subscriber;
+use zenoh::sample::SampleKind;
+use zenoh::{Session, Wait};
+
+use crate::hostproto::{self, ExitReport, Info, RunRequest, SignalRequest, SpawnRequest, Spawned, request_key};
+
+/// How long a daemon has to answer a request.
+const REQUEST_TIMEOUT: Duration = Duration::from_secs(20);
+/// How long the pre-flight check waits for a daemon's connection and answer.
+const PREFLIGHT_TIMEOUT: Duration = Duration::from_secs(4);
+
+/// The address of a `tcp/<address>:<port>` endpoint.
+fn endpoint_addr(endpoint: &str) -> Result<SocketAddr, String> {
+    let rest = endpoint.strip_prefix("tcp/").ok_or_else(|| format!("{endpoint}: not a tcp/ endpoint"))?;
+    rest.to_socket_addrs()
+        .map_err(|e| format!("{endpoint}: cannot resolve: {e}"))?
+        .next()
+        .ok_or_else(|| format!("{endpoint}: resolves to no address"))
+}
+
+/// This machine's address on the route to `to` (no packet is sent: a UDP socket is connected,
+/// which only looks the route up).
+fn local_addr_towards(to: SocketAddr) -> Result<std::net::IpAddr, String> {
+    let bind = if to.is_ipv4() { "0.0.0.0:0" } else { "[::]:0" };
+    let s = UdpSocket::bind(bind).map_err(|e| format!("cannot look up the route to {to}: {e}"))?;
+    s.connect(to).map_err(|e| format!("no route to {to}: {e}"))?;
+    Ok(s.local_addr().map_err(|e| format!("route to {to}: {e}"))?.ip())
+}
+
+/// Before anything starts: every host's daemon is reachable at its endpoint, answers to its name,
+/// and was built from the same sources. The first problem, as a message naming the host.
+pub fn preflight(hosts: &[HostSpec]) -> Result<(), String> {
+    for (k, h) in hosts.iter().enumerate() {
+        let at = format!("hosts[{k}] ({} at {})", h.name, h.endpoint);
+        endpoint_addr(&h.endpoint).map_err(|e| format!("{at}: {e}"))?;
+        let mut cfg = session_config(&[], std::slice::from_ref(&h.endpoint)).map_err(|e| format!("{at}: {e}"))?;
+        for (key, value) in [("connect/timeout_ms", "3000"), ("connect/exit_on_failure", "true")] {
+            cfg.insert_json5(key, value).map_err(|e| format!("{at}: zenoh config {key}: {e}"))?;
+        }
+        let session = zenoh::open(cfg).wait().map_err(|e| {
+            format!(
+                "{at}: unreachable: {e} (is `orchestrator host --listen {} --name {}` running there?)",
+                h.endpoint, h.name
+            )
+        })?;
+        let replies = session
+            .get(request_key(&h.name, "info"))
+            .timeout(PREFLIGHT_TIMEOUT)
+            .wait()
+            .map_err(|e| format!("{at}: cannot ask: {e}"))?;
+        let info: Option<Info> = replies
+            .recv()
+            .ok()
+            .and_then(|r| r.into_result().ok())
+            .and_then(|s| serde_json::from_slice(&s.payload().to_bytes()).ok());
+        let _ = session.close().wait();
+        let Some(info) = info else {
+            return Err(format!(
+                "{at}: something listens there, but no daemon named {:?} answers (start it with --name {})",
+                h.name, h.name
+            ));
+        };
+        if info.build_id != cohort_wire::BUILD_ID {
+            return Err(format!(
+                "{at}: the daemon (pid {}) was built from other sources ({}) than this orchestrator ({}): rebuild both from one checkout",
+                info.pid,
+                info.build_id,
+                cohort_wire::BUILD_ID
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// One host daemon of a run, as the supervisor sees it.
+pub struct HostLink {
+    pub name: String,
+    pub endpoint: String,
+    /// Where the orchestrator listens for this host's processes.
+    pub connect: String,
+    /// Where this host's processes listen (its address, port 0).
+    pub listen: String,
+    /// Exit reports received: process name → (pid, raw wait status).
+    exits: Mutex<HashMap<String, (u32, i32)>>,
+    /// Its liveliness token was withdrawn (the daemon died or its network went).
+    lost: AtomicBool,
+    /// Its token was seen at least once.
+    seen: AtomicBool,
+}
+
+impl HostLink {
+    pub fn is_lost(&self) -> bool {
+        self.lost.load(Ordering::SeqCst)
+    }
+    /// The raw wait status of `proc_name` with pid `pid`, once reported.
+    pub fn exit_of(&self, proc_name: &str, pid: u32) -> Option<i32> {
+        let exits = self.exits.lock().unwrap_or_else(|p| p.into_inner());
+        exits.get(proc_name).filter(|(p, _)| *p == pid).map(|(_, st)| *st)
+    }
+}
+
+/// The run's zenoh session and its host links.
+pub struct Remote {
+    /// The run's session (the processes' side).
+    pub session: Session,
+    /// The daemons' session: requests, exit reports, logs, liveliness.
+    control: Session,
+    pub run_id: u64,
+    pub hosts: Vec<Arc<HostLink>>,
+    /// Where the orchestrator's own (local) processes connect and listen.
+    pub local_connect: String,
+    pub local_listen: String,
+    _subs: Vec<Subscriber<()>>,
+    /// The run's orchestrator token as the daemons see it (they kill the run's processes when
+    /// it goes).
+    _token: zenoh::liveliness::LivelinessToken,
+}
+
+impl Remote {
+    /// Open the run's session: listen where every host (or, with none, this machine's own
+    /// processes) can reach it, connect to every daemon, and watch their exits, logs and tokens.
+    pub fn open(run_id: u64, hosts: &[HostSpec], dirs: &RunDirs) -> Result<Self, String> {
+        let mut plan = Vec::new();
+        for h in hosts {
+            let to = endpoint_addr(&h.endpoint)?;
+            plan.push((h, local_addr_towards(to)?, to.ip()));
+        }
+        let mut listen_ips: Vec<std::net::IpAddr> = plan.iter().map(|(_, mine, _)| *mine).collect();
+        let loopback: std::net::IpAddr = std::net::Ipv4Addr::LOCALHOST.into();
+        let local_ip = listen_ips.first().copied().unwrap_or(loopback);
+        if listen_ips.is_empty() {
+            listen_ips.push(loopback);
+        }
+        listen_ips.sort();
+        listen_ips.dedup();
+        let connect: Vec<String> = hosts.iter().map(|h| h.endpoint.clone()).collect();
+        // Two sessions: the run's (listening; every plant and agent connects to it and gossip
+        // introduces them to each other) and the daemons' (connecting to each daemon, no gossip).
+        // On one session, gossip made the processes connect to the daemons too, and when they
+        // ended the daemons' queryables could vanish from the orchestrator's routes (end-of-run
+        // requests then went unanswered).
+        let (session, listening) =
+            open_on_free_ports(&listen_ips, &[]).map_err(|e| format!("cannot open the run's zenoh session: {e}"))?;
+        let mut cfg = session_config(&[], &connect).map_err(|e| e.to_string())?;
+        cfg.insert_json5("scouting/gossip/enabled", "false").map_err(|e| format!("zenoh config: {e}"))?;
+        let control = zenoh::open(cfg).wait().map_err(|e| format!("cannot open the daemons' zenoh session: {e}"))?;
+        let token = control
+            .liveliness()
+            .declare_token(cohort_wire::transport::zenoh::ZenohRun::new(run_id).orchestrator_token())
+            .wait()
+            .map_err(|e| format!("cannot declare the orchestrator's liveliness token: {e}"))?;
+        let port_on = |ip: std::net::IpAddr| -> Result<String, String> {
+            let k = listen_ips.iter().position(|&x| x == ip);
+            k.map(|k| listening[k].clone())
+                .ok_or_else(|| format!("the run's zenoh session does not listen on {ip} (it listens on {listening:?})"))
+        };
+        let mut links = Vec::new();
+        for (h, mine, theirs) in &plan {
+            links.push(Arc::new(HostLink {
+                name: h.name.clone(),
+                endpoint: h.endpoint.clone(),
+                connect: port_on(*mine)?,
+                listen: tcp_endpoint(*theirs, 0),
+                exits: Mutex::new(HashMap::new()),
+                lost: AtomicBool::new(false),
+                seen: AtomicBool::new(false),
+            }));
+        }
+        let mut subs = Vec::new();
+        let exits = links.clone();
+        subs.push(
+            control
+                .declare_subscriber(hostproto::all_exits_key(run_id))
+                .callback(move |s| {
+                    let host = s.key_expr().as_str().split('/').nth(3).unwrap_or("").to_string();
+                    let Ok(r) = serde_json::from_slice::<ExitReport>(&s.payload().to_bytes()) else { return };
+                    if let Some(l) = exits.iter().find(|l| l.name == host) {
+                        l.exits.lock().unwrap_or_else(|p| p.into_inner()).insert(r.proc_name, (r.pid, r.wait_status));
+                    }
+                })
+                .wait()
+                .map_err(|e| format!("cannot subscribe to exit reports: {e}"))?,
+        );
+        let logs = dirs.logs();
+        subs.push(
+            control
+                .declare_subscriber(hostproto::all_logs_key(run_id))
+                .callback(move |s| append_log(&logs, s.key_expr().as_str(), &s.payload().to_bytes()))
+                .wait()
+                .map_err(|e| format!("cannot subscribe to logs: {e}"))?,
+        );
+        for l in &links {
+            let link = Arc::clone(l);
+            subs.push(
+                control
+                    .liveliness()
+                    .declare_subscriber(hostproto::host_token(&l.name))
+                    .history(true)
+                    .callback(move |s| match s.kind() {
+                        SampleKind::Put => link.seen.store(true, Ordering::SeqCst),
+                        SampleKind::Delete => link.lost.store(true, Ordering::SeqCst),
+                    })
+                    .wait()
+                    .map_err(|e| format!("cannot watch host {}: {e}", l.name))?,
+            );
+        }
+        let local_connect = port_on(local_ip)?;
+        let local_listen = tcp_endpoint(local_ip, 0);
+        Ok(Self { session, control, run_id, hosts: links, local_connect, local_listen, _subs: subs, _token: token })
+    }
+
+    pub fn host(&self, name: &str) -> Option<&Arc<HostLink>> {
+        self.hosts.iter().find(|h| h.name == name)
+    }
+
+    fn ask(&self, host: &HostLink, verb: &str, body: Vec<u8>) -> Result<Vec<u8>, String> {
+        let replies = self
+            .control
+            .get(request_key(&host.name, verb))
+            .payload(body)
+            .timeout(REQUEST_TIMEOUT)
+            .wait()
+            .map_err(|e| format!("host {}: {verb}: {e}", host.name))?;
+        match replies.recv() {
+            Ok(r) => match r.into_result() {
+                Ok(s) => Ok(s.payload().to_bytes().to_vec()),
+                Err(e) => Err(format!("host {}: {}", host.name, String::from_utf8_lossy(&e.payload().to_bytes()))),
+            },
+            Err(_) => Err(format!("host {} ({}) did not answer its {verb} request", host.name, host.endpoint)),
+        }
+    }
+
+    /// Ask `host` to start a process; its pid.
+    pub fn spawn(&self, host: &HostLink, req: &SpawnRequest) -> Result<u32, String> {
+        let body = serde_json::to_vec(req).map_err(|e| e.to_string())?;
+        let reply = self.ask(host, "spawn", body)?;
+        let s: Spawned = serde_json::from_slice(&reply).map_err(|e| format!("host {}: bad reply: {e}", host.name))?;
+        Ok(s.pid)
+    }
+
+    pub fn signal(&self, host: &HostLink, proc_name: &str, signal: i32) -> Result<(), String> {
+        let req = SignalRequest { run_id: self.run_id, proc_name: proc_name.into(), signal };
+        self.ask(host, "signal", serde_json::to_vec(&req).map_err(|e| e.to_string())?).map(|_| ())
+    }
+
+    /// Fetch every data file the host's processes wrote into `dirs`. Returns how many bytes.
+    pub fn collect(&self, host: &HostLink, dirs: &RunDirs) -> Result<u64, String> {
+        use std::io::{Seek, SeekFrom, Write};
+        let req = serde_json::to_vec(&RunRequest { run_id: self.run_id }).map_err(|e| e.to_string())?;
+        let replies = self
+            .control
+            .get(request_key(&host.name, "collect"))
+            // Every piece is a reply on the same key: keep them all, in order.
+            .consolidation(zenoh::query::ConsolidationMode::None)
+            .payload(req)
+            .timeout(Duration::from_secs(300))
+            .wait()
+            .map_err(|e| format!("host {}: collect: {e}", host.name))?;
+        let mut total = 0u64;
+        let mut open: HashMap<String, std::fs::File> = HashMap::new();
+        while let Ok(r) = replies.recv() {
+            let sample = r.into_result().map_err(|e| {
+                format!("host {}: collect: {}", host.name, String::from_utf8_lossy(&e.payload().to_bytes()))
+            })?;
+            let bytes = sample.payload().to_bytes();
+            let (path, offset, data) = hostproto::unchunk(&bytes).map_err(|e| format!("host {}: {e}", host.name))?;
+            let full = dirs.root.join(&path);
+            if !open.contains_key(&path) {
+                if let Some(parent) = full.parent() {
+                    std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+                }
+                let f = std::fs::File::create(&full).map_err(|e| format!("{}: {e}", full.display()))?;
+                open.insert(path.clone(), f);
+            }
+            let f = open.get_mut(&path).expect("inserted above");
+            f.seek(SeekFrom::Start(offset))
+                .and_then(|_| f.write_all(data))
+                .map_err(|e| format!("{}: {e}", full.display()))?;
+            total += data.len() as u64;
+        }
+        Ok(total)
+    }
+
+    /// Tell `host` the run is over: it kills whatever is left and removes its copy.
+    pub fn end(&self, host: &HostLink) -> Result<(), String> {
+        let req = serde_json::to_vec(&RunRequest { run_id: self.run_id }).map_err(|e| e.to_string())?;
+        self.ask(host, "end", req).map(|_| ())
+    }
+}
+
+/// Append one line of a remote child's output to its log (`cohort/<run>/host/<h>/log/<proc>`).
+fn append_log(logs: &std::path::Path, key: &str, line: &[u8]) {
+    use std::io::Write;
+    let Some(name) = key
+        .rsplit('/')
+        .next()
+        .filter(|n| *n == "plant" || n.strip_prefix("agent-").is_some_and(|i| i.parse::<u32>().is_ok()))
+    else {
+        return;
+    };
+    let path = logs.join(format!("{name}.log"));
+    if let Ok(mut f) = std::fs::OpenOptions::new().create(true).append(true).open(path) {
+        let _ = f.write_all(line);
+    }
+}
