@@ -28,6 +28,8 @@ pub struct Overrides {
     pub faults: Vec<crate::faults::FaultSpec>,
     pub on_agent_loss: Option<String>,
     pub authenticate: Option<bool>,
+    /// `--telemetry`: run.telemetry (parquet or csv).
+    pub telemetry: Option<String>,
 }
 
 /// Read and parse a scenario file: the generic sections typed and checked for their own form
@@ -131,6 +133,9 @@ fn apply_overrides(table: &mut toml::Table, o: &Overrides) {
     }
     if let Some(a) = o.authenticate {
         set("run", "authenticate", Value::Boolean(a));
+    }
+    if let Some(f) = &o.telemetry {
+        set("run", "telemetry", Value::String(f.clone()));
     }
     if !o.faults.is_empty() {
         let entry = table.entry("faults").or_insert_with(|| Value::Array(Vec::new()));
