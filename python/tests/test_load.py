@@ -47,7 +47,9 @@ class LoadFig1(unittest.TestCase):
         self.assertEqual(run.processes, ["plant"] + [f"agent-{i}" for i in range(1, 7)])
         plant = run["plant"]
         self.assertEqual(plant.num_rows, STEPS)
-        self.assertEqual(plant.column_names[:3], ["k", "t_s", "a1_e_norm_m"])
+        self.assertEqual(plant.column_names[:3], ["k", "t_s", "b0_r_eci_x_m"])
+        self.assertIn("a6_e_norm_m", plant.column_names)
+        self.assertEqual(run.unit("plant", "a6_e_norm_m"), "m")
         self.assertEqual(plant.column("k").to_pylist(), list(range(STEPS)))
         self.assertEqual(run.unit("plant", "t_s"), "s")
         self.assertEqual(run.unit("plant", "a1_zeta_x_mps"), "m/s")
