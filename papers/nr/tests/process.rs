@@ -116,12 +116,13 @@ fn killing_one_spacecraft_leaves_the_others_bit_identical() {
     launch(file, &clean, &["--no-plots"]);
     launch(file, &killed, &["--no-plots", "--fault", "kill:agent=2@t=36000", "--on-agent-loss", "degrade"]);
     let bits = |run: &Path, j: u32| {
-        let name = format!("agent-{j}.csv");
-        telemetry_bits(run).into_iter().filter(|v| v.0 == name).collect::<Vec<_>>()
+        // Whichever format the run wrote (Parquet by default).
+        let stem = format!("agent-{j}.");
+        telemetry_bits(run).into_iter().filter(|v| v.0.starts_with(&stem)).collect::<Vec<_>>()
     };
     for j in [1, 3, 4] {
         let (a, b) = (bits(&clean, j), bits(&killed, j));
-        assert!(a.len() > 144, "agent-{j}.csv has {} values", a.len());
+        assert!(a.len() > 144, "agent-{j}'s telemetry has {} values", a.len());
         assert!(a == b, "agent-{j}'s telemetry changed when spacecraft 2 was lost");
     }
     let (c, k) = (summary(&clean), summary(&killed));
