@@ -245,6 +245,12 @@ pub fn table_of<T: serde::Serialize>(config: &T) -> Result<toml::Table, String> 
     toml::Table::try_from(config).map_err(|e| e.to_string())
 }
 
+/// The per-agent keys of a kind that reads none: `agent_keys::<NoAgentKeys>` rejects any key
+/// of an `[[agents]]` entry beyond `id` and `neighbours`, each at its key path.
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoAgentKeys {}
+
 /// Deserialise every agent's per-agent keys (`[[agents]]` beyond `id` and `neighbours`) as a `T`,
 /// in file order, each problem at `agents[k].…`. None if any agent's keys do not parse.
 pub fn agent_keys<T: serde::de::DeserializeOwned>(s: &Scenario, c: &mut Checker) -> Option<Vec<T>> {

@@ -138,11 +138,6 @@ pub struct NullPlant {
     pub readings: usize,
 }
 
-/// The null plant reads no per-agent keys.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct NoAgentKeys {}
-
 pub struct NullPlantKind;
 
 impl PlantKind for NullPlantKind {
@@ -151,7 +146,7 @@ impl PlantKind for NullPlantKind {
     }
     fn configure(&self, ctx: &ConfigureCtx<'_>, c: &mut Checker) -> Option<Arc<dyn PlantSetup>> {
         let config = section_as::<NullPlant>(&ctx.scenario.plant.body, "plant", c);
-        agent_keys::<NoAgentKeys>(ctx.scenario, c)?;
+        agent_keys::<cohort_runtime::paper::NoAgentKeys>(ctx.scenario, c)?;
         Some(Arc::new(config?))
     }
 }

@@ -360,18 +360,13 @@ fn validate_algorithm(c: &mut Checker, s: &Scenario, plant: Option<&RigidBodyPla
 
 pub struct RigidBodyKind;
 
-/// The rigid-body plant reads no per-agent keys.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct NoAgentKeys {}
-
 impl PlantKind for RigidBodyKind {
     fn kind(&self) -> &'static str {
         "rigid-body"
     }
     fn configure(&self, ctx: &ConfigureCtx<'_>, c: &mut Checker) -> Option<Arc<dyn PlantSetup>> {
         let p = section_as::<RigidBodyPlant>(&ctx.scenario.plant.body, "plant", c);
-        let agents = agent_keys::<NoAgentKeys>(ctx.scenario, c);
+        let agents = agent_keys::<cohort_runtime::paper::NoAgentKeys>(ctx.scenario, c);
         let p = p?;
         validate_plant(c, ctx.scenario, &p);
         agents?;

@@ -27,7 +27,6 @@ use cohort_runtime::paper::{
     AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys, section_as, table_of,
 };
 use cohort_scenario::{Checker, Scenario, fmt_f64};
-use serde::Deserialize;
 
 use crate::agent::NrAgent;
 use crate::config::{IsoEncounterConfig, NrAlgorithmConfig, build_plant};
@@ -40,11 +39,6 @@ pub const PLANT_KIND: &str = "iso-encounter";
 /// The algorithm kind's name.
 pub const ALGORITHM_KIND: &str = "neural-rendezvous";
 
-/// The agents' entries hold only `id` and `neighbours`.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct NoAgentKeys {}
-
 pub struct IsoEncounterKind;
 
 impl PlantKind for IsoEncounterKind {
@@ -53,7 +47,7 @@ impl PlantKind for IsoEncounterKind {
     }
     fn configure(&self, ctx: &ConfigureCtx<'_>, c: &mut Checker) -> Option<Arc<dyn PlantSetup>> {
         let p = section_as::<IsoEncounterConfig>(&ctx.scenario.plant.body, "plant", c);
-        let agents = agent_keys::<NoAgentKeys>(ctx.scenario, c);
+        let agents = agent_keys::<cohort_runtime::paper::NoAgentKeys>(ctx.scenario, c);
         let mut p = p?;
         let s = ctx.scenario;
         c.problems.extend(p.validate(s.scenario.dt_s, s.n_agents()));

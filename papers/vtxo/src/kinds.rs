@@ -19,7 +19,6 @@ use cohort_runtime::paper::{
     AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys, section_as, table_of,
 };
 use cohort_scenario::{Checker, Scenario};
-use serde::Deserialize;
 
 use crate::config_algorithm::{LeaderControl, Phase, RelativeController, ScienceAttitude, VtxoAlgorithmConfig};
 use crate::config_plant::{AGENTS_REASON, VtxoPlantConfig};
@@ -31,11 +30,6 @@ use crate::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
 pub const PLANT_KIND: &str = "vtxo";
 pub const ALGORITHM_KIND: &str = "vtxo-formation";
 
-/// The vtxo plant reads no per-agent keys: agent 1 is the leader, agent 2 the follower.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct NoAgentKeys {}
-
 pub struct VtxoPlantKind;
 
 impl PlantKind for VtxoPlantKind {
@@ -44,7 +38,7 @@ impl PlantKind for VtxoPlantKind {
     }
     fn configure(&self, ctx: &ConfigureCtx<'_>, c: &mut Checker) -> Option<Arc<dyn PlantSetup>> {
         let p = section_as::<VtxoPlantConfig>(&ctx.scenario.plant.body, "plant", c);
-        let agents = agent_keys::<NoAgentKeys>(ctx.scenario, c);
+        let agents = agent_keys::<cohort_runtime::paper::NoAgentKeys>(ctx.scenario, c);
         let n = ctx.scenario.agents.len();
         if n != 2 {
             c.fail("agents", format!("{n} entries"), AGENTS_REASON);
