@@ -98,9 +98,10 @@ pub struct ExitReport {
     pub wait_status: i32,
 }
 
-/// The largest file piece one reply carries: a lowlatency zenoh link cannot fragment a message
-/// (see `cohort_wire::transport::zenoh::MAX_MESSAGE_BYTES`), and in practice replies of 48 KiB
-/// broke the daemon's link while 46 KiB went through; 16 KiB leaves ample room.
+/// The largest file piece one reply carries: well below
+/// `cohort_wire::transport::zenoh::MAX_MESSAGE_BYTES` (on the `lowlatency` transport Cohort used
+/// before, which cannot fragment, replies of 48 KiB broke the daemon's link); 16 KiB pieces keep
+/// each reply one small message.
 pub const CHUNK_BYTES: usize = 16 * 1024;
 
 /// A file piece: `[path length u32 LE][path][offset u64 LE][bytes]`.

@@ -23,9 +23,15 @@
 //! matching subscriber ([`ZenohPending::ready`]); the orchestrator grants the start only after
 //! every process has, so step 0's first message always finds its reader.
 //!
-//! Every session sets `transport/unicast/lowlatency` (zenoh writes a message on the socket from
-//! the sending thread instead of handing it to a batching task; it requires QoS off). Its limit:
-//! a message must fit in one batch (64 KiB), which every payload here does.
+//! Sessions use zenoh's default unicast transport (QoS on, a TX task that batches), not its
+//! `lowlatency` transport. With `lowlatency` a session writes on the socket from the thread that
+//! sends, and zenoh 1.10.2 then deadlocks under start-up churn: an RX thread handling a gossip
+//! link-state message holds the routing locks while it blocks writing to another peer, and the
+//! network runtime's worker that would let that write finish waits for the same locks (thread
+//! dumps of hung agents and of the orchestrator itself, stuck in `put`). A 20-agent ring on one
+//! host failed to start in 3 of 6 launches that way; with the default transport 8 of 8 started.
+//! The default transport costs a hand-off to the TX task: a 256-byte round trip on one host was
+//! 45–69 µs p50 against 35–36 µs with `lowlatency` (two interleaved `orchestrator bench` runs).
 //!
 //! Payloads are the `#[repr(C)]` bytes of the messages, as with UDP. Publishers block rather than
 //! drop when zenoh's queue is full (`CongestionControl::Block`): lockstep never loses a message
@@ -53,7 +59,8 @@ use crate::msg::{
 /// Depth of a process's inbox channel (samples zenoh has received and the driver not yet
 /// drained). In lockstep a process has at most one message per peer per step in flight.
 const INBOX_DEPTH: usize = 1024;
-/// Largest payload one zenoh message may carry on a lowlatency link (one batch).
+/// Largest payload Cohort puts in one zenoh message (file pieces of the host daemon are cut
+/// well below it; every step message is far smaller).
 pub const MAX_MESSAGE_BYTES: usize = 60 * 1024;
 
 fn err(what: impl std::fmt::Display) -> impl FnOnce(::zenoh::Error) -> TransportError {
@@ -61,7 +68,7 @@ fn err(what: impl std::fmt::Display) -> impl FnOnce(::zenoh::Error) -> Transport
 }
 
 /// The configuration every session of Cohort uses: a peer, no multicast scouting (endpoints are
-/// explicit), the lowlatency transport (with QoS off, which it requires). `listen` and
+/// explicit), the default transport (not `lowlatency`: see the module docs). `listen` and
 /// `connect` are zenoh endpoints (`tcp/192.0.2.2:7447`).
 pub fn session_config(listen: &[String], connect: &[String]) -> Result<Config, TransportError> {
     let mut c = Config::default();
@@ -71,8 +78,7 @@ pub fn session_config(listen: &[String], connect: &[String]) -> Result<Config, T
         ("scouting/multicast/enabled", "false".to_string()),
         ("listen/endpoints", json(listen)),
         ("connect/endpoints", json(connect)),
-        ("transport/unicast/lowlatency", "true".to_string()),
-        ("transport/unicast/qos/enabled", "false".to_string()),
+        ("transport/unicast/lowlatency", "false".to_string()),
         // Of two peers that learn of each other by gossip, only the one with the greater id
         // connects: with both connecting at once ("always"), a pair was seen to end up with no
         // link at all now and then (start-up timed out with a publisher unmatched).
