@@ -412,3 +412,54 @@ fn fig1_across_three_loopback_daemons_is_bit_identical_to_the_reference() {
     drop(daemons);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A 20-agent consensus ring over zenoh on one host, as text: many sessions connecting at once
+/// is what deadlocked zenoh's `lowlatency` transport at start-up.
+fn ring20_over_zenoh() -> String {
+    let n = 20u32;
+    let mut t = String::from(
+        "[scenario]\nname = \"ring20-zenoh\"\nseed = 7\ndt_s = 0.01\nduration_s = 0.5\n\n[run]\n\
+         transport = \"zenoh\"\nstartup_timeout_s = 90.0\nstep_timeout_s = 30.0\n\n[plant]\n\
+         kind = \"double-integrator\"\nposition_noise_std_m = 0.05\n\n[algorithm]\n\
+         kind = \"consensus-formation\"\nformation_radius_m = 40.0\nkp_per_s2 = 0.5\nkd_per_s = 1.5\n\
+         observer_l1_per_s = 6.0\nobserver_l2_per_s2 = 9.0\n",
+    );
+    for i in 1..=n {
+        let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
+        t.push_str(&format!(
+            "\n[[agents]]\nid = {i}\nneighbours = [{}, {}]\nr0_m = [{:?}, {:?}, 0.0]\nv0_mps = [0.0, 0.0, 0.0]\n",
+            (i + n - 2) % n + 1,
+            i % n + 1,
+            52.0 * a.cos(),
+            28.0 * a.sin()
+        ));
+    }
+    t
+}
+
+#[test]
+fn twenty_agents_over_zenoh_start_every_time() {
+    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch_dir("zenoh-ring20");
+    let file = dir.join("ring20.toml");
+    std::fs::write(&file, ring20_over_zenoh()).unwrap();
+    // With the lowlatency transport about half of these launches hung at start-up (and the
+    // orchestrator with them): `timeout` turns a hang into a failure instead of a stuck suite.
+    for k in 0..3 {
+        let run = dir.join(format!("run-{k}"));
+        let o = Command::new("timeout")
+            .args(["-k", "10", "300"])
+            .arg(bin_path("orchestrator"))
+            .current_dir(repo_root())
+            .args(["launch", "--no-plots", "--out"])
+            .arg(&run)
+            .arg(&file)
+            .output()
+            .expect("running the orchestrator");
+        assert!(o.status.success(), "launch {k}: {}", describe_output(&o));
+        assert_eq!(summary(&run)["status"], "ok", "launch {k}");
+        let id = summary(&run)["run_id"].as_str().unwrap().to_string();
+        assert!(processes_mentioning(&id).is_empty(), "{:?}", processes_mentioning(&id));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
