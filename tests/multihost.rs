@@ -222,18 +222,9 @@ fn assert_nothing_left(run: &Path, killed: &[&str]) {
 }
 
 fn latency_p50_ns(s: &Value, agent: &str) -> f64 {
-    let plant = s["processes"].as_array().unwrap().iter().find(|p| p["process"] == "plant").unwrap();
-    let buckets = plant["latency_from_ns"][agent].as_array().unwrap_or_else(|| panic!("no histogram for {agent}"));
-    // Buckets are (upper bound ns, count): the median's bucket.
-    let total: u64 = buckets.iter().map(|b| b[1].as_u64().unwrap()).sum();
-    let mut seen = 0;
-    for b in buckets {
-        seen += b[1].as_u64().unwrap();
-        if 2 * seen >= total {
-            return b[0].as_f64().unwrap();
-        }
-    }
-    f64::NAN
+    // The summary keeps each link's percentiles (the buckets are in timing/).
+    let link = &s["link_latency_ns"][format!("{agent} → plant")];
+    link["p50"].as_f64().unwrap_or_else(|| panic!("no latency of {agent} → plant: {}", s["link_latency_ns"]))
 }
 
 #[test]

@@ -12,6 +12,9 @@ use cohort_runtime::record::{RunDirs, TimelineEvent};
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
 
 pub use cohort_report::{FigureSource, PaperFigure, ReportError};
+pub use verdict::{Criterion, Verdict, VerdictInput, VerdictLine};
+
+pub mod verdict;
 
 /// Summary metrics by name (units in the names).
 pub type Metrics = BTreeMap<String, f64>;
@@ -36,6 +39,13 @@ pub trait PaperHost: Paper {
     /// [`PaperHost::analyse`], only when faults were carried out).
     fn fault_effects(&self, _run: &RunView<'_>, _timeline: &[TimelineEvent]) -> Result<Metrics, String> {
         Ok(Metrics::new())
+    }
+    /// The run against the paper: one line per published bound or value the run speaks to (the
+    /// paper's number, ours from `input.metrics`, pass / fail / n/a), called after
+    /// [`PaperHost::analyse`] and [`PaperHost::fault_effects`]. Default: no verdict (a paper, or
+    /// a generic scenario, with nothing published to compare).
+    fn verdict(&self, _input: &VerdictInput<'_>) -> Vec<VerdictLine> {
+        Vec::new()
     }
     /// The paper's figures of the run of `setup` in `run_dir` (drawn before the generic ones), if
     /// it has any.

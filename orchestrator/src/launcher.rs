@@ -125,6 +125,15 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
             }
         }
     }
+    let input = cohort_host::VerdictInput {
+        run: &view,
+        metrics: &summary.metrics,
+        status: summary.status,
+        faulted: !s.faults.is_empty() || !outcome.timeline.is_empty(),
+    };
+    let verdict: Vec<_> = cohort_registry::hosts_of(s).iter().flat_map(|h| h.verdict(&input)).collect();
+    summary.verdict_overall = cohort_host::verdict::overall(&verdict);
+    summary.verdict = verdict;
     if outcome.error.is_none() {
         for w in &summary.warnings {
             errln!("warning: {w}");

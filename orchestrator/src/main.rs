@@ -36,6 +36,7 @@ mod soak;
 mod summary;
 mod supervise;
 mod sweep_report;
+mod terminal;
 mod zping;
 
 use std::path::{Path, PathBuf};
@@ -213,6 +214,10 @@ struct LaunchArgs {
     /// Do not draw the plots after a successful run.
     #[arg(long)]
     no_plots: bool,
+    /// Print the run's summary (summary.json) on stdout and nothing else there; the human text
+    /// goes to stderr. The exit code is the same.
+    #[arg(long)]
+    json: bool,
     /// Override run.wait: adaptive, event or poll.
     #[arg(long)]
     wait: Option<String>,
@@ -546,10 +551,21 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
         on_agent_loss: a.on_agent_loss,
         authenticate: a.authenticate.then_some(true),
     };
-    launch(&a.file, a.out.as_deref(), &o, a.reference, !a.no_plots)
+    launch(&a.file, a.out.as_deref(), &o, a.reference, !a.no_plots, a.json)
 }
 
-fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots: bool) -> ExitCode {
+/// Human text at the end of a launch: on stdout, or on stderr when stdout carries the JSON.
+macro_rules! humanln {
+    ($json:expr, $($t:tt)*) => {{
+        if $json {
+            errln!($($t)*);
+        } else {
+            outln!($($t)*);
+        }
+    }};
+}
+
+fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots: bool, json: bool) -> ExitCode {
     let s = match load_or_exit(file, o) {
         Ok(s) => s,
         Err(code) => return code,
@@ -616,12 +632,16 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
             errln!("warning: {w}");
         }
         errln!("run directory (partial): {}", dirs.root.display());
+        if json {
+            print_json(&dirs.root);
+        }
         return ExitCode::from(outcome.exit_code);
     }
     if expect_divergence && outcome.status == "ok" {
         errln!("warning: scenario.expect = \"diverge\", but the run completed every step");
     }
-    outln!(
+    humanln!(
+        json,
         "{}: {} steps in {:.3} s wall ({:.0} steps/s); run directory: {}",
         if outcome.status == "diverged" { "diverged" } else { "done" },
         summary.steps_completed,
@@ -629,16 +649,32 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         summary.steps_per_s,
         dirs.root.display()
     );
-    for (k, v) in &summary.metrics {
-        outln!("  {k} = {v}");
+    let text = terminal::render(&summary);
+    if !text.is_empty() {
+        humanln!(json, "{}", text.trim_end());
     }
     if plots {
         match launcher::report(&dirs.root) {
-            Ok(_) => outln!("plots: {}", dirs.root.join("plots").display()),
+            Ok(_) => humanln!(json, "plots: {}", dirs.root.join("plots").display()),
             Err(e) => errln!("warning: plots not drawn: {e}"),
         }
     }
+    if json {
+        print_json(&dirs.root);
+    }
     ExitCode::from(outcome.exit_code)
+}
+
+/// `--json`: the run's summary.json, as written, on stdout (a summary that could not be written
+/// has already been reported on stderr).
+fn print_json(run_dir: &Path) {
+    match std::fs::read_to_string(run_dir.join("summary.json")) {
+        Ok(text) => {
+            use std::io::Write as _;
+            let _ = std::io::stdout().write_all(text.as_bytes());
+        }
+        Err(e) => errln!("error: {}: {e}", run_dir.join("summary.json").display()),
+    }
 }
 
 fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {

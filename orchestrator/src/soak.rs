@@ -350,11 +350,8 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
         shm.extend(m);
         shm.push(ShmSample { wall_s: started.elapsed().as_secs_f64(), entries: shm_entries() });
         let plant = summary.processes.iter().find(|p| p.process == "plant");
-        for p in &summary.processes {
-            for (from, b) in &p.latency_from_ns {
-                let h = LatencyHist::from_buckets(b);
-                links.entry(format!("{from} → {}", p.process)).or_default().add(&h);
-            }
+        for ((from, to), b) in &summary.histograms {
+            links.entry(format!("{from} → {to}")).or_default().add(&LatencyHist::from_buckets(b));
         }
         let record = RunRecord {
             run: index,
@@ -532,16 +529,11 @@ fn plots(out: &Path, rss: &[RssSample], shm: &[ShmSample], r: &SoakReport) -> Re
     let mut lat: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let mut misses = Vec::new();
     for run in &r.runs {
-        let path = out.join(format!("run-{:03}/summary.json", run.run));
-        let Ok(text) = std::fs::read_to_string(&path) else { continue };
-        let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else { continue };
+        let path = out.join(format!("run-{:03}", run.run)).join(cohort_runtime::record::LATENCY_HISTOGRAMS);
+        let Ok(hists) = cohort_runtime::record::read_latency_histograms(&path) else { continue };
         let mut all = LatencyHist::default();
-        for p in v["processes"].as_array().into_iter().flatten() {
-            for b in p["latency_from_ns"].as_object().into_iter().flat_map(|m| m.values()) {
-                if let Ok(b) = serde_json::from_value(b.clone()) {
-                    all.add(&LatencyHist::from_buckets(&b));
-                }
-            }
+        for b in hists.values() {
+            all.add(&LatencyHist::from_buckets(b));
         }
         if all.is_empty() {
             continue;

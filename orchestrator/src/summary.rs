@@ -1,11 +1,17 @@
 //! `summary.json`: the run's headline metrics, message counters, and wall-clock figures, folded
-//! from every process's `status/<proc>.json` and the `timing/` CSVs.
+//! from every process's `status/<proc>.json` and the `timing/` CSVs, and the paper's verdict.
+//!
+//! Kept small (a few kB): the per-link latency histograms the processes report (`status/` keeps
+//! them, the full record) move to `timing/latency_histograms.csv`
+//! ([`cohort_runtime::record::LATENCY_HISTOGRAMS`]); the summary keeps each link's and each
+//! receiving process's p50 / p99 / p99.9 / max.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use cohort_host::VerdictLine;
 use cohort_runtime::paper::Setup;
-use cohort_runtime::record::{ProcessReport, RunDirs};
+use cohort_runtime::record::{LatencyBuckets, LatencyHist, ProcessReport, RunDirs};
 use cohort_scenario::Scenario;
 use serde::Serialize;
 
@@ -14,6 +20,8 @@ pub struct Percentiles {
     pub samples: usize,
     pub p50: u64,
     pub p99: u64,
+    #[serde(rename = "p99.9")]
+    pub p99_9: u64,
     pub max: u64,
 }
 
@@ -24,7 +32,17 @@ impl Percentiles {
         }
         xs.sort_unstable();
         let at = |q: f64| xs[((xs.len() - 1) as f64 * q).round() as usize];
-        Some(Self { samples: xs.len(), p50: at(0.5), p99: at(0.99), max: *xs.last().unwrap_or(&0) })
+        Some(Self { samples: xs.len(), p50: at(0.5), p99: at(0.99), p99_9: at(0.999), max: *xs.last().unwrap_or(&0) })
+    }
+    /// A histogram's percentiles (each to the histogram's 3 significant figures).
+    pub fn of_hist(h: &LatencyHist) -> Option<Self> {
+        (!h.is_empty()).then(|| Self {
+            samples: h.len() as usize,
+            p50: h.quantile(0.5),
+            p99: h.quantile(0.99),
+            p99_9: h.quantile(0.999),
+            max: h.max(),
+        })
     }
 }
 
@@ -56,13 +74,32 @@ pub struct Summary {
     pub timeouts: u64,
     /// Wall-clock latencies from `timing/`, in ns.
     pub latency_ns: BTreeMap<String, Percentiles>,
+    /// Message latency (send → receipt) per link, `"<sender> → <receiver>"`, ns; the histograms
+    /// are in `timing/latency_histograms.csv`.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub link_latency_ns: BTreeMap<String, Percentiles>,
+    /// The same per receiving process, over every link into it, ns.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub process_latency_ns: BTreeMap<String, Percentiles>,
+    /// Each process's end report, without its latency histograms.
     pub processes: Vec<ProcessReport>,
+    /// The histograms taken out of `processes`, (sender, receiver) → buckets (kept in memory
+    /// for a soak's merge, written to `timing/`, never to `summary.json`).
+    #[serde(skip)]
+    pub histograms: BTreeMap<(String, String), LatencyBuckets>,
     /// Messages that went missing without being counted anywhere (sent, but neither received
     /// nor rejected by a reader that ran to the end): must be empty.
     pub messages_unaccounted: Vec<String>,
     /// Faults carried out, roster changes and their effect (empty without faults).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub timeline: Vec<cohort_runtime::record::TimelineEvent>,
+    /// The run against its paper's published bounds and values (see `cohort_host::verdict`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub verdict: Vec<VerdictLine>,
+    /// "pass" (no line fails, one passes), "fail" (a line fails) or "n/a"; absent without a
+    /// verdict.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub verdict_overall: Option<&'static str>,
     /// What the analyses could not do (printed after the run's error when it failed).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
@@ -94,6 +131,14 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
         let path = dirs.status().join(format!("{name}.json"));
         if let Some(r) = std::fs::read_to_string(&path).ok().and_then(|t| serde_json::from_str(&t).ok()) {
             processes.push(r);
+        }
+    }
+    let (histograms, link_latency, process_latency) = take_histograms(&mut processes);
+    let mut warnings = Vec::new();
+    if !histograms.is_empty() {
+        let path = dirs.root.join(cohort_runtime::record::LATENCY_HISTOGRAMS);
+        if let Err(e) = cohort_runtime::record::write_latency_histograms(&path, &histograms) {
+            warnings.push(format!("cannot write {}: {e}", path.display()));
         }
     }
     let plant = processes.iter().find(|p| p.process == "plant");
@@ -147,11 +192,43 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
         messages_rejected: rejected,
         timeouts: processes.iter().map(|p| p.timeouts).sum(),
         latency_ns: latency,
+        link_latency_ns: link_latency,
+        process_latency_ns: process_latency,
         messages_unaccounted: unaccounted(s, &processes, &outcome.timeline),
         processes,
+        histograms,
         timeline: outcome.timeline,
-        warnings: Vec::new(),
+        verdict: Vec::new(),
+        verdict_overall: None,
+        warnings,
     }
+}
+
+type LinkHistograms = BTreeMap<(String, String), LatencyBuckets>;
+
+/// Move every process's latency histograms out of its report: (sender, receiver) → buckets, and
+/// the percentiles per link and per receiving process (all its links merged).
+fn take_histograms(
+    processes: &mut [ProcessReport],
+) -> (LinkHistograms, BTreeMap<String, Percentiles>, BTreeMap<String, Percentiles>) {
+    let mut links = BTreeMap::new();
+    let mut per_link = BTreeMap::new();
+    let mut per_process = BTreeMap::new();
+    for p in processes.iter_mut() {
+        let mut all = LatencyHist::default();
+        for (from, b) in std::mem::take(&mut p.latency_from_ns) {
+            let h = LatencyHist::from_buckets(&b);
+            all.add(&h);
+            if let Some(q) = Percentiles::of_hist(&h) {
+                per_link.insert(format!("{from} → {}", p.process), q);
+            }
+            links.insert((from, p.process.clone()), b);
+        }
+        if let Some(q) = Percentiles::of_hist(&all) {
+            per_process.insert(p.process.clone(), q);
+        }
+    }
+    (links, per_link, per_process)
 }
 
 pub fn write(dirs: &RunDirs, summary: &Summary) -> std::io::Result<()> {

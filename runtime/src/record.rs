@@ -196,8 +196,10 @@ pub struct ProcessReport {
     /// Per sender (`plant`, `agent-j`): every message received from it, valid or not.
     #[serde(default)]
     pub received_from: std::collections::BTreeMap<String, u64>,
-    /// Per sender: wall latency (send → receipt) of its valid messages, ns, as histogram buckets.
-    #[serde(default)]
+    /// Per sender: wall latency (send → receipt) of its valid messages, ns, as histogram buckets
+    /// (here in `status/`; `summary.json` keeps only percentiles and moves the buckets to
+    /// [`LATENCY_HISTOGRAMS`]).
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     pub latency_from_ns: std::collections::BTreeMap<String, LatencyBuckets>,
     /// Agents whose algorithm solves an optimisation problem every step: solver counts and solve
     /// times (see [`crate::model::Algorithm::solver_stats`]).
@@ -257,6 +259,53 @@ impl LatencyHist {
 /// A histogram's recorded buckets: (value, count), ascending.
 #[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
 pub struct LatencyBuckets(pub Vec<(u64, u64)>);
+
+/// Every link's latency histogram of a run, relative to the run directory: one CSV row per
+/// recorded bucket, `sender,receiver,bucket_upper_ns,count` (sender and receiver are process
+/// names, `plant` or `agent-<i>`; `bucket_upper_ns` is the highest value the HdrHistogram bucket
+/// holds, 3 significant figures; rows grouped by link, buckets ascending). Rebuild a link's
+/// histogram with [`LatencyHist::from_buckets`] ([`read_latency_histograms`]).
+pub const LATENCY_HISTOGRAMS: &str = "timing/latency_histograms.csv";
+
+/// The header of [`LATENCY_HISTOGRAMS`].
+pub const LATENCY_HISTOGRAM_COLUMNS: &str = "sender,receiver,bucket_upper_ns,count";
+
+/// Write the histograms of `links` ((sender, receiver) → buckets) as [`LATENCY_HISTOGRAMS`].
+pub fn write_latency_histograms(
+    path: &Path,
+    links: &std::collections::BTreeMap<(String, String), LatencyBuckets>,
+) -> std::io::Result<()> {
+    use std::fmt::Write as _;
+    let mut text = format!("{LATENCY_HISTOGRAM_COLUMNS}\n");
+    for ((from, to), b) in links {
+        for (v, n) in &b.0 {
+            let _ = writeln!(text, "{from},{to},{v},{n}");
+        }
+    }
+    write_atomic(path, text.as_bytes())
+}
+
+/// Read a [`LATENCY_HISTOGRAMS`] file back: (sender, receiver) → buckets. Err names the file,
+/// the line and what is wrong with it.
+pub fn read_latency_histograms(
+    path: &Path,
+) -> Result<std::collections::BTreeMap<(String, String), LatencyBuckets>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut lines = text.lines();
+    if lines.next() != Some(LATENCY_HISTOGRAM_COLUMNS) {
+        return Err(format!("{}: the header is not {LATENCY_HISTOGRAM_COLUMNS:?}", path.display()));
+    }
+    let mut out: std::collections::BTreeMap<(String, String), LatencyBuckets> = Default::default();
+    for (i, line) in lines.enumerate() {
+        let bad = |why: &str| format!("{}:{}: {line:?}: {why}", path.display(), i + 2);
+        let f: Vec<&str> = line.split(',').collect();
+        let [from, to, v, n] = f[..] else { return Err(bad("expected 4 fields")) };
+        let v: u64 = v.parse().map_err(|_| bad("bucket_upper_ns is not a whole number"))?;
+        let n: u64 = n.parse().map_err(|_| bad("count is not a whole number"))?;
+        out.entry((from.to_string(), to.to_string())).or_default().0.push((v, n));
+    }
+    Ok(out)
+}
 
 /// What a process injected (as a sender) and saw (as a receiver) of the fault plan, and the
 /// roster changes the plant made. Every lost share is counted here or in `messages_rejected`.
@@ -354,6 +403,30 @@ pub fn cpu_and_rss() -> (f64, u64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn latency_histograms_round_trip_through_their_file() {
+        let dir = std::env::temp_dir().join(format!("cohort-hgrm-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("latency_histograms.csv");
+        let mut h = LatencyHist::default();
+        for ns in [150, 2_000, 2_001, 45_000, 45_000, 9_000_000] {
+            h.record(ns);
+        }
+        let mut links = std::collections::BTreeMap::new();
+        links.insert(("agent-1".to_string(), "plant".to_string()), h.buckets());
+        links.insert(("plant".to_string(), "agent-1".to_string()), LatencyHist::default().buckets());
+        write_latency_histograms(&path, &links).unwrap();
+        let back = read_latency_histograms(&path).unwrap();
+        let b = &back[&("agent-1".to_string(), "plant".to_string())];
+        assert_eq!(b, &h.buckets());
+        let again = LatencyHist::from_buckets(b);
+        assert_eq!((again.len(), again.quantile(0.5), again.max()), (h.len(), h.quantile(0.5), h.max()));
+        std::fs::write(&path, "sender,receiver,bucket_upper_ns,count\nplant,agent-1,x,1\n").unwrap();
+        let e = read_latency_histograms(&path).unwrap_err();
+        assert!(e.contains(":2:") && e.contains("bucket_upper_ns"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn csv_numbers_round_trip_bit_for_bit() {

@@ -17,6 +17,7 @@ pub mod continuous;
 pub mod readings;
 pub mod rigid_body;
 pub mod tables;
+pub mod verdict;
 
 use std::path::PathBuf;
 
@@ -71,6 +72,9 @@ enum DaiCmd {
 impl PaperHost for Dai {
     fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
         analysis::analyse(run.setup, run.dirs)
+    }
+    fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
+        verdict::lines(input)
     }
     fn command(&self) -> Option<clap::Command> {
         Some(<DaiCli as clap::CommandFactory>::command())

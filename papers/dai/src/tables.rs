@@ -23,10 +23,10 @@ use crate::config::{DaiAttitude, Law};
 const T2_PARAM_MEAN: [f64; 3] = [0.0019, 0.0027, 0.0029];
 const T2_PARAM_DEV: [f64; 3] = [0.0032, 0.0037, 0.0064];
 const T2_TRACK_MEAN: [f64; 3] = [0.0401, -0.0094, -0.00037];
-const T2_TRACK_DEV: [f64; 3] = [0.1518, 0.0138, 0.0065];
+pub(crate) const T2_TRACK_DEV: [f64; 3] = [0.1518, 0.0138, 0.0065];
 /// Sec. 4: final state-error norm ratio, "rough order ×1e−8" (specific) vs "×1e−3" (original).
-const FINAL_SPECIFIC: f64 = 1e-8;
-const FINAL_ORIGINAL: f64 = 1e-3;
+pub(crate) const FINAL_SPECIFIC: f64 = 1e-8;
+pub(crate) const FINAL_ORIGINAL: f64 = 1e-3;
 
 /// The laws in table order.
 const LAWS: [Law; 3] = [Law::Original, Law::General, Law::Specific];

@@ -15,10 +15,11 @@ pub mod figures;
 pub mod lbdnn_network;
 pub mod lbdnn_servicing;
 pub mod servicing;
+pub mod verdict;
 
 use std::path::Path;
 
-use cohort_host::{FigureSource, Metrics, PaperHost, RunView};
+use cohort_host::{FigureSource, Metrics, PaperHost, RunView, VerdictInput, VerdictLine};
 use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind, Setup};
 use cohort_runtime::record::TimelineEvent;
 
@@ -53,6 +54,9 @@ impl PaperHost for Fig1 {
         } else {
             Ok(Metrics::new())
         }
+    }
+    fn verdict(&self, input: &VerdictInput<'_>) -> Vec<VerdictLine> {
+        if is_servicing(input.run.setup) { verdict::lines(input) } else { Vec::new() }
     }
     fn bench_scenarios(&self) -> Vec<&'static str> {
         vec!["topologies/fig1.toml"]

@@ -48,6 +48,7 @@ pub mod tracking;
 pub mod train;
 pub mod trainer;
 pub mod two_body;
+pub mod verdict;
 
 use std::path::Path;
 
@@ -89,6 +90,9 @@ enum NrCmd {
 impl PaperHost for Nr {
     fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
         analysis::analyse(run.setup, run.dirs)
+    }
+    fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
+        verdict::lines(input)
     }
     fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
         figures::NrFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>)

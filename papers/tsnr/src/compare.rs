@@ -51,6 +51,11 @@ fn paper(case: u32, method: &str) -> Option<&'static PaperFuel> {
     PAPER.iter().find(|(c, _)| *c == case)?.1.iter().find(|p| p.method == method)
 }
 
+/// The total "fuel" Table 1 (case 1) or Table 2 (case 2) prints for `method`, N.
+pub fn paper_fuel_total_n(case: u32, method: &str) -> Option<f64> {
+    paper(case, method).map(|p| p.total)
+}
+
 /// The paper's case a scenario reproduces, from its name (`tsnr-case1`, `tsnr-case2`); None for
 /// any other scenario, which then has no published column.
 pub fn paper_case(scenario_name: &str) -> Option<u32> {

@@ -27,6 +27,7 @@ pub mod oracle_forecast;
 pub mod predictor;
 pub mod train;
 pub mod trajectory;
+pub mod verdict;
 
 use std::path::{Path, PathBuf};
 
@@ -128,6 +129,9 @@ struct TensionArgs {
 impl PaperHost for Tsnr {
     fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
         analysis::analyse(run.setup, run.dirs)
+    }
+    fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
+        verdict::lines(input)
     }
     fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
         Some(Box::new(figures::TsnrFigures::of(setup)))

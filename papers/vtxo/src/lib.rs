@@ -46,6 +46,7 @@ pub mod sec7;
 pub mod sensors;
 pub mod share;
 pub mod sim;
+pub mod verdict;
 
 use std::path::{Path, PathBuf};
 
@@ -126,6 +127,9 @@ impl PaperHost for Vtxo {
                 Ok(format!("{md}\nwritten: {}", o.out.join("sec7.md").display()))
             }
         }
+    }
+    fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
+        verdict::lines(input)
     }
     fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
         // The join needs both of this paper's sides.
