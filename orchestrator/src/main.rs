@@ -31,6 +31,7 @@ mod netlab;
 mod progress;
 mod reference;
 mod remote;
+mod replay;
 mod rundir;
 mod soak;
 mod summary;
@@ -172,6 +173,19 @@ enum Cmd {
         #[arg(long, default_value_t = 5000)]
         count: u64,
     },
+    /// Re-run one agent of a run recorded with `launch --record` against its recorded
+    /// measurements and neighbour shares, and check that every share it sends equals the recorded
+    /// one bit for bit (exit 1 naming the first difference: step, byte, field, both values).
+    Replay {
+        /// A run directory written by `launch --record`.
+        run_dir: PathBuf,
+        /// The agent to replay (1..=N).
+        #[arg(long)]
+        agent: u32,
+        /// Where the replayed agent's telemetry goes; default RUN_DIR/replay/agent-<I>/.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Draw PNG plots of a run directory's telemetry into RUN_DIR/plots/.
     Report {
         /// A run directory written by `launch`.
@@ -248,6 +262,11 @@ struct LaunchArgs {
     /// run.authenticate).
     #[arg(long)]
     authenticate: bool,
+    /// Record every measurement and share each agent receives or sends, as its wire bytes, to
+    /// RUN_DIR/record/agent-<i>.mcap (opens in Foxglove; `orchestrator replay` reads it). Sets
+    /// run.record; changes no result.
+    #[arg(long)]
+    record: bool,
     /// Inject a fault (repeatable): KIND:agent=ID@t=SECONDS[,for=SECONDS][,p=PROB][,steps=N],
     /// KIND one of kill, freeze, restart, delay, drop, corrupt (see topologies/README.md).
     #[arg(long, value_name = "SPEC")]
@@ -481,6 +500,7 @@ fn generic(command: Cmd) -> ExitCode {
                 ExitCode::from(EXIT_FAILED)
             }
         },
+        Cmd::Replay { run_dir, agent, out } => replay::command(&run_dir, agent, out.as_deref()),
         Cmd::Report { run_dir } => match launcher::report(&run_dir) {
             Ok(files) => {
                 for f in files {
@@ -550,6 +570,7 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
         faults,
         on_agent_loss: a.on_agent_loss,
         authenticate: a.authenticate.then_some(true),
+        record: a.record.then_some(true),
     };
     launch(&a.file, a.out.as_deref(), &o, a.reference, !a.no_plots, a.json)
 }
@@ -607,6 +628,14 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     for n in &s.notes {
         errln!("note: {n}");
     }
+    if s.run.record
+        && let Some(c) = s.algorithm.coupled()
+    {
+        errln!(
+            "note: run.record records nothing here: the scenario is {} (no messages between processes)",
+            c.describe()
+        );
+    }
     if reference && let Some(c) = s.algorithm.coupled() {
         errln!(
             "note: --reference changes nothing here: the scenario is {} by design; there is no \
@@ -652,6 +681,14 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     let text = terminal::render(&summary);
     if !text.is_empty() {
         humanln!(json, "{}", text.trim_end());
+    }
+    if s.run.record && s.algorithm.coupled().is_none() {
+        let dir = cohort_runtime::recording::dir(&dirs.root);
+        errln!(
+            "recorded: {} (one MCAP per agent; orchestrator replay {} --agent I)",
+            dir.display(),
+            dirs.root.display()
+        );
     }
     if plots {
         match launcher::report(&dirs.root) {

@@ -8,7 +8,8 @@ use std::time::{Duration, Instant};
 
 use cohort_runtime::drive::{DriveParams, run_agent, run_plant};
 use cohort_runtime::paper::Setup;
-use cohort_runtime::record::{ProcessReport, RunDirs};
+use cohort_runtime::record::{ErrorKind, ProcessError, ProcessReport, RunDirs};
+use cohort_runtime::recording::writer::{RecordMeta, Recording};
 use cohort_runtime::rng::process_rng;
 use cohort_wire::msg::{PLANT_ID, STATUS_PROGRESS};
 use cohort_wire::transport::Proc;
@@ -24,6 +25,26 @@ fn run_one(s: &Setup, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) -> Pr
             let mut model = s.plant.build(s);
             let mut rng = process_rng(s.scenario.seed, Proc::Plant);
             run_plant(&mut t, model.as_mut(), &mut rng, s.n_agents(), params)
+        }
+        Proc::Agent(id) if s.run.record => {
+            // `run.record`: the same file an agent process writes.
+            let mut algo = s.algorithm.build(s, id);
+            let meta = RecordMeta::from_setup(s, params.run_id, p);
+            match Recording::start(&mut t, &params.dirs.root, meta) {
+                Ok(mut rec) => {
+                    let mut report = run_agent(&mut rec, algo.as_mut(), id, &s.agent(id).neighbours, params, None);
+                    if let Err(e) = rec.finish()
+                        && report.error.is_none()
+                    {
+                        report.error = Some(ProcessError::new(ErrorKind::Io, format!("recording {e}")));
+                    }
+                    report
+                }
+                Err(e) => ProcessReport::failed_at_start(
+                    p.name(),
+                    ProcessError::new(ErrorKind::Io, format!("cannot record: {e}")),
+                ),
+            }
         }
         Proc::Agent(id) => {
             let mut algo = s.algorithm.build(s, id);

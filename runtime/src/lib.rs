@@ -1,7 +1,8 @@
 //! Cohort's runtime: the traits a plant model and an algorithm implement ([`model`]), how a paper
 //! provides them ([`paper`]), the
 //! lockstep step drivers generic over the transport ([`drive`]), what a process records
-//! ([`record`]), and per-process random generators ([`rng`]).
+//! ([`record`]), per-process random generators ([`rng`]), and the message recordings of
+//! `run.record` with the replay of one agent against them ([`recording`]).
 
 pub mod checkpoint;
 pub mod drive;
@@ -9,6 +10,7 @@ pub mod model;
 pub mod paper;
 pub mod process;
 pub mod record;
+pub mod recording;
 pub mod rng;
 pub mod solver_stats;
 pub mod units;

@@ -23,7 +23,8 @@ use cohort_wire::transport::{Proc, Transport};
 
 use crate::drive::DriveParams;
 use crate::paper::{Paper, Setup};
-use crate::record::{ProcessReport, RunDirs};
+use crate::record::{ErrorKind, ProcessError, ProcessReport, RunDirs};
+use crate::recording::writer::{RecordMeta, Recording};
 
 pub const EXIT_OK: u8 = 0;
 pub const EXIT_RUN_FAILED: u8 = 1;
@@ -185,7 +186,27 @@ pub fn child_main(
     let mut params = DriveParams::from_setup(&scenario, run_id, dirs.clone(), terminate, start);
     params.key = key;
     log(me, start, format!("ready ({} steps of {} s)", params.n_steps, params.dt_s));
-    let report = run(&scenario, transport.as_mut(), &params);
+    let report = if scenario.run.record && matches!(me, Proc::Agent(_)) {
+        // `run.record`: this agent's messages to record/<proc>.mcap (see `recording`).
+        let meta = RecordMeta::from_setup(&scenario, run_id, me);
+        match Recording::start(transport.as_mut(), &spec.run_dir, meta) {
+            Ok(mut rec) => {
+                let mut report = run(&scenario, &mut rec, &params);
+                if let Err(e) = rec.finish()
+                    && report.error.is_none()
+                {
+                    report.error = Some(ProcessError::new(ErrorKind::Io, format!("recording {e}")));
+                }
+                report
+            }
+            Err(e) => ProcessReport::failed_at_start(
+                me.name(),
+                ProcessError::new(ErrorKind::Io, format!("cannot record: {e}")),
+            ),
+        }
+    } else {
+        run(&scenario, transport.as_mut(), &params)
+    };
     drop(transport); // release the ports before exiting
     if let Err(e) = report.write(&dirs) {
         log(me, start, format!("cannot write status/{}.json: {e}", me.name()));

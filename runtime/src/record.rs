@@ -207,6 +207,31 @@ pub struct ProcessReport {
     pub solver: Option<crate::solver_stats::SolverStats>,
 }
 
+impl ProcessReport {
+    /// The report of a process that failed before its first step.
+    pub fn failed_at_start(process: String, error: ProcessError) -> Self {
+        Self {
+            process,
+            pid: std::process::id(),
+            steps_completed: 0,
+            wall_s: 0.0,
+            messages_received: 0,
+            messages_rejected: Default::default(),
+            timeouts: 0,
+            startup_s: 0.0,
+            cpu_s: 0.0,
+            max_rss_kb: 0,
+            metrics: Default::default(),
+            error: Some(error),
+            faults: Default::default(),
+            messages_sent: 0,
+            received_from: Default::default(),
+            latency_from_ns: Default::default(),
+            solver: None,
+        }
+    }
+}
+
 fn metrics_with_nulls<'de, D: serde::Deserializer<'de>>(
     d: D,
 ) -> Result<std::collections::BTreeMap<String, f64>, D::Error> {

@@ -113,6 +113,18 @@ mod tests {
     }
 
     #[test]
+    fn run_record_is_a_bool_off_by_default_and_set_by_its_override() {
+        let p = |text: &str, o: &Overrides| parse(text, Path::new("x.toml"), o);
+        assert!(!p(&ring(), &Overrides::default()).unwrap().run.record);
+        let o = Overrides { record: Some(true), ..Default::default() };
+        assert!(p(&ring(), &o).unwrap().run.record);
+        let e = p(&ring().replace("[run]\n", "[run]\nrecord = \"yes\"\n"), &Overrides::default()).unwrap_err();
+        assert!(e.to_string().contains("run.record: invalid type: string \"yes\""), "{e}");
+        let e = p(&ring().replace("[run]\n", "[run]\nrecrod = true\n"), &Overrides::default()).unwrap_err();
+        assert!(e.to_string().contains("run.recrod: unknown key (did you mean \"record\"?)"), "{e}");
+    }
+
+    #[test]
     fn choices_read_like_the_scenario() {
         let opts = |xs: &[&str]| xs.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>();
         assert_eq!(parse::choice_list(&opts(&["a", "b"])), "\"a\" or \"b\"");

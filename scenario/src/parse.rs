@@ -28,6 +28,8 @@ pub struct Overrides {
     pub faults: Vec<crate::faults::FaultSpec>,
     pub on_agent_loss: Option<String>,
     pub authenticate: Option<bool>,
+    /// `--record`: sets `run.record`.
+    pub record: Option<bool>,
     /// `--hosts FILE`: replaces the scenario's `[[hosts]]`, and its placement when it gives one.
     pub hosts: Option<crate::hosts::HostsFile>,
 }
@@ -137,6 +139,9 @@ fn apply_overrides(table: &mut toml::Table, o: &Overrides) {
     }
     if let Some(a) = o.authenticate {
         set("run", "authenticate", Value::Boolean(a));
+    }
+    if let Some(r) = o.record {
+        set("run", "record", Value::Boolean(r));
     }
     if let Some(h) = &o.hosts {
         crate::hosts::apply(table, h);

@@ -168,6 +168,11 @@ pub struct RunSettings {
     /// plant's own metrics still see every step.
     #[serde(default = "default_telemetry_every_steps", skip_serializing_if = "is_one")]
     pub telemetry_every_steps: u64,
+    /// Every agent process writes each measurement and share it receives or sends, as its exact
+    /// wire bytes, to `record/agent-<i>.mcap` (`launch --record`; `orchestrator replay` reads it).
+    /// Changes no result.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub record: bool,
     /// Multi-host runs: the `[[hosts]]` entry the plant runs on (absent: the orchestrator's
     /// machine).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -219,6 +224,7 @@ impl Default for RunSettings {
             checkpoint_every_steps: default_checkpoint_every_steps(),
             authenticate: false,
             telemetry_every_steps: default_telemetry_every_steps(),
+            record: false,
             plant_host: None,
         }
     }

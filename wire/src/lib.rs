@@ -1,8 +1,10 @@
 //! Cohort's wire layer: the messages processes exchange ([`msg`]), how a receiver validates them
 //! ([`validate`]), and the [`transport::Transport`] abstraction with its iceoryx2 and in-memory
-//! implementations, and the keyed MAC of `run.authenticate` ([`auth`]).
+//! implementations, the keyed MAC of `run.authenticate` ([`auth`]), and the payloads' byte layout
+//! that a recording describes ([`layout`]).
 
 pub mod auth;
+pub mod layout;
 pub mod limits;
 pub mod msg;
 pub mod transport;
