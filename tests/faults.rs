@@ -125,8 +125,7 @@ fn fig1_freeze_restart_drop_and_corrupt_complete_count_exactly_and_repeat_bit_fo
     assert!(loaded.len() > 1000, "a real state, not an empty one: {} bytes", loaded.len());
     assert_eq!(loaded, restored, "the restored state differs from the checkpointed one");
     // Its telemetry goes on after the relaunch, with a gap where it was dead.
-    let tel = std::fs::read_to_string(a.join("telemetry/agent-2.csv")).unwrap();
-    let ks: Vec<u64> = tel.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    let ks = cohort::telemetry_table(&a, "agent-2").k;
     assert!(ks.contains(&20_200) && ks.contains(&35_999) && !ks.contains(&20_100), "rows around the restart");
 
     // Drop and corrupt: every injected loss is counted, exactly, by every reader.
