@@ -99,7 +99,7 @@ mod tests {
         for (k, r) in rows.iter().enumerate() {
             w.row(k as u64, r).unwrap();
         }
-        w.flush().unwrap();
+        w.finish().unwrap();
         drop(w);
         // Asked for by its CSV name, as every analysis does.
         let t = Table::read_columns(&dir.join("plant.csv"), &["b_mps"]).unwrap();
@@ -122,7 +122,7 @@ mod tests {
         for k in 0..100 {
             w.row(k, &[k as f64, 1.0]).unwrap();
         }
-        w.flush().unwrap();
+        w.finish().unwrap();
         drop(w);
         let good = std::fs::read(&path).unwrap();
         for damaged in [good[..good.len() / 2].to_vec(), b"PAR1 not really".to_vec(), Vec::new()] {

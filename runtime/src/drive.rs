@@ -796,6 +796,11 @@ fn plant_loop<T: Transport + ?Sized>(
                 // Flush first: a process fault may be due to end this run.
                 tel.flush().map_err(io("plant telemetry"))?;
                 hold(&mut waiter, p, k + 1, &mut roster)?;
+                // Nobody can answer while the plant holds, and an agent back on the roster (a
+                // thaw, a relaunch) is heard from only now: its silence counts from here, not
+                // from before it left (else, in real time, a hold that overran the next step's
+                // deadline would have it declared dead again at its very return step).
+                last_heard.iter_mut().for_each(|h| *h = Instant::now());
             }
             round_start = monotonic_ns();
             if k + 1 < p.n_steps {
@@ -827,7 +832,7 @@ fn plant_loop<T: Transport + ?Sized>(
         report.latency_from_ns.insert(name, h.buckets());
     }
     // Never lose telemetry: flush whatever was written, also after an error.
-    let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("plant telemetry"));
+    let flushed = tel.finish().and_then(|_| timing.flush()).map_err(io("plant telemetry"));
     result.and(flushed)
 }
 
@@ -1443,7 +1448,7 @@ fn agent_loop<T: Transport + ?Sized>(
         report.faults.overrun.insert(name.clone(), peer.overrun);
         report.latency_from_ns.insert(name, peer.latency.buckets());
     }
-    let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("agent telemetry"));
+    let flushed = tel.finish().and_then(|_| timing.flush()).map_err(io("agent telemetry"));
     result.and(flushed)
 }
 

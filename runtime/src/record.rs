@@ -123,11 +123,20 @@ impl TelemetryWriter {
             Self::Parquet(w) => w.row(k, values),
         }
     }
-    /// Every row written so far on disk, in a complete file (also after an error).
+    /// Every row written so far on disk, readable (before a process fault that may end the
+    /// process); the file stays open for more rows.
     pub fn flush(&mut self) -> std::io::Result<()> {
         match self {
             Self::Csv(w) => w.flush(),
             Self::Parquet(w) => w.flush(),
+        }
+    }
+    /// The end of the process's rows: every row on disk in the complete file (also after an
+    /// error).
+    pub fn finish(&mut self) -> std::io::Result<()> {
+        match self {
+            Self::Csv(w) => w.flush(),
+            Self::Parquet(w) => w.finish(),
         }
     }
 }

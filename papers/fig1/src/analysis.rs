@@ -95,7 +95,7 @@ pub fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, 
         }
         out.row(k[r], &row).map_err(|e| format!("{}: {e}", path.display()))?;
     }
-    out.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+    out.finish().map_err(|e| format!("{}: {e}", path.display()))?;
     let mut m = BTreeMap::new();
     for i in 0..n as usize {
         if samples[i] > 0 {
