@@ -1,7 +1,7 @@
 """Redraw Fig. 4 of the servicing scenario (topologies/fig1.toml): each servicer's tracking error
 ‖eᵢ‖ against time, log axis, from a run directory's plant telemetry (columns ``a<i>_e_norm_m``).
 
-    python3 python/examples/fig4.py RUN_DIR [OUT.png]
+    PYTHONPATH=python python3 papers/fig1/python/fig4.py RUN_DIR [OUT.png]   (or after pip install ./python)
 
 Without matplotlib it prints the last value of each series and draws nothing.
 """
