@@ -74,26 +74,48 @@ pub fn iceoryx2_leftovers(run_id_hex: &str) -> Vec<String> {
     left
 }
 
-/// Every telemetry value of a run directory as (file, line, column, bits), in file order.
+/// Every telemetry value of a run directory as (file, row, column, bits), in file order: read by
+/// the one telemetry reader (`cohort_report::Table`, Parquet or CSV); column 0 is the step `k`
+/// itself, rows count from 2 (the first data line of a CSV).
 pub fn telemetry_bits(run_dir: &std::path::Path) -> Vec<(String, usize, usize, u64)> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(run_dir.join("telemetry"))
         .expect("telemetry directory")
         .flatten()
         .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "csv" || e == "parquet"))
         .collect();
     files.sort();
     let mut out = Vec::new();
     for f in files {
         let name = f.file_name().unwrap().to_string_lossy().to_string();
-        let text = std::fs::read_to_string(&f).expect("telemetry file");
-        for (ln, line) in text.lines().enumerate().skip(1) {
-            for (col, v) in line.split(',').enumerate() {
-                let x: f64 = v.parse().unwrap_or_else(|_| panic!("{name}:{}: {v:?} is not a number", ln + 1));
-                out.push((name.clone(), ln + 1, col, x.to_bits()));
+        let table = cohort_report::Table::read(&f).unwrap_or_else(|e| panic!("{e}"));
+        for (row, k) in table.k.iter().enumerate() {
+            out.push((name.clone(), row + 2, 0, *k));
+            out.push((name.clone(), row + 2, 1, table.t[row].to_bits()));
+            for (col, c) in table.columns.iter().enumerate() {
+                out.push((name.clone(), row + 2, col + 2, c.values[row].to_bits()));
             }
         }
     }
     out
+}
+
+/// The telemetry file of process `stem` (`plant`, `agent-3`) in a run directory: the Parquet
+/// file, or the CSV file when the run wrote CSV.
+pub fn telemetry_path(run_dir: &std::path::Path, stem: &str) -> PathBuf {
+    cohort_report::table::resolve(&run_dir.join("telemetry").join(format!("{stem}.parquet")))
+}
+
+/// A run's telemetry of process `stem` (`plant`, `agent-3`), whichever format it was written in.
+pub fn telemetry_table(run_dir: &std::path::Path, stem: &str) -> cohort_report::Table {
+    let path = run_dir.join("telemetry").join(format!("{stem}.parquet"));
+    cohort_report::Table::read(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Column `name` (or `t_s`) of a run's telemetry of process `stem`.
+pub fn telemetry_column(run_dir: &std::path::Path, stem: &str, name: &str) -> Vec<f64> {
+    let table = telemetry_table(run_dir, stem);
+    table.get(name).unwrap_or_else(|| panic!("{stem}: no column {name}")).to_vec()
 }
 
 /// A command running the orchestrator from the repository root (asserting it was built).

@@ -125,8 +125,7 @@ fn fig1_freeze_restart_drop_and_corrupt_complete_count_exactly_and_repeat_bit_fo
     assert!(loaded.len() > 1000, "a real state, not an empty one: {} bytes", loaded.len());
     assert_eq!(loaded, restored, "the restored state differs from the checkpointed one");
     // Its telemetry goes on after the relaunch, with a gap where it was dead.
-    let tel = std::fs::read_to_string(a.join("telemetry/agent-2.csv")).unwrap();
-    let ks: Vec<u64> = tel.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    let ks = cohort::telemetry_table(&a, "agent-2").k;
     assert!(ks.contains(&20_200) && ks.contains(&35_999) && !ks.contains(&20_100), "rows around the restart");
 
     // Drop and corrupt: every injected loss is counted, exactly, by every reader.
@@ -256,6 +255,82 @@ fn in_real_time_a_frozen_agent_costs_deadline_misses_until_it_is_declared_dead()
     assert!((250..=340).contains(&step), "declared dead at step {step} (frozen at 200, timeout 1 s)");
     assert_eq!(events(&s, 2, "alive")[0]["step"], 500);
     assert_eq!(s["steps_completed"], 600);
+    assert_clean(&run);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Rows agent `id` has journalled so far in a running run (see `parquet_out`: header, then
+/// rows of 8-byte numbers).
+fn rows_journalled(run: &Path, id: u32) -> u64 {
+    let Ok(bytes) = std::fs::read(run.join(format!("telemetry/agent-{id}.rows"))) else { return 0 };
+    let Some(header) = bytes.iter().enumerate().filter(|(_, b)| **b == b'\n').nth(1).map(|(i, _)| i + 1) else {
+        return 0;
+    };
+    let width = bytes[..header].iter().filter(|b| **b == b',').count() as u64 + 1;
+    (bytes.len() - header) as u64 / (8 * width)
+}
+
+/// Never lost telemetry, also for an unplanned SIGKILL (no flush before it, unlike a planned
+/// `kill` fault): a Parquet file is unreadable without its footer, so the writer journals every
+/// ≤ 16 KiB of rows as raw numbers, and the orchestrator turns a killed process's journal into
+/// its file. The killed agent's telemetry is read back, every step from 0 up to at most one
+/// journal batch (plus the detection delay) short of the step the plant saw it die at.
+#[test]
+fn an_agent_killed_by_surprise_keeps_its_parquet_telemetry_up_to_a_step_close_to_the_kill() {
+    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch_dir("fault-sigkill");
+    let run = dir.join("run");
+    // In real time (100 steps/s), so that the kill lands mid-run whatever the machine's speed.
+    let child = cohort::orchestrator_command()
+        .arg("launch")
+        .arg("topologies/consensus-ring.toml")
+        .arg("--out")
+        .arg(&run)
+        .args(["--no-plots", "--duration", "14", "--realtime"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("running the orchestrator");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    while rows_journalled(&run, 3) < 500 {
+        assert!(std::time::Instant::now() < deadline, "agent 3 journalled no telemetry");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let needle = run.display().to_string();
+    let agent3: Vec<u32> = processes_mentioning(&needle)
+        .into_iter()
+        .filter(|(_, cmd)| cmd.split(' ').next().is_some_and(|b| b.ends_with("/agent")) && cmd.contains(" --id 3 "))
+        .map(|(pid, _)| pid)
+        .collect();
+    assert_eq!(agent3.len(), 1, "agent 3's process: {:?}", processes_mentioning(&needle));
+    // SAFETY: a plain kill(2) of the agent process this test's run started.
+    assert_eq!(unsafe { libc::kill(agent3[0] as i32, libc::SIGKILL) }, 0);
+    let o = child.wait_with_output().expect("waiting for the orchestrator");
+    let s = summary(&run);
+    assert_eq!(s["status"], "degraded", "{}", describe_output(&o));
+    assert_eq!(s["steps_completed"], 1400);
+    let died = events(&s, 3, "died");
+    assert_eq!(died.len(), 1, "{}", s["timeline"]);
+    let died_at = died[0]["step"].as_u64().unwrap();
+    // The orchestrator turned the journal into the one file; nothing else is left.
+    let tel = run.join("telemetry");
+    let mut left: Vec<String> =
+        std::fs::read_dir(&tel).unwrap().flatten().map(|e| e.file_name().to_string_lossy().to_string()).collect();
+    left.sort();
+    let want: Vec<String> = (1..=6).map(|i| format!("agent-{i}.parquet")).chain(["plant.parquet".into()]).collect();
+    assert_eq!(left, want);
+    let t = cohort::telemetry_table(&run, "agent-3");
+    assert!(t.k.len() >= 500, "{} rows", t.k.len());
+    // In real time a process that falls behind skips steps (no rows then), as with CSV.
+    assert!(t.k[0] == 0 && t.k.windows(2).all(|w| w[0] < w[1]), "steps in order from 0: {:?}", t.k);
+    assert!(t.columns.iter().all(|c| c.values.iter().all(|v| v.is_finite())));
+    let last = *t.k.last().unwrap();
+    let batch_rows = 16 * 1024 / (8 * (t.columns.len() as u64 + 2));
+    // The plant hears of the death within a few steps (the orchestrator polls its children);
+    // at most one batch of rows was still in memory.
+    assert!(last <= died_at && died_at - last <= batch_rows + 100, "rows up to step {last}, died at step {died_at}");
+    // The survivors' files are whole.
+    assert_eq!(cohort::telemetry_table(&run, "agent-2").k.last(), Some(&1399));
     assert_clean(&run);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -48,6 +48,9 @@ fn bad_command_line_values_are_refused_without_a_panic() {
     let ring = ring();
     let file = dir.join("a-file");
     std::fs::write(&file, "x").unwrap();
+    let damaged = dir.join("damaged-run");
+    std::fs::create_dir_all(damaged.join("telemetry")).unwrap();
+    std::fs::write(damaged.join("telemetry/plant.parquet"), b"PAR1 cut short").unwrap();
     let table: Vec<(Vec<String>, i32, &str)> = vec![
         (vec!["launch", &ring, "--seed", "9223372036854775808"], 2, "2^63 − 1"),
         (vec!["launch", &ring, "--seed", "18446744073709551615"], 2, "2^63 − 1"),
@@ -69,7 +72,9 @@ fn bad_command_line_values_are_refused_without_a_panic() {
         (vec!["launch", &ring, "--on-agent-loss", "maybe", "--out", &out("k")], 2, "on_agent_loss"),
         (vec!["launch", "/nonexistent/x.toml"], 2, "cannot read"),
         (vec!["launch", &ring, "--out", &file.display().to_string()], 2, "--out"),
+        (vec!["launch", &ring, "--telemetry", "xml", "--out", &out("l")], 2, "run.telemetry"),
         (vec!["report", "/nonexistent/run"], 2, ""),
+        (vec!["report", &damaged.display().to_string()], 2, "plant.parquet: not a readable telemetry Parquet file"),
         (
             vec!["check", &repo_root().join("topologies/invalid-agent-id-out-of-range.toml").display().to_string()],
             2,

@@ -118,8 +118,8 @@ fn a_different_seed_changes_the_telemetry() {
     assert!(o.status.success(), "{}", describe_output(&o));
     let o = launch(&dir.join("b"), &["--reference", "--duration", "1", "--seed", "8"]);
     assert!(o.status.success(), "{}", describe_output(&o));
-    let a = std::fs::read(dir.join("a/telemetry/plant.csv")).unwrap();
-    let b = std::fs::read(dir.join("b/telemetry/plant.csv")).unwrap();
+    let a = std::fs::read(dir.join("a/telemetry/plant.parquet")).unwrap();
+    let b = std::fs::read(dir.join("b/telemetry/plant.parquet")).unwrap();
     assert_ne!(a, b, "seed 7 and seed 8 gave the same plant telemetry");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -215,8 +215,8 @@ fn in_abort_mode_sigkill_of_an_agent_ends_the_run_cleanly_naming_it_and_the_step
     assert_eq!(s["status"], "failed");
     assert!(s["error"].as_str().unwrap().contains("agent-3"));
     // Telemetry written before the failure is kept (flushed), not lost.
-    let plant_rows = std::fs::read_to_string(out.join("telemetry/plant.csv")).unwrap().lines().count();
-    assert!(plant_rows > 100, "plant telemetry lost: {plant_rows} lines");
+    let plant_rows = cohort::telemetry_table(&out, "plant").rows();
+    assert!(plant_rows > 100, "plant telemetry lost: {plant_rows} rows");
     assert_clean(&out, &run_id(&out));
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -366,7 +366,7 @@ fn thirty_agents_run_multi_process_past_the_default_service_limits() {
     let o = run(&rf, &["--reference"]);
     assert!(o.status.success(), "{}", describe_output(&o));
     for i in 0..=n {
-        let f = if i == 0 { "plant.csv".to_string() } else { format!("agent-{i}.csv") };
+        let f = if i == 0 { "plant.parquet".to_string() } else { format!("agent-{i}.parquet") };
         let a = std::fs::read(mp.join("telemetry").join(&f)).unwrap();
         let b = std::fs::read(rf.join("telemetry").join(&f)).unwrap();
         assert!(a == b, "{f} differs");

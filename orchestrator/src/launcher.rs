@@ -97,6 +97,11 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
         None => (supervise::launch(s, dirs, &IoxRun::new(run_id).with_key(key), &progress), "multi-process"),
     };
     progress.finish();
+    // A process killed while running (a fault, a crash) left its Parquet telemetry's journal:
+    // turn it into its file, as its own clean exit would have.
+    if let Err(e) = cohort_runtime::parquet_out::seal_dir(&dirs.telemetry()) {
+        errln!("warning: cannot turn the telemetry journals in {}: {e}", dirs.telemetry().display());
+    }
     let mut summary = summary::build(
         s,
         dirs,

@@ -271,6 +271,9 @@ struct LaunchArgs {
     /// KIND one of kill, freeze, restart, delay, drop, corrupt (see topologies/README.md).
     #[arg(long, value_name = "SPEC")]
     fault: Vec<String>,
+    /// Format of the telemetry files (sets run.telemetry; default parquet).
+    #[arg(long, value_name = "parquet|csv")]
+    telemetry: Option<String>,
 }
 
 #[derive(Args)]
@@ -571,6 +574,7 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
         on_agent_loss: a.on_agent_loss,
         authenticate: a.authenticate.then_some(true),
         record: a.record.then_some(true),
+        telemetry: a.telemetry,
     };
     launch(&a.file, a.out.as_deref(), &o, a.reference, !a.no_plots, a.json)
 }

@@ -12,6 +12,8 @@
 //!   of the suffixes [`columns::unit_label`] knows (`m`, `mps`, `mps2`, ...).
 //! * Columns sharing agent, name and unit, and having two or more axes, form a vector, plotted
 //!   as its Euclidean norm. Any other column is a scalar, plotted as is.
+//! * Telemetry files are `<stem>.parquet` or `<stem>.csv` (see [`table`]); below, `plant.csv`
+//!   stands for either.
 //! * One figure per family (name and unit): `plant.csv` gives `plant_<name>.png` with one line
 //!   per agent; the `agent-<id>.csv` files together give `agents_<name>.png`, overlaying all
 //!   agents. Any other `<stem>.csv` gives `<stem>_<name>.png`.
@@ -34,6 +36,7 @@ pub mod chart;
 pub mod chart3d;
 pub mod columns;
 mod generic;
+mod parquet_in;
 pub mod table;
 
 use std::collections::HashSet;
@@ -51,7 +54,7 @@ use table::{FileKind, list_telemetry, read_table_with};
 pub enum ReportError {
     #[error("no telemetry directory at {} (did the run write any telemetry?)", .path.display())]
     MissingTelemetryDir { path: PathBuf },
-    #[error("telemetry directory {} holds no .csv files", .path.display())]
+    #[error("telemetry directory {} holds no .parquet or .csv files", .path.display())]
     NoTelemetry { path: PathBuf },
     #[error("cannot read {}: {error}", .path.display())]
     Io { path: PathBuf, error: std::io::Error },
@@ -70,6 +73,8 @@ pub enum ReportError {
     Font,
     #[error("cannot draw {}: {message}", .path.display())]
     Plot { path: PathBuf, message: String },
+    #[error("{}: not a readable telemetry Parquet file: {reason}", .path.display())]
+    BadParquet { path: PathBuf, reason: String },
     #[error("{}: no column {column:?}", .path.display())]
     MissingColumn { path: PathBuf, column: String },
     /// An input of a paper's figures that cannot be drawn; `line` is 1-based, when known.
@@ -125,7 +130,7 @@ enum Drawable<'a> {
     Generic(&'a Figure),
 }
 
-/// Reads `run_dir/telemetry/*.csv` and writes PNG plots into `run_dir/plots/` (created if
+/// Reads `run_dir/telemetry/*.parquet` (or `*.csv`) and writes PNG plots into `run_dir/plots/` (created if
 /// needed; existing files of the same names are overwritten). Returns the paths written, in
 /// drawing order: the papers' figures first, then the figures of `plant.csv` and any other
 /// non-agent file, then those of the agent files, then `timeline.md` when the run has faults.

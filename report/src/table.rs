@@ -1,5 +1,7 @@
-//! The one reader of telemetry CSVs (`k,t_s,<columns…>`, numbers that round-trip exactly): for
-//! the figures, every paper's analysis, and the tests.
+//! The one reader of telemetry files (`k,t_s,<columns…>`), Parquet or CSV (numbers that
+//! round-trip exactly): for the figures, every paper's analysis, and the tests. A path is read by
+//! its extension; a `.csv` or `.parquet` path that does not exist is read from the same file
+//! in the other format, so `telemetry/plant.csv` names a run's plant telemetry either way.
 
 use std::collections::HashSet;
 use std::fs::File;
@@ -40,8 +42,8 @@ pub(crate) fn list_telemetry(dir: &Path) -> Result<Vec<TelemetryFile>, ReportErr
     let mut files = Vec::new();
     for entry in std::fs::read_dir(dir).map_err(io_err)? {
         let path = entry.map_err(io_err)?.path();
-        let is_csv = path.extension().is_some_and(|ext| ext.eq_ignore_ascii_case("csv"));
-        if !is_csv || !path.is_file() {
+        let is_table = path.extension().is_some_and(|ext| ext == "csv" || ext == "parquet");
+        if !is_table || !path.is_file() {
             continue;
         }
         let Some(stem) = path.file_stem().map(|s| s.to_string_lossy().into_owned()) else {
@@ -53,6 +55,9 @@ pub(crate) fn list_telemetry(dir: &Path) -> Result<Vec<TelemetryFile>, ReportErr
         };
         files.push(TelemetryFile { path, stem, kind });
     }
+    // A stem in both formats: the Parquet file is the run's (`.parquet` sorts after `.csv`).
+    files.sort_by(|a, b| a.stem.cmp(&b.stem).then_with(|| b.path.cmp(&a.path)));
+    files.dedup_by(|later, first| later.stem == first.stem);
     if files.is_empty() {
         return Err(ReportError::NoTelemetry { path: dir.to_path_buf() });
     }
@@ -127,8 +132,28 @@ impl Table {
 /// Like [`Table::read`], but keeps (and parses) only the columns after `k` and `t_s` whose name
 /// passes `keep`; the other fields are counted but not checked.
 pub fn read_table_with(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Table, ReportError> {
+    let resolved = resolve(path);
+    let path = resolved.as_path();
+    if path.extension().is_some_and(|e| e == "parquet") {
+        return crate::parquet_in::read(path, keep);
+    }
     let file = File::open(path).map_err(|error| ReportError::Io { path: path.to_path_buf(), error })?;
     read_lines(BufReader::new(file), path, keep)
+}
+
+/// The file to read for `path`: itself if it exists, else the same stem in the other format if
+/// that exists (else `path`, whose absence the reader reports).
+pub fn resolve(path: &Path) -> PathBuf {
+    let other = match path.extension().and_then(|e| e.to_str()) {
+        Some("csv") => "parquet",
+        Some("parquet") => "csv",
+        _ => return path.to_path_buf(),
+    };
+    if path.exists() {
+        return path.to_path_buf();
+    }
+    let alt = path.with_extension(other);
+    if alt.exists() { alt } else { path.to_path_buf() }
 }
 
 fn read_lines(reader: impl BufRead, path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Table, ReportError> {

@@ -28,7 +28,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::checkpoint::{AgentState, Checkpoint};
 use crate::model::{AgentInput, Algorithm, Neighbour, PlantModel, ShareOut};
-use crate::record::{CsvWriter, LatencyHist, ProcessReport, RosterChange, RunDirs, reject_map};
+use crate::record::{CsvWriter, LatencyHist, ProcessReport, RosterChange, RunDirs, TelemetryWriter, reject_map};
 
 /// Longest single blocking wait before re-polling.
 const POLL: Duration = Duration::from_millis(10);
@@ -104,6 +104,8 @@ pub struct DriveParams {
     pub checkpoint_every: u64,
     /// `run.telemetry_every_steps` (≥ 1): see [`DriveParams::writes_row`].
     pub telemetry_every: u64,
+    /// `run.telemetry`: the format of the telemetry files.
+    pub telemetry: cohort_scenario::TelemetryFormat,
     /// The agent's algorithm kind (names checkpoints).
     pub algorithm_kind: String,
     /// How long a hold for the orchestrator (a process fault) may take, at most.
@@ -131,6 +133,7 @@ impl DriveParams {
             degrade: true,
             checkpoint_every: 0,
             telemetry_every: 1,
+            telemetry: cohort_scenario::TelemetryFormat::default(),
             algorithm_kind: String::new(),
             hold_timeout: Duration::from_secs(60),
             key: None,
@@ -161,6 +164,7 @@ impl DriveParams {
             degrade: s.run.on_agent_loss == cohort_scenario::OnAgentLoss::Degrade,
             checkpoint_every: s.run.checkpoint_every_steps,
             telemetry_every: s.run.telemetry_every_steps.max(1),
+            telemetry: s.run.telemetry,
             algorithm_kind: setup.algorithm.kind().to_string(),
             hold_timeout: Duration::from_secs_f64(s.run.startup_timeout_s + 2.0 * s.run.step_timeout_s),
             key: None,
@@ -616,8 +620,9 @@ fn plant_loop<T: Transport + ?Sized>(
 ) -> Result<(), RunError> {
     let mut columns = vec!["k".to_string(), "t_s".to_string()];
     columns.extend(model.columns());
-    let tel_path = p.dirs.telemetry().join("plant.csv");
-    let mut tel = CsvWriter::create(&tel_path, &columns).map_err(io(tel_path.display().to_string()))?;
+    let tel_path = p.dirs.telemetry().join(format!("plant.{}", p.telemetry.extension()));
+    let mut tel =
+        TelemetryWriter::create(p.telemetry, &tel_path, &columns).map_err(io(tel_path.display().to_string()))?;
     let tim_path = p.dirs.timing().join("plant.csv");
     let mut timing = CsvWriter::create(&tim_path, &["k".into(), "round_ns".into(), "share_latency_max_ns".into()])
         .map_err(io(tim_path.display().to_string()))?;
@@ -791,6 +796,11 @@ fn plant_loop<T: Transport + ?Sized>(
                 // Flush first: a process fault may be due to end this run.
                 tel.flush().map_err(io("plant telemetry"))?;
                 hold(&mut waiter, p, k + 1, &mut roster)?;
+                // Nobody can answer while the plant holds, and an agent back on the roster (a
+                // thaw, a relaunch) is heard from only now: its silence counts from here, not
+                // from before it left (else, in real time, a hold that overran the next step's
+                // deadline would have it declared dead again at its very return step).
+                last_heard.iter_mut().for_each(|h| *h = Instant::now());
             }
             round_start = monotonic_ns();
             if k + 1 < p.n_steps {
@@ -822,7 +832,7 @@ fn plant_loop<T: Transport + ?Sized>(
         report.latency_from_ns.insert(name, h.buckets());
     }
     // Never lose telemetry: flush whatever was written, also after an error.
-    let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("plant telemetry"));
+    let flushed = tel.finish().and_then(|_| timing.flush()).map_err(io("plant telemetry"));
     result.and(flushed)
 }
 
@@ -1157,18 +1167,18 @@ fn agent_loop<T: Transport + ?Sized>(
     let name = Proc::Agent(id).name();
     let mut columns = vec!["k".to_string(), "t_s".to_string()];
     columns.extend(algo.columns());
-    let tel_path = p.dirs.telemetry().join(format!("{name}.csv"));
+    let tel_path = p.dirs.telemetry().join(format!("{name}.{}", p.telemetry.extension()));
     let tim_path = p.dirs.timing().join(format!("{name}.csv"));
     let timing_columns = ["k".into(), "meas_latency_ns".into(), "neighbour_wait_ns".into(), "compute_ns".into()];
     // A relaunched agent goes on with its predecessor's files.
     let (mut tel, mut timing) = if restore.is_some() {
         (
-            CsvWriter::append(&tel_path, columns.len()).map_err(io(tel_path.display().to_string()))?,
+            TelemetryWriter::append(p.telemetry, &tel_path, &columns).map_err(io(tel_path.display().to_string()))?,
             CsvWriter::append(&tim_path, timing_columns.len()).map_err(io(tim_path.display().to_string()))?,
         )
     } else {
         (
-            CsvWriter::create(&tel_path, &columns).map_err(io(tel_path.display().to_string()))?,
+            TelemetryWriter::create(p.telemetry, &tel_path, &columns).map_err(io(tel_path.display().to_string()))?,
             CsvWriter::create(&tim_path, &timing_columns).map_err(io(tim_path.display().to_string()))?,
         )
     };
@@ -1438,7 +1448,7 @@ fn agent_loop<T: Transport + ?Sized>(
         report.faults.overrun.insert(name.clone(), peer.overrun);
         report.latency_from_ns.insert(name, peer.latency.buckets());
     }
-    let flushed = tel.flush().and_then(|_| timing.flush()).map_err(io("agent telemetry"));
+    let flushed = tel.finish().and_then(|_| timing.flush()).map_err(io("agent telemetry"));
     result.and(flushed)
 }
 
@@ -1546,6 +1556,8 @@ mod tests {
         let quick = silent.is_some() || setup.wrong_key.is_some();
         let mut p = params(dir, 50, Duration::from_millis(if quick { 300 } else { 20_000 }));
         p.degrade = !setup.abort;
+        // These tests read the rows as text; the Parquet writer has its own tests.
+        p.telemetry = cohort_scenario::TelemetryFormat::Csv;
         p.faults = Arc::new(FaultPlan::new(&setup.faults, 11, p.dt_s));
         p.key = setup.key;
         let mut forged = p.clone();

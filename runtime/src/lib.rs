@@ -8,6 +8,7 @@ pub mod checkpoint;
 pub mod drive;
 pub mod model;
 pub mod paper;
+pub mod parquet_out;
 pub mod process;
 pub mod record;
 pub mod recording;

@@ -5,6 +5,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+use cohort_scenario::TelemetryFormat;
 use cohort_wire::validate::{RejectCounts, Rejection};
 use serde::{Deserialize, Serialize};
 
@@ -91,6 +92,52 @@ impl CsvWriter {
     }
     pub fn flush(&mut self) -> std::io::Result<()> {
         self.out.flush()
+    }
+}
+
+/// A process's telemetry file in the run's format (`run.telemetry`): rows of step `k` and f64
+/// values, the same columns and numbers either way.
+pub enum TelemetryWriter {
+    Csv(CsvWriter),
+    Parquet(crate::parquet_out::ParquetWriter),
+}
+
+impl TelemetryWriter {
+    /// A new file with these columns (`k` first).
+    pub fn create(format: TelemetryFormat, path: &Path, columns: &[String]) -> std::io::Result<Self> {
+        Ok(match format {
+            TelemetryFormat::Csv => Self::Csv(CsvWriter::create(path, columns)?),
+            TelemetryFormat::Parquet => Self::Parquet(crate::parquet_out::ParquetWriter::create(path, columns)?),
+        })
+    }
+    /// Go on with an existing file (a relaunched agent continues its predecessor's rows).
+    pub fn append(format: TelemetryFormat, path: &Path, columns: &[String]) -> std::io::Result<Self> {
+        Ok(match format {
+            TelemetryFormat::Csv => Self::Csv(CsvWriter::append(path, columns.len())?),
+            TelemetryFormat::Parquet => Self::Parquet(crate::parquet_out::ParquetWriter::append(path, columns)?),
+        })
+    }
+    pub fn row(&mut self, k: u64, values: &[f64]) -> std::io::Result<()> {
+        match self {
+            Self::Csv(w) => w.row(k, values),
+            Self::Parquet(w) => w.row(k, values),
+        }
+    }
+    /// Every row written so far on disk, readable (before a process fault that may end the
+    /// process); the file stays open for more rows.
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        match self {
+            Self::Csv(w) => w.flush(),
+            Self::Parquet(w) => w.flush(),
+        }
+    }
+    /// The end of the process's rows: every row on disk in the complete file (also after an
+    /// error).
+    pub fn finish(&mut self) -> std::io::Result<()> {
+        match self {
+            Self::Csv(w) => w.flush(),
+            Self::Parquet(w) => w.finish(),
+        }
     }
 }
 

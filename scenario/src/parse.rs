@@ -32,6 +32,8 @@ pub struct Overrides {
     pub record: Option<bool>,
     /// `--hosts FILE`: replaces the scenario's `[[hosts]]`, and its placement when it gives one.
     pub hosts: Option<crate::hosts::HostsFile>,
+    /// `--telemetry`: run.telemetry (parquet or csv).
+    pub telemetry: Option<String>,
 }
 
 /// Read and parse a scenario file: the generic sections typed and checked for their own form
@@ -142,6 +144,9 @@ fn apply_overrides(table: &mut toml::Table, o: &Overrides) {
     }
     if let Some(r) = o.record {
         set("run", "record", Value::Boolean(r));
+    }
+    if let Some(f) = &o.telemetry {
+        set("run", "telemetry", Value::String(f.clone()));
     }
     if let Some(h) = &o.hosts {
         crate::hosts::apply(table, h);

@@ -111,6 +111,27 @@ pub struct HostSpec {
     pub endpoint: String,
 }
 
+/// The format of the telemetry files (`run.telemetry`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TelemetryFormat {
+    /// Apache Parquet (`<process>.parquet`): compressed, typed, each column's unit in the schema.
+    #[default]
+    Parquet,
+    /// Text (`<process>.csv`), numbers in their shortest exact form.
+    Csv,
+}
+
+impl TelemetryFormat {
+    /// The file extension of this format.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Self::Parquet => "parquet",
+            Self::Csv => "csv",
+        }
+    }
+}
+
 /// What a dead or silent agent does to the run (`run.on_agent_loss`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -177,6 +198,13 @@ pub struct RunSettings {
     /// machine).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub plant_host: Option<String>,
+    /// Format of the telemetry files: `parquet` (default) or `csv`.
+    #[serde(default, skip_serializing_if = "is_parquet")]
+    pub telemetry: TelemetryFormat,
+}
+
+fn is_parquet(f: &TelemetryFormat) -> bool {
+    *f == TelemetryFormat::Parquet
 }
 
 fn default_telemetry_every_steps() -> u64 {
@@ -226,6 +254,7 @@ impl Default for RunSettings {
             telemetry_every_steps: default_telemetry_every_steps(),
             record: false,
             plant_host: None,
+            telemetry: TelemetryFormat::Parquet,
         }
     }
 }

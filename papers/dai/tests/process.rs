@@ -39,7 +39,7 @@ fn continuous(name: &str, dir: &Path) -> serde_json::Value {
     assert_eq!(s["status"], "ok");
     assert_eq!(s["labels"]["coupling"], "continuous");
     // The paper's output grid t = 0:0.001:5: 5001 rows.
-    let rows = std::fs::read_to_string(out.join("telemetry/plant.csv")).unwrap().lines().count() - 1;
+    let rows = cohort::telemetry_table(&out, "plant").rows();
     assert_eq!(rows, 5001, "{name}");
     s
 }
@@ -93,9 +93,9 @@ fn sampled_data_multi_process_run_is_bit_identical_to_the_reference() {
         let o = launch(&topology(file), &rf, &["--duration", duration, "--reference"]);
         assert!(o.status.success(), "{file} --reference: {}", describe_output(&o));
         assert_eq!(summary(&mp)["mode"], "multi-process");
-        for f in ["plant.csv", "agent-1.csv"] {
-            let a = std::fs::read(mp.join("telemetry").join(f)).unwrap();
-            let b = std::fs::read(rf.join("telemetry").join(f)).unwrap();
+        for f in ["plant", "agent-1"] {
+            let a = std::fs::read(cohort::telemetry_path(&mp, f)).unwrap();
+            let b = std::fs::read(cohort::telemetry_path(&rf, f)).unwrap();
             assert!(a == b, "{file}: telemetry/{f} differs between multi-process and reference");
         }
         let s = summary(&mp);

@@ -1,18 +1,18 @@
 //! Analysis of a servicing run (orbital plant + Lb-DNN servicers), from the telemetry alone (so
 //! it is the same for the multi-process and the reference run): the velocity-estimation error
 //! ζ̃ᵢ = ζᵢ − ζ̂ᵢ needs the plant's truth ζᵢ and the agent's estimate ζ̂ᵢ, which no single process
-//! has: it is joined here, written to `derived/fig1.csv`, and summarised in `summary.json`.
+//! has: it is joined here, written to `derived/fig1.parquet` (`.csv` when the telemetry is), and summarised in `summary.json`.
 
 use std::collections::BTreeMap;
 
 use cohort_report::Table;
-use cohort_runtime::record::{CsvWriter, RunDirs, TimelineEvent};
+use cohort_runtime::record::{RunDirs, TelemetryWriter, TimelineEvent};
 use cohort_scenario::Scenario;
 
 /// Start of the velocity-estimation-error window (Fig. 3: "≈ 5 m/s after ≈ 150 s").
 pub const ZETA_WINDOW_START_S: f64 = 150.0;
 
-/// The servicing analysis: `derived/fig1.csv` and the ζ̃ᵢ and late ‖eᵢ‖ metrics.
+/// The servicing analysis: `derived/fig1.parquet` (or `.csv`, as the telemetry) and the ζ̃ᵢ and late ‖eᵢ‖ metrics.
 pub fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, String> {
     let n = s.n_agents();
     let axes = ["x", "y", "z"];
@@ -49,8 +49,10 @@ pub fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, 
             cols.push(format!("a{i}_{c}"));
         }
     }
-    let path = dirs.root.join("derived/fig1.csv");
-    let mut out = CsvWriter::create(&path, &cols).map_err(|e| format!("{}: {e}", path.display()))?;
+    // In the run's telemetry format (`derived/fig1.parquet` by default); readers take either.
+    let path = dirs.root.join(format!("derived/fig1.{}", s.run.telemetry.extension()));
+    let mut out =
+        TelemetryWriter::create(s.run.telemetry, &path, &cols).map_err(|e| format!("{}: {e}", path.display()))?;
     let (t, k) = (plant.col("t_s"), plant.steps());
     let end_s = s.scenario.duration_s.round();
     let mut sq = vec![0.0; n as usize];
@@ -93,7 +95,7 @@ pub fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, 
         }
         out.row(k[r], &row).map_err(|e| format!("{}: {e}", path.display()))?;
     }
-    out.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+    out.finish().map_err(|e| format!("{}: {e}", path.display()))?;
     let mut m = BTreeMap::new();
     for i in 0..n as usize {
         if samples[i] > 0 {
@@ -116,7 +118,7 @@ pub fn fault_effects(
     timeline: &[TimelineEvent],
 ) -> Result<BTreeMap<String, f64>, String> {
     let mut m = BTreeMap::new();
-    let path = dirs.root.join("derived/fig1.csv");
+    let path = cohort_report::table::resolve(&dirs.root.join("derived/fig1.csv"));
     if !path.is_file() {
         return Ok(m);
     }

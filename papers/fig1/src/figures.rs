@@ -34,7 +34,8 @@ use cohort_report::chart::{
 use cohort_report::chart3d::cube_chart;
 use cohort_report::{ColumnUse, FigureSource, PaperFigure, ReportError, Table, Telemetry};
 
-/// Where the derived per-agent series live, relative to the run directory.
+/// Where the derived per-agent series live, relative to the run directory (read as
+/// `derived/fig1.parquet` when the run wrote Parquet: see [`cohort_report::table::resolve`]).
 pub(crate) const DERIVED_FILE: &str = "derived/fig1.csv";
 /// Fig. 2 shows the trajectories over this first stretch of the run.
 const TRAJECTORY_WINDOW_S: f64 = 60.0;
@@ -85,7 +86,7 @@ impl FigureSource for Fig1Figures {
         if matches!(name, "u_x_mps2" | "u_y_mps2" | "u_z_mps2") { ColumnUse::Skip } else { ColumnUse::Generic }
     }
     fn figures(&self, t: &Telemetry<'_>) -> Result<Vec<Box<dyn PaperFigure>>, ReportError> {
-        let derived_path = t.run_dir.join(DERIVED_FILE);
+        let derived_path = cohort_report::table::resolve(&t.run_dir.join(DERIVED_FILE));
         if !derived_path.is_file() {
             return Ok(Vec::new());
         }

@@ -64,7 +64,7 @@ impl PaperHost for Fig1 {
     fn figures(&self, setup: &Setup, run_dir: &Path) -> Option<Box<dyn FigureSource>> {
         // Only a run whose analysis wrote the joined series gets the paper's figures (and leaves
         // its per-body columns out of the generic ones).
-        (is_servicing(setup) && run_dir.join(figures::DERIVED_FILE).is_file())
+        (is_servicing(setup) && cohort_report::table::resolve(&run_dir.join(figures::DERIVED_FILE)).is_file())
             .then(|| Box::new(figures::Fig1Figures) as Box<dyn FigureSource>)
     }
 }

@@ -30,9 +30,10 @@ fn fig1_runs_multi_process_for_360_s_bit_identical_to_the_reference_with_its_fig
         serde_json::from_str(&std::fs::read_to_string(mp.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["steps_completed"], 36_000);
     assert_eq!(summary["sim_time_s"], 360.0);
-    for f in ["plant.csv", "agent-1.csv", "agent-2.csv", "agent-3.csv", "agent-4.csv", "agent-5.csv", "agent-6.csv"] {
-        let a = std::fs::read(mp.join("telemetry").join(f)).unwrap();
-        let b = std::fs::read(rf.join("telemetry").join(f)).unwrap();
+    for f in ["plant", "agent-1", "agent-2", "agent-3", "agent-4", "agent-5", "agent-6"].map(|s| format!("{s}.parquet"))
+    {
+        let a = std::fs::read(mp.join("telemetry").join(&f)).unwrap();
+        let b = std::fs::read(rf.join("telemetry").join(&f)).unwrap();
         assert!(a == b, "telemetry/{f} differs between the multi-process run and the reference");
     }
     // Every summary metric the issue names is there, per servicer.

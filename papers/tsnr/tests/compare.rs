@@ -9,8 +9,8 @@ use std::process::Output;
 use std::sync::Mutex;
 
 use cohort::{
-    csv_column, describe_output, orchestrator_command, read_json, repo_root, scenario_text_with_absolute_paths,
-    scratch_dir,
+    describe_output, orchestrator_command, read_json, repo_root, scenario_text_with_absolute_paths, scratch_dir,
+    telemetry_table,
 };
 
 static HEAVY: Mutex<()> = Mutex::new(());
@@ -106,11 +106,12 @@ fn compare_runs_each_method_multi_process_and_tabulates_their_summaries() {
     assert_eq!(rows["fuel_total_ratio_to_aemc"][5].parse::<f64>().unwrap(), 148.68 / 140.77);
 
     // The tracking metrics agree with the telemetry (MU 2 of DMPC, computed here independently).
-    let csv = std::fs::read_to_string(out.join("dmpc/telemetry/agent-2.csv")).unwrap();
+    let table = telemetry_table(&out.join("dmpc"), "agent-2");
+    let column = |name: &str| table.get(name).unwrap().to_vec();
     let (t, e): (Vec<f64>, Vec<f64>) = {
-        let cols: Vec<Vec<f64>> = ["x", "y", "z"].iter().map(|ax| csv_column(&csv, &format!("err_{ax}_m"))).collect();
+        let cols: Vec<Vec<f64>> = ["x", "y", "z"].iter().map(|ax| column(&format!("err_{ax}_m"))).collect();
         let e = (0..cols[0].len()).map(|r| cols.iter().map(|c| c[r] * c[r]).sum::<f64>().sqrt()).collect();
-        (csv_column(&csv, "t_s"), e)
+        (column("t_s"), e)
     };
     let first: Vec<f64> = e.iter().zip(&t).filter(|(_, t)| **t < 10.0 - 1e-9).map(|(e, _)| *e).collect();
     assert_eq!(first.len(), 100);

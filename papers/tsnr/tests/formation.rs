@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use cohort::{
-    csv_column, describe_output, launch_scenario, orchestrator_command, read_json, repo_root,
-    scenario_text_with_absolute_paths, scratch_dir,
+    describe_output, launch_scenario, orchestrator_command, read_json, repo_root, scenario_text_with_absolute_paths,
+    scratch_dir, telemetry_table,
 };
 
 static HEAVY: Mutex<()> = Mutex::new(());
@@ -40,24 +40,25 @@ fn every_method_closes_the_net_within_the_thrust_bound_in_both_cases() {
             let s = read_json(&out.join("summary.json"));
             assert_eq!(s["metrics"]["thrust_bound_violations"].as_f64(), Some(0.0), "{what}");
             for id in 1..=4 {
-                let csv = std::fs::read_to_string(out.join(format!("telemetry/agent-{id}.csv"))).unwrap();
+                let table = telemetry_table(&out, &format!("agent-{id}"));
+                let column = |name: &str| table.get(name).unwrap().to_vec();
                 // At the end the net must be closed on the target: every MU within 5 cm (a tenth
                 // of the 0.5 m mesh) of its desired position in the last row (t = 29.9 s).
                 let err: f64 = ["x", "y", "z"]
                     .iter()
-                    .map(|ax| csv_column(&csv, &format!("err_{ax}_m")).last().copied().unwrap().powi(2))
+                    .map(|ax| column(&format!("err_{ax}_m")).last().copied().unwrap().powi(2))
                     .sum::<f64>()
                     .sqrt();
                 assert!(err < 0.05, "{what}: MU {id} is {err} m off at the end");
                 for ax in ["x", "y", "z"] {
-                    let u = csv_column(&csv, &format!("u_{ax}_n"));
+                    let u = column(&format!("u_{ax}_n"));
                     assert!(u.iter().all(|u| u.abs() <= 5.0), "{what}: MU {id} thrust {ax} beyond 5 N");
                 }
                 let report = read_json(&out.join(format!("status/agent-{id}.json")));
                 if method == "smc" {
                     assert!(report.get("solver").is_none(), "{what}: SMC solves no QP");
                 } else {
-                    assert!(csv_column(&csv, "qp_status").iter().all(|s| *s == 0.0), "{what}: MU {id} QP status");
+                    assert!(column("qp_status").iter().all(|s| *s == 0.0), "{what}: MU {id} QP status");
                     let st = &report["solver"];
                     assert_eq!(st["solves"].as_u64(), Some(300), "{what}: {st}");
                     assert_eq!(st["solved"].as_u64(), Some(300), "{what}: {st}");
@@ -82,7 +83,7 @@ fn aemc_multi_process_run_is_bit_identical_to_the_reference() {
     let o = launch_scenario(&file, &rf, &["--reference"]);
     assert!(o.status.success(), "--reference: {}", describe_output(&o));
     assert_eq!(read_json(&mp.join("summary.json"))["mode"], "multi-process");
-    for f in ["plant.csv", "agent-1.csv", "agent-2.csv", "agent-3.csv", "agent-4.csv"] {
+    for f in ["plant.parquet", "agent-1.parquet", "agent-2.parquet", "agent-3.parquet", "agent-4.parquet"] {
         let a = std::fs::read(mp.join("telemetry").join(f)).unwrap();
         let b = std::fs::read(rf.join("telemetry").join(f)).unwrap();
         assert!(a == b, "telemetry/{f} differs between the multi-process run and the reference");
@@ -124,7 +125,7 @@ fn mp_equals_reference(name: &str, edit: &dyn Fn(String) -> String, dir: &Path) 
     assert!(o.status.success(), "{name}: {}", describe_output(&o));
     let o = launch_scenario(&file, &rf, &["--reference"]);
     assert!(o.status.success(), "{name} --reference: {}", describe_output(&o));
-    for f in ["plant.csv", "agent-1.csv", "agent-2.csv", "agent-3.csv", "agent-4.csv"] {
+    for f in ["plant.parquet", "agent-1.parquet", "agent-2.parquet", "agent-3.parquet", "agent-4.parquet"] {
         let a = std::fs::read(mp.join("telemetry").join(f)).unwrap();
         let b = std::fs::read(rf.join("telemetry").join(f)).unwrap();
         assert!(a == b, "{name}: telemetry/{f} differs between the multi-process run and the reference");
@@ -139,7 +140,7 @@ fn clarabel_and_oracle_runs_are_bit_identical_multi_process_and_reference() {
     let _g = heavy();
     let dir = scratch_dir("tsnr-variants-mp");
     let first = mp_equals_reference("tsnr-case1-clarabel.toml", &|t| t, &dir);
-    let plant = first.join("telemetry/plant.csv");
+    let plant = first.join("telemetry/plant.parquet");
     let oracle = move |t: String| {
         let weights = t.lines().find(|l| l.starts_with("tension_weights")).unwrap().to_string();
         t.replace(&weights, &format!("tension_oracle = {:?}", plant.display().to_string()))

@@ -27,7 +27,7 @@ fn metric(s: &serde_json::Value, key: &str) -> f64 {
 }
 
 fn same_telemetry(a: &Path, b: &Path, what: &str) {
-    for f in ["plant.csv", "agent-1.csv", "agent-2.csv"] {
+    for f in ["plant.parquet", "agent-1.parquet", "agent-2.parquet"] {
         let x = std::fs::read(a.join("telemetry").join(f)).unwrap();
         let y = std::fs::read(b.join("telemetry").join(f)).unwrap();
         assert!(x == y, "{what}: telemetry/{f} differs between the multi-process run and the reference");
