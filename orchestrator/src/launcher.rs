@@ -98,10 +98,10 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
     };
     progress.finish();
     // A process killed while running (a fault, a crash) left its Parquet telemetry's journal:
-    // turn it into its file, as its own clean exit would have.
-    if let Err(e) = cohort_runtime::parquet_out::seal_dir(&dirs.telemetry()) {
-        errln!("warning: cannot turn the telemetry journals in {}: {e}", dirs.telemetry().display());
-    }
+    // turn it into its file, as its own clean exit would have. A failure is a warning of the
+    // summary, printed after the run's error (on a full disk that error is the cause).
+    let sealed = cohort_runtime::parquet_out::seal_dir(&dirs.telemetry())
+        .map_err(|e| format!("cannot turn the telemetry journals in {}: {e}", dirs.telemetry().display()));
     let mut summary = summary::build(
         s,
         dirs,
@@ -115,6 +115,9 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
             timeline: outcome.timeline.clone(),
         },
     );
+    if let Err(w) = sealed {
+        summary.warnings.push(w);
+    }
     mark_divergence(s, &mut outcome, &mut summary);
     // Derived quantities come from the telemetry alone, so a partial run gets them too.
     let view = RunView { setup: s, dirs };

@@ -506,6 +506,7 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> L
         unplanned: Vec::new(),
         waiting: Vec::new(),
         hosts_lost: Vec::new(),
+        full_disk_reported: false,
     };
     let mut startup_s = None;
     let outcome = if failure.is_none() { sup.supervise(&mut kids, progress, &mut startup_s) } else { (failure, None) };
@@ -577,6 +578,8 @@ struct Supervisor<'a> {
     waiting: Vec<Option<Waiting>>,
     /// Hosts found lost so far.
     hosts_lost: Vec<String>,
+    /// A full disk has been reported (once per run).
+    full_disk_reported: bool,
 }
 
 /// A hold of the plant for the process faults due at `step`.
@@ -777,6 +780,9 @@ impl Supervisor<'_> {
                         }
                         let detail = if dead { self.dead_detail(a, st.step) } else { "back on the roster".to_string() };
                         self.event(st.step, a, if dead { "dead" } else { "alive" }, detail);
+                        if dead && !self.planned_loss(a, st.step) {
+                            self.report_full_disk(a);
+                        }
                         // What the survivors' graph still satisfies.
                         let live: Vec<bool> = off_roster.iter().skip(1).map(|off| !off).collect();
                         let now = s.roster_warnings(&live);
@@ -899,6 +905,16 @@ impl Supervisor<'_> {
                 c.event
             ),
             None => format!("marked dead from step {step}"),
+        }
+    }
+
+    /// An agent that died because the disk is full: say so at once, before the warnings its loss
+    /// brings (a full disk dooms the run, and its cause must come first, not after them).
+    fn report_full_disk(&mut self, a: u32) {
+        let Some(line) = last_log_line(&self.dirs.logs().join(format!("agent-{a}.log"))) else { return };
+        if !self.full_disk_reported && (line.contains("No space left on device") || line.contains("os error 28")) {
+            errln!("error: agent-{a} stopped: {line}");
+            self.full_disk_reported = true;
         }
     }
 

@@ -96,7 +96,10 @@ fn topo() -> Topology {
 fn params(dir: &Path) -> DriveParams {
     let dirs = RunDirs::new(dir);
     dirs.create_all().unwrap();
-    DriveParams::basic(RUN_ID, STEPS, 0.1, Duration::from_secs(20), dirs)
+    // CSV: the checks below read agent 1's rows as text (recording is format-blind).
+    let mut p = DriveParams::basic(RUN_ID, STEPS, 0.1, Duration::from_secs(20), dirs);
+    p.telemetry = cohort_scenario::TelemetryFormat::Csv;
+    p
 }
 
 fn meta(me: Proc) -> RecordMeta {
@@ -154,15 +157,23 @@ fn scratch(tag: &str) -> PathBuf {
     d
 }
 
+/// Every telemetry file of a run (Parquet or CSV, whichever the run wrote), by name, with its
+/// bytes: the plant's and the four agents'.
 fn telemetry(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    (1..=4)
-        .map(|i| format!("agent-{i}.csv"))
-        .chain(["plant.csv".into()])
-        .map(|f| {
-            let b = std::fs::read(dir.join("telemetry").join(&f)).unwrap();
-            (f, b)
-        })
-        .collect()
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir.join("telemetry"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "parquet" || x == "csv"))
+        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()))
+        .collect();
+    files.sort();
+    assert_eq!(
+        files.len(),
+        5,
+        "expected the plant's and 4 agents' telemetry: {:?}",
+        files.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+    files
 }
 
 #[test]
