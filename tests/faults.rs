@@ -326,9 +326,13 @@ fn an_agent_killed_by_surprise_keeps_its_parquet_telemetry_up_to_a_step_close_to
     assert!(t.columns.iter().all(|c| c.values.iter().all(|v| v.is_finite())));
     let last = *t.k.last().unwrap();
     let batch_rows = 16 * 1024 / (8 * (t.columns.len() as u64 + 2));
-    // The plant hears of the death within a few steps (the orchestrator polls its children);
-    // at most one batch of rows was still in memory.
-    assert!(last <= died_at && died_at - last <= batch_rows + 100, "rows up to step {last}, died at step {died_at}");
+    // The plant hears of the death within a few steps (the orchestrator polls its children), and
+    // an agent may be a step or two ahead of the step at which the plant records it dead; at most
+    // one batch of rows was still in memory.
+    assert!(
+        last <= died_at + 2 && died_at.saturating_sub(last) <= batch_rows + 100,
+        "rows up to step {last}, died at step {died_at}"
+    );
     // The survivors' files are whole.
     assert_eq!(cohort::telemetry_table(&run, "agent-2").k.last(), Some(&1399));
     assert_clean(&run);

@@ -398,7 +398,7 @@ pub fn seal(path: &Path) -> std::io::Result<()> {
         bytes: Vec::new(),
     };
     state.start()?;
-    let before = if path.exists() { read_parquet(path)?.last().and_then(|b| last_k(b)) } else { None };
+    let before = if path.exists() { read_parquet(path)?.last().and_then(last_k) } else { None };
     let k = rows.column(0).as_primitive::<UInt64Type>().values();
     let from = before.map_or(0, |last| k.iter().position(|&k| k > last).unwrap_or(k.len()));
     let w = state.writer.as_mut().expect("started");
