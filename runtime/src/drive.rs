@@ -1453,7 +1453,7 @@ fn agent_loop<T: Transport + ?Sized>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     //! The drivers over the in-memory transport with toy models: two runs agree bit for bit with
     //! each other and with the values the models held in memory, and a silent agent is a timeout
     //! naming it, never a hang.
@@ -1466,10 +1466,10 @@ mod tests {
     use rand::Rng;
     use std::sync::Mutex;
 
-    /// 1-D integrators ẋ = u, read with uniform noise.
-    struct ToyPlant {
-        x: Vec<f64>,
-        u: Vec<f64>,
+    /// 1-D integrators ẋ = u, read with uniform noise (also the recording tests' plant).
+    pub(crate) struct ToyPlant {
+        pub(crate) x: Vec<f64>,
+        pub(crate) u: Vec<f64>,
     }
     impl PlantModel for ToyPlant {
         fn columns(&self) -> Vec<String> {

@@ -8,48 +8,21 @@ use std::time::Duration;
 
 use cohort_wire::transport::memory::MemoryBus;
 use cohort_wire::transport::{Proc, Topology};
-use rand::Rng;
-use rand_chacha::ChaCha8Rng;
 
 use super::reader::{self, Msg, ReadError};
 use super::replay::replay_with;
 use super::writer::{RecordMeta, Recording};
 use super::{Direction, path_for};
 use crate::drive::{DriveParams, run_agent, run_plant};
-use crate::model::{AgentInput, Algorithm, Neighbour, PlantModel, ShareOut};
+use crate::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use crate::record::RunDirs;
 use crate::rng::process_rng;
 
 const STEPS: u64 = 40;
 const RUN_ID: u64 = 0x5eed;
 
-/// 1-D integrators ẋ = u, read with uniform noise.
-struct Plant {
-    x: Vec<f64>,
-    u: Vec<f64>,
-}
-impl PlantModel for Plant {
-    fn columns(&self) -> Vec<String> {
-        (1..=self.x.len()).map(|i| format!("x{i}")).collect()
-    }
-    fn readings(&mut self, agent: u32, rng: &mut ChaCha8Rng, out: &mut Vec<f64>) {
-        out.push(self.x[agent as usize - 1] + rng.random::<f64>() * 1e-3);
-    }
-    fn apply_command(&mut self, agent: u32, command: &[f64]) {
-        self.u[agent as usize - 1] = command.first().copied().unwrap_or(0.0);
-    }
-    fn advance(&mut self, dt_s: f64) {
-        for (x, u) in self.x.iter_mut().zip(&self.u) {
-            *x += u * dt_s;
-        }
-    }
-    fn row(&self, out: &mut Vec<f64>) {
-        out.extend_from_slice(&self.x);
-    }
-    fn metrics(&self) -> Vec<(String, f64)> {
-        vec![]
-    }
-}
+/// The drive tests' 1-D integrators.
+use crate::drive::tests::ToyPlant as Plant;
 
 /// Consensus u = gain · Σ (yⱼ − y); shares y.
 struct Agent {
