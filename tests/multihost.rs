@@ -10,6 +10,11 @@
 //! the run ends in degrade naming host b, and nothing is left running anywhere; with netem delay
 //! 2 ms ± 0.5 ms and 1 % loss on c's link the run is still bit-identical and the plant's latency
 //! histograms show c's servicers behind the delay. Serialised: one set of namespaces at a time.
+//!
+//! Host c's link is a TAP pair with a user-space pump between its ends (`support/linkemu.rs`), so
+//! that the delay-and-loss case runs on kernels built without `sch_netem`: the case first asks
+//! the kernel for netem on both TAPs and, when it is refused, sets the same delay, jitter and
+//! loss in the pump, saying which it used. Without /dev/net/tun, c gets a veth like a and b.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -18,6 +23,9 @@ use std::time::{Duration, Instant};
 
 use cohort::{bin_path, describe_output, processes_mentioning, repo_root, scratch_dir, summary, telemetry_bits};
 use serde_json::Value;
+
+#[path = "support/linkemu.rs"]
+mod linkemu;
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
@@ -38,6 +46,8 @@ fn sh(args: &[&str]) -> Result<(), String> {
 struct Net {
     tag: String,
     namespaces: bool,
+    /// Host c's link when it is a TAP pair with the pump between its ends.
+    pumped: Option<linkemu::Link>,
 }
 
 impl Net {
@@ -49,6 +59,10 @@ impl Net {
     }
     fn veth(&self, x: &str) -> String {
         format!("cmhv{}{x}", self.tag)
+    }
+    /// Host c's TAP pair: (inside the namespace, on the bridge).
+    fn taps(&self) -> (String, String) {
+        (format!("cmht{}c", self.tag), format!("cmht{}co", self.tag))
     }
     fn addr(&self, k: usize) -> String {
         if self.namespaces { format!("198.18.77.{}", k + 1) } else { "127.0.0.1".into() }
@@ -63,7 +77,7 @@ impl Net {
 
     fn make() -> Self {
         let tag = format!("{:05}", std::process::id() % 100_000);
-        let mut net = Net { tag, namespaces: true };
+        let mut net = Net { tag, namespaces: true, pumped: None };
         if let Err(e) = net.try_namespaces() {
             net.teardown();
             println!("ip netns refused ({e}): falling back to three daemons on loopback ports");
@@ -72,14 +86,28 @@ impl Net {
         net
     }
 
-    fn try_namespaces(&self) -> Result<(), String> {
+    fn try_namespaces(&mut self) -> Result<(), String> {
         let br = self.bridge();
         sh(&["ip", "link", "add", &br, "type", "bridge"])?;
         sh(&["ip", "link", "set", &br, "up"])?;
         for (k, x) in NAMES.iter().enumerate() {
-            let (ns, v, peer) = (self.ns(x), self.veth(x), format!("{}p", self.veth(x)));
+            let (ns, mut v, mut peer) = (self.ns(x), self.veth(x), format!("{}p", self.veth(x)));
             sh(&["ip", "netns", "add", &ns])?;
-            sh(&["ip", "link", "add", &v, "type", "veth", "peer", "name", &peer])?;
+            let pumped = if *x == "c" {
+                let (inner, outer) = self.taps();
+                linkemu::Link::start(&inner, &outer, 0x5eed)
+                    .map(|link| {
+                        self.pumped = Some(link);
+                        (v, peer) = (outer, inner);
+                    })
+                    .inspect_err(|e| println!("host c gets a veth, not the pumped TAP pair: {e}"))
+                    .is_ok()
+            } else {
+                false
+            };
+            if !pumped {
+                sh(&["ip", "link", "add", &v, "type", "veth", "peer", "name", &peer])?;
+            }
             sh(&["ip", "link", "set", &peer, "netns", &ns])?;
             sh(&["ip", "link", "set", &v, "master", &br])?;
             sh(&["ip", "link", "set", &v, "up"])?;
@@ -110,17 +138,33 @@ impl Net {
         }
     }
 
-    /// netem on both ends of host `x`'s link.
-    fn netem(&self, x: &str, args: &[&str]) -> Result<(), String> {
-        let v = self.veth(x);
-        let peer = format!("{v}p");
+    /// Delay `delay` ± `jitter` and loss `loss_pct` % on both ends of host `x`'s link: the
+    /// kernel's netem where it has one, else the pump's (host c only). Says which it used.
+    fn impair(&self, x: &str, delay_ms: f64, jitter_ms: f64, loss_pct: f64) -> Result<String, String> {
+        let (v, peer) = match (&self.pumped, x) {
+            (Some(_), "c") => {
+                let (inner, outer) = self.taps();
+                (outer, inner)
+            }
+            _ => (self.veth(x), format!("{}p", self.veth(x))),
+        };
+        let args = [format!("{delay_ms}ms"), format!("{jitter_ms}ms"), format!("{loss_pct}%")];
+        let args = ["delay", &args[0], &args[1], "loss", &args[2]];
         let mut a = vec!["tc", "qdisc", "replace", "dev", &v, "root", "netem"];
-        a.extend_from_slice(args);
-        sh(&a)?;
+        a.extend_from_slice(&args);
         let ns = self.ns(x);
         let mut b = vec!["ip", "netns", "exec", &ns, "tc", "qdisc", "replace", "dev", &peer, "root", "netem"];
-        b.extend_from_slice(args);
-        sh(&b)
+        b.extend_from_slice(&args);
+        let kernel = sh(&a).and_then(|()| sh(&b));
+        match (kernel, &self.pumped, x) {
+            (Ok(()), _, _) => Ok("the kernel's netem".into()),
+            (Err(why), Some(link), "c") => {
+                let ms = |v: f64| Duration::from_secs_f64(v / 1e3);
+                link.impairment.set(ms(delay_ms), ms(jitter_ms), loss_pct / 100.0);
+                Ok(format!("the user-space pump (the kernel refused netem: {why})"))
+            }
+            (Err(why), _, _) => Err(why),
+        }
     }
 }
 
@@ -295,27 +339,40 @@ fn fig1_across_three_hosts_is_bit_identical_survives_kills_and_host_loss_and_net
     assert_nothing_left(&lost, &["b"]);
     daemons.start_one(1);
 
-    // 4. netem on c's link: still bit-identical, and the latency histograms show the delay.
-    // A kernel without sch_netem refuses the qdisc: the case is skipped, saying why.
-    let netem = if net.namespaces {
-        net.netem("c", &["delay", "2ms", "0.5ms", "loss", "1%"])
-    } else {
-        Err("it needs the network namespaces".into())
-    };
-    if let Err(why) = &netem {
-        println!("netem case skipped: {why}");
-    } else {
+    // 4. Delay and loss on c's link: still bit-identical, and the latency histograms show the
+    // delay. The kernel's netem, or the pump's where the kernel has none (it says which).
+    let netem =
+        if net.namespaces { net.impair("c", 2.0, 0.5, 1.0) } else { Err("it needs the network namespaces".into()) };
+    match &netem {
+        Err(why) => println!("delay-and-loss case skipped: {why}"),
+        Ok(how) => println!("delay 2 ms ± 0.5 ms and 1 % loss on host c's link by {how}"),
+    }
+    if netem.is_ok() {
         let slow = dir.join("netem");
+        let before = net.pumped.as_ref().map(|l| l.counts.dropped.load(std::sync::atomic::Ordering::Relaxed));
         let o = launch_on_a(&net, &slow, &["--hosts", hosts_arg]);
         assert!(o.status.success(), "{}", describe_output(&o));
+        if let (Some(link), Some(before), Ok(how)) = (&net.pumped, before, &netem)
+            && how.starts_with("the user-space pump")
+        {
+            // At 1 % of some thousand frames, none lost would mean the loss was never applied.
+            let (carried, dropped) = (
+                link.counts.carried.load(std::sync::atomic::Ordering::Relaxed),
+                link.counts.dropped.load(std::sync::atomic::Ordering::Relaxed),
+            );
+            println!("host c's link: {carried} frames carried, {} dropped during the run", dropped - before);
+            assert!(dropped > before, "no frame of host c's link was dropped at 1 % loss ({carried} carried)");
+        }
         assert_eq!(telemetry_bits(&slow), telemetry_bits(&reference), "netem changed the telemetry");
         let s = summary(&slow);
         for a in ["agent-2", "agent-4", "agent-6"] {
             let p50 = latency_p50_ns(&s, a);
+            println!("{a} (host c) → plant: share latency p50 {:.3} ms", p50 / 1e6);
             assert!(p50 >= 1.5e6, "{a} (host c, 2 ms netem): share latency p50 {p50} ns");
         }
         for a in ["agent-1", "agent-3", "agent-5"] {
             let p50 = latency_p50_ns(&s, a);
+            println!("{a} (host b) → plant: share latency p50 {:.3} ms", p50 / 1e6);
             assert!(p50 < 1.5e6, "{a} (host b, no netem): share latency p50 {p50} ns");
         }
         assert_nothing_left(&slow, &[]);
@@ -389,7 +446,7 @@ fn fig1_across_three_loopback_daemons_is_bit_identical_to_the_reference() {
     let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
     // The fallback of machines without `ip netns`, tested on every machine: three daemons on
     // loopback ports of this one.
-    let net = Net { tag: String::new(), namespaces: false };
+    let net = Net { tag: String::new(), namespaces: false, pumped: None };
     let daemons = Daemons::start(&net);
     let dir = scratch_dir("multihost-loopback");
     let hosts = hosts_file(&net, &dir);
