@@ -94,7 +94,10 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
     let (mut outcome, mode) = match coupled(s, dirs, &progress) {
         Some(o) => o,
         None if reference => (reference::launch(s, dirs, run_id, key, &progress), "reference"),
-        None => (supervise::launch(s, dirs, &IoxRun::new(run_id).with_key(key), &progress), "multi-process"),
+        None => (
+            supervise::launch(s, dirs, &IoxRun::new(run_id).with_key(key), &|step| progress.set(step)),
+            "multi-process",
+        ),
     };
     progress.finish();
     // A process killed while running (a fault, a crash) left its Parquet telemetry's journal:

@@ -24,21 +24,15 @@ macro_rules! errln {
 }
 
 mod bench;
-mod daemon;
-mod hostproto;
 mod launcher;
-mod netlab;
 mod progress;
 mod reference;
-mod remote;
 mod replay;
 mod rundir;
 mod soak;
 mod summary;
-mod supervise;
 mod sweep_report;
 mod terminal;
-mod zping;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -48,6 +42,7 @@ use cohort_host::{CommandError, PaperHost};
 use cohort_registry::HOSTS;
 use cohort_runtime::paper::Setup;
 use cohort_scenario::Overrides;
+use cohort_supervisor::{daemon, netlab, remote, supervise, zping};
 
 pub(crate) use launcher::{load, prepare, run_once};
 

@@ -42,7 +42,6 @@ use cohort_wire::transport::{ControlHub, Proc};
 use cohort_wire::validate::Rejection;
 
 use crate::hostproto::SpawnRequest;
-use crate::progress::Progress;
 use crate::remote::{HostLink, Remote};
 
 /// After the stop request, how long children get to exit on their own.
@@ -459,7 +458,7 @@ impl Spawner<'_> {
 }
 
 /// Launch and supervise one multi-process run.
-pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> LaunchOutcome {
+pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &dyn Fn(u64)) -> LaunchOutcome {
     let started = Instant::now();
     let failed = |error: String| LaunchOutcome {
         status: "failed",
@@ -716,7 +715,7 @@ impl Supervisor<'_> {
     fn supervise(
         &mut self,
         kids: &mut [Kid],
-        progress: &Progress,
+        progress: &dyn Fn(u64),
         startup_s: &mut Option<f64>,
     ) -> (Option<String>, Option<usize>) {
         let s = self.s;
@@ -864,13 +863,13 @@ impl Supervisor<'_> {
                     }
                 }
             }
-            progress.set(plant_step);
+            progress(plant_step);
             let plant_ok = kids[0].exit.is_some_and(|st| st.success());
             // Done when the plant is, and every agent on its roster has finished.
             let agents_done =
                 kids.iter().enumerate().skip(1).all(|(i, k)| k.exit.is_some_and(|st| st.success()) || off_roster[i]);
             if plant_ok && agents_done {
-                progress.set(s.n_steps());
+                progress(s.n_steps());
                 return (None, None);
             }
             let failed_kid = |k: &Kid| k.exit.is_some_and(|st| !st.success()) && !k.planned_exit;
