@@ -10,11 +10,11 @@ use cohort_host::{Launcher, Mode, RunOptions, RunResult, RunView};
 use cohort_runtime::paper::{CoupledCtx, Setup};
 use cohort_runtime::record::RunDirs;
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
+use cohort_supervisor::supervise::{self, LaunchOutcome, SIGNALLED};
 use cohort_wire::auth::MacKey;
 use cohort_wire::transport::iox::IoxRun;
 
-use crate::supervise::{LaunchOutcome, SIGNALLED};
-use crate::{EXIT_FAILED, EXIT_INVALID, progress, reference, rundir, summary, supervise};
+use crate::{EXIT_FAILED, EXIT_INVALID, progress, reference, rundir, summary};
 
 /// Read, validate and configure a scenario file with every registered paper.
 pub fn load(file: &Path, o: &Overrides) -> Result<Setup, ScenarioError> {
