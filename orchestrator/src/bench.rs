@@ -13,7 +13,7 @@
 //! with it, and ns to seal and check one share); and zenoh (issue 20): the round trip between two
 //! processes, and steps/s of the headline (shortened to 2 000 steps) and the ring at N = 6 and 20
 //! over zenoh against iceoryx2 on one host, and over zenoh across three network namespaces
-//! ([`crate::netlab`], when this runs as root) with no delay and with 1 ms each way, each
+//! ([`cohort_supervisor::netlab`], when this runs as root) with no delay and with 1 ms each way, each
 //! reported as steps/s × round trip (1.0: one round trip per step).
 
 use std::collections::BTreeMap;
@@ -293,7 +293,7 @@ fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<C
         push(label.clone(), *n, "iceoryx2", load("iceoryx2", None)?, None);
         push(label.clone(), *n, "zenoh", load("zenoh", None)?, None);
         if let Some(dir) = lab_dir {
-            let hosts = crate::netlab::Lab::hosts_file(dir, *n)?;
+            let hosts = cohort_supervisor::netlab::Lab::hosts_file(dir, *n)?;
             push(label.clone(), *n, "zenoh-3ns", load("zenoh", Some(&hosts))?, Some(&[]));
             push(label.clone(), *n, "zenoh-3ns-1ms", load("zenoh", Some(&hosts))?, Some(DELAY_1MS));
         }
@@ -312,12 +312,12 @@ struct Rtt {
 
 /// The zenoh round trip between an echo process and a ping process, on one host or from lab
 /// namespace a to b.
-fn measure_rtt(lab: Option<&crate::netlab::Lab>, place: &str) -> Result<Rtt, String> {
+fn measure_rtt(lab: Option<&cohort_supervisor::netlab::Lab>, place: &str) -> Result<Rtt, String> {
     use std::process::Stdio;
     let me = std::env::current_exe().map_err(|e| e.to_string())?;
     let (listen, connect) = match lab {
         Some(_) => {
-            let e = crate::netlab::Lab::endpoint(1).replace(":7447", ":7500");
+            let e = cohort_supervisor::netlab::Lab::endpoint(1).replace(":7447", ":7500");
             (e.clone(), e)
         }
         None => {
@@ -494,7 +494,7 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     let repo = std::env::current_dir().map_err(|e| e.to_string())?;
     let scratch = std::env::temp_dir().join(format!("cohort-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&scratch);
-    let lab = match crate::netlab::Lab::start() {
+    let lab = match cohort_supervisor::netlab::Lab::start() {
         Ok(l) => Some(l),
         Err(e) => {
             errln!("no network-namespace lab (zenoh across namespaces not measured): {e}");

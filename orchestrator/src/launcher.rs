@@ -10,11 +10,11 @@ use cohort_host::{Launcher, Mode, RunOptions, RunResult, RunView};
 use cohort_runtime::paper::{CoupledCtx, Setup};
 use cohort_runtime::record::RunDirs;
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
+use cohort_supervisor::supervise::{self, LaunchOutcome, SIGNALLED};
 use cohort_wire::auth::MacKey;
 use cohort_wire::transport::iox::IoxRun;
 
-use crate::supervise::{LaunchOutcome, SIGNALLED};
-use crate::{EXIT_FAILED, EXIT_INVALID, progress, reference, rundir, summary, supervise};
+use crate::{EXIT_FAILED, EXIT_INVALID, progress, reference, rundir, summary};
 
 /// Read, validate and configure a scenario file with every registered paper.
 pub fn load(file: &Path, o: &Overrides) -> Result<Setup, ScenarioError> {
@@ -94,7 +94,10 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
     let (mut outcome, mode) = match coupled(s, dirs, &progress) {
         Some(o) => o,
         None if reference => (reference::launch(s, dirs, run_id, key, &progress), "reference"),
-        None => (supervise::launch(s, dirs, &IoxRun::new(run_id).with_key(key), &progress), "multi-process"),
+        None => (
+            supervise::launch(s, dirs, &IoxRun::new(run_id).with_key(key), &|step| progress.set(step)),
+            "multi-process",
+        ),
     };
     progress.finish();
     // A process killed while running (a fault, a crash) left its Parquet telemetry's journal:

@@ -24,21 +24,15 @@ macro_rules! errln {
 }
 
 mod bench;
-mod daemon;
-mod hostproto;
 mod launcher;
-mod netlab;
 mod progress;
 mod reference;
-mod remote;
 mod replay;
 mod rundir;
 mod soak;
 mod summary;
-mod supervise;
 mod sweep_report;
 mod terminal;
-mod zping;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -48,6 +42,7 @@ use cohort_host::{CommandError, PaperHost};
 use cohort_registry::HOSTS;
 use cohort_runtime::paper::Setup;
 use cohort_scenario::Overrides;
+use cohort_supervisor::{daemon, supervise, zping};
 
 pub(crate) use launcher::{load, prepare, run_once};
 
@@ -485,7 +480,16 @@ fn generic(command: Cmd) -> ExitCode {
                 ExitCode::from(EXIT_FAILED)
             }
         },
-        Cmd::Host { listen, name } => daemon::run(&listen, name),
+        Cmd::Host { listen, name } => match daemon::run(&listen, name) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                errln!("error: {e}");
+                ExitCode::from(match e {
+                    daemon::DaemonError::Invalid(_) => EXIT_INVALID,
+                    daemon::DaemonError::Failed(_) => EXIT_FAILED,
+                })
+            }
+        },
         Cmd::ZenohEcho { listen } => match zping::echo(&listen) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -606,7 +610,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     }
     if !reference && !s.hosts.is_empty() {
         // Every daemon reachable, named as the scenario says, of this build: before anything starts.
-        if let Err(e) = remote::preflight(&s.hosts) {
+        if let Err(e) = cohort_supervisor::preflight(&s.hosts) {
             errln!("error: {}: {e}", file.display());
             return ExitCode::from(EXIT_INVALID);
         }

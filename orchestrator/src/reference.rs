@@ -11,12 +11,12 @@ use cohort_runtime::paper::Setup;
 use cohort_runtime::record::{ErrorKind, ProcessError, ProcessReport, RunDirs};
 use cohort_runtime::recording::writer::{RecordMeta, Recording};
 use cohort_runtime::rng::process_rng;
+use cohort_supervisor::supervise::{LaunchOutcome, SIGNALLED};
 use cohort_wire::msg::{PLANT_ID, STATUS_PROGRESS};
 use cohort_wire::transport::Proc;
 use cohort_wire::transport::memory::MemoryBus;
 
 use crate::progress::Progress;
-use crate::supervise::{LaunchOutcome, SIGNALLED};
 
 fn run_one(s: &Setup, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) -> ProcessReport {
     let mut t = bus.endpoint(p);

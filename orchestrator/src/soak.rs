@@ -281,7 +281,7 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
     let seed0 = o.seed.unwrap_or(base.scenario.seed);
     let mut index = 0usize;
     while started.elapsed() < o.wall {
-        if crate::supervise::SIGNALLED.load(Ordering::SeqCst) != 0 {
+        if cohort_supervisor::supervise::SIGNALLED.load(Ordering::SeqCst) != 0 {
             problems.push("interrupted".into());
             break;
         }

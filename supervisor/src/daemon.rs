@@ -19,7 +19,7 @@ use std::collections::HashMap;
 use std::io::{BufRead, Write};
 use std::os::unix::process::ExitStatusExt;
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitCode, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -77,57 +77,54 @@ fn default_name() -> String {
     if name.is_empty() { "host".into() } else { name }
 }
 
-/// Run the daemon until SIGINT/SIGTERM/SIGHUP. Exit 2 on a bad argument, 1 when the endpoint
-/// cannot be listened on.
-pub fn run(listen: &str, name: Option<String>) -> ExitCode {
+/// Why the daemon could not start.
+#[derive(Debug)]
+pub enum DaemonError {
+    /// A bad argument (`--name`, `--listen`): exit 2.
+    Invalid(String),
+    /// The daemon cannot serve (no sibling binary, no base directory, the endpoint cannot be
+    /// listened on): exit 1.
+    Failed(String),
+}
+
+impl std::fmt::Display for DaemonError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            DaemonError::Invalid(m) | DaemonError::Failed(m) => f.write_str(m),
+        }
+    }
+}
+
+/// Run the daemon until SIGINT/SIGTERM/SIGHUP (the handlers of
+/// [`crate::supervise::install_signal_handlers`]). An argument it refuses is
+/// [`DaemonError::Invalid`], an endpoint it cannot listen on [`DaemonError::Failed`].
+pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
     let name = name.unwrap_or_else(default_name);
     if name.is_empty() || name.len() > 64 || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
-        errln!("error: --name {name:?}: must be 1 to 64 letters, digits, '-' or '_'");
-        return ExitCode::from(crate::EXIT_INVALID);
+        return Err(DaemonError::Invalid(format!("--name {name:?}: must be 1 to 64 letters, digits, '-' or '_'")));
     }
     if let Some(why) = cohort_scenario::hosts::endpoint_problem(listen) {
-        errln!("error: --listen {listen:?}: {why}");
-        return ExitCode::from(crate::EXIT_INVALID);
+        return Err(DaemonError::Invalid(format!("--listen {listen:?}: {why}")));
     }
     for bin in ["plant", "agent"] {
-        if let Err(e) = sibling_binary(bin) {
-            errln!("error: {e}");
-            return ExitCode::from(crate::EXIT_FAILED);
-        }
+        sibling_binary(bin).map_err(DaemonError::Failed)?;
     }
-    let base = match cohort_wire::transport::iox::ensure_user_base() {
-        Ok(b) => b.join("hosts").join(&name),
-        Err(e) => {
-            errln!("error: {e}");
-            return ExitCode::from(crate::EXIT_FAILED);
-        }
-    };
-    if let Err(e) = std::fs::create_dir_all(&base) {
-        errln!("error: {}: {e}", base.display());
-        return ExitCode::from(crate::EXIT_FAILED);
-    }
-    let session = match open_session(&[listen.to_string()], &[]) {
-        Ok(s) => s,
-        Err(e) => {
-            errln!("error: cannot listen on {listen}: {e}");
-            return ExitCode::from(crate::EXIT_FAILED);
-        }
-    };
-    let queryable: Queryable<FifoChannelHandler<Query>> =
-        match session.declare_queryable(request_key(&name, "*")).wait() {
-            Ok(q) => q,
-            Err(e) => {
-                errln!("error: cannot declare the daemon's queryable: {e}");
-                return ExitCode::from(crate::EXIT_FAILED);
-            }
-        };
-    let _token: LivelinessToken = match session.liveliness().declare_token(hostproto::host_token(&name)).wait() {
-        Ok(t) => t,
-        Err(e) => {
-            errln!("error: cannot declare the daemon's liveliness token: {e}");
-            return ExitCode::from(crate::EXIT_FAILED);
-        }
-    };
+    let base = cohort_wire::transport::iox::ensure_user_base()
+        .map_err(|e| DaemonError::Failed(e.to_string()))?
+        .join("hosts")
+        .join(&name);
+    std::fs::create_dir_all(&base).map_err(|e| DaemonError::Failed(format!("{}: {e}", base.display())))?;
+    let session = open_session(&[listen.to_string()], &[])
+        .map_err(|e| DaemonError::Failed(format!("cannot listen on {listen}: {e}")))?;
+    let queryable: Queryable<FifoChannelHandler<Query>> = session
+        .declare_queryable(request_key(&name, "*"))
+        .wait()
+        .map_err(|e| DaemonError::Failed(format!("cannot declare the daemon's queryable: {e}")))?;
+    let _token: LivelinessToken = session
+        .liveliness()
+        .declare_token(hostproto::host_token(&name))
+        .wait()
+        .map_err(|e| DaemonError::Failed(format!("cannot declare the daemon's liveliness token: {e}")))?;
     errln!("host {name}: listening on {listen} (build {}), runs under {}", cohort_wire::BUILD_ID, base.display());
     let mut d = Daemon { name, session, base, runs: HashMap::new() };
     loop {
@@ -138,7 +135,7 @@ pub fn run(listen: &str, name: Option<String>) -> ExitCode {
             for id in ids {
                 d.end_run(id);
             }
-            return ExitCode::SUCCESS;
+            return Ok(());
         }
         if let Ok(Some(q)) = queryable.recv_timeout(Duration::from_millis(50)) {
             d.answer(&q);

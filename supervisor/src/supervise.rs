@@ -42,7 +42,6 @@ use cohort_wire::transport::{ControlHub, Proc};
 use cohort_wire::validate::Rejection;
 
 use crate::hostproto::SpawnRequest;
-use crate::progress::Progress;
 use crate::remote::{HostLink, Remote};
 
 /// After the stop request, how long children get to exit on their own.
@@ -214,7 +213,7 @@ fn last_log_line(path: &Path) -> Option<String> {
 }
 
 /// Find `plant` and `agent` beside the orchestrator's own executable.
-pub fn sibling_binary(name: &str) -> Result<PathBuf, String> {
+pub(crate) fn sibling_binary(name: &str) -> Result<PathBuf, String> {
     let me = std::env::current_exe().map_err(|e| format!("cannot locate the orchestrator executable: {e}"))?;
     let dir = me.parent().ok_or("the orchestrator executable has no parent directory")?;
     let path = dir.join(name);
@@ -230,11 +229,11 @@ pub fn sibling_binary(name: &str) -> Result<PathBuf, String> {
 }
 
 /// The descriptor number a child reads the run's MAC key from (`--key-fd`).
-pub const KEY_FD: i32 = 3;
+pub(crate) const KEY_FD: i32 = 3;
 
 /// A pipe holding the run's key, its read end for one child to inherit as [`KEY_FD`]. The key
 /// never appears in argv or the environment, which other users can read.
-pub fn key_pipe(key: &MacKey) -> Result<std::fs::File, String> {
+pub(crate) fn key_pipe(key: &MacKey) -> Result<std::fs::File, String> {
     use std::io::Write;
     use std::os::fd::FromRawFd;
     let mut fds = [0i32; 2];
@@ -251,7 +250,7 @@ pub fn key_pipe(key: &MacKey) -> Result<std::fs::File, String> {
 
 /// What a child needs between fork and exec: the key pipe's read end as [`KEY_FD`], its own
 /// process group (a terminal's Ctrl-C reaches only us), and death with its parent.
-pub fn child_setup(cmd: &mut Command, key_raw: Option<i32>) {
+pub(crate) fn child_setup(cmd: &mut Command, key_raw: Option<i32>) {
     // SAFETY: only async-signal-safe calls (dup2, setpgid, prctl, getppid) between fork and exec.
     unsafe {
         cmd.pre_exec(move || {
@@ -458,8 +457,9 @@ impl Spawner<'_> {
     }
 }
 
-/// Launch and supervise one multi-process run.
-pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> LaunchOutcome {
+/// Launch and supervise one multi-process run. `on_step` is told the plant's step as it advances
+/// (the caller's progress bar), and `s.n_steps()` once the run is done.
+pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) -> LaunchOutcome {
     let started = Instant::now();
     let failed = |error: String| LaunchOutcome {
         status: "failed",
@@ -509,7 +509,7 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, progress: &Progress) -> L
         full_disk_reported: false,
     };
     let mut startup_s = None;
-    let outcome = if failure.is_none() { sup.supervise(&mut kids, progress, &mut startup_s) } else { (failure, None) };
+    let outcome = if failure.is_none() { sup.supervise(&mut kids, on_step, &mut startup_s) } else { (failure, None) };
     let (mut failure, signal) = outcome;
     // Thaw whoever is still frozen, so that the stop request reaches it.
     for k in kids.iter_mut().filter(|k| k.frozen && k.exit.is_none()) {
@@ -716,7 +716,7 @@ impl Supervisor<'_> {
     fn supervise(
         &mut self,
         kids: &mut [Kid],
-        progress: &Progress,
+        on_step: &dyn Fn(u64),
         startup_s: &mut Option<f64>,
     ) -> (Option<String>, Option<usize>) {
         let s = self.s;
@@ -864,13 +864,13 @@ impl Supervisor<'_> {
                     }
                 }
             }
-            progress.set(plant_step);
+            on_step(plant_step);
             let plant_ok = kids[0].exit.is_some_and(|st| st.success());
             // Done when the plant is, and every agent on its roster has finished.
             let agents_done =
                 kids.iter().enumerate().skip(1).all(|(i, k)| k.exit.is_some_and(|st| st.success()) || off_roster[i]);
             if plant_ok && agents_done {
-                progress.set(s.n_steps());
+                on_step(s.n_steps());
                 return (None, None);
             }
             let failed_kid = |k: &Kid| k.exit.is_some_and(|st| !st.success()) && !k.planned_exit;

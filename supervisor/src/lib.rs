@@ -1,0 +1,41 @@
+//! `cohort-supervisor`: the processes of a multi-process run — starting, watching and stopping
+//! them on this machine or, for a multi-host run, through a host daemon on each machine — and the
+//! multi-host machinery around that (the daemon, its protocol, the preflight check, the bench's
+//! network lab and zenoh round trip).
+//!
+//! - [`supervise`]: [`supervise::launch`] spawns the plant and every agent, releases the start
+//!   barrier, watches them, carries out the fault plan, stops them in order (the shutdown ladder)
+//!   and removes every resource of the run; [`supervise::SIGNALLED`] and
+//!   [`supervise::install_signal_handlers`] turn Ctrl-C, SIGTERM and SIGHUP into an orderly stop.
+//! - [`preflight`]: before a multi-host run starts, every daemon of `[[hosts]]` is reachable,
+//!   answers to its name and has this build's id.
+//! - [`daemon`]: the host daemon (`orchestrator host`) that starts one machine's processes for an
+//!   orchestrator elsewhere, relays its signals and sends the run's files back.
+//! - [`netlab`] and [`zping`]: three network namespaces with host daemons and `tc netem`, and a
+//!   zenoh ping-pong, both for `orchestrator bench`.
+//!
+//! Why a crate apart: this is the part of the orchestrator that deals in processes, signals and
+//! hosts rather than in scenarios and reports, and it grew with the multi-host transport; kept
+//! apart it has an API of its own and the orchestrator binary stays small (it keeps the CLI,
+//! launch, the reference run, summary, report, sweep, soak and bench). Like the other generic
+//! crates it knows no paper, and it depends on the orchestrator for nothing: the caller passes
+//! what it needs (the configured scenario, the run directories, a progress hook) and maps the
+//! errors it returns to exit codes.
+
+/// `eprintln!` that never panics (a closed or full stderr): a failed write must not end a run
+/// early or change its exit code. (The orchestrator's binary has its own copy.)
+macro_rules! errln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
+pub mod daemon;
+mod hostproto;
+pub mod netlab;
+mod remote;
+pub mod supervise;
+pub mod zping;
+
+pub use remote::preflight;
