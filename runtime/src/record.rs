@@ -410,8 +410,8 @@ pub struct LatencyBuckets(pub Vec<(u64, u64)>);
 /// `HistogramLogWriter`, read by its `HistogramLogReader` in Java, Python (`hdrh`), Go, Rust …),
 /// one interval per sender, tagged with the sender's name (`Tag=agent-2,…`), each histogram in
 /// the compressed V2 encoding (3 significant figures, 100 ns to 60 s, as recorded). Compact: a
-/// short fig1 run's 24 links take ≈ 1/20 of the bytes of one CSV row per bucket, the form the
-/// histograms had before. Read a run's back with [`read_latency_histograms`].
+/// whole (360 s) fig1 run's 24 links take 79 kB, against 2.2 MB as one CSV row per bucket, the
+/// form the histograms had before. Read a run's back with [`read_latency_histograms`].
 pub const LATENCY_LOG: &str = "timing/<proc>.hlog";
 
 /// The latency log of process `name` in `timing` (see [`LATENCY_LOG`]).
