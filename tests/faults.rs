@@ -259,11 +259,11 @@ fn in_real_time_a_frozen_agent_costs_deadline_misses_until_it_is_declared_dead()
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Rows agent `id` has journalled so far in a running run (see `parquet_out`: header, then
-/// rows of 8-byte numbers).
+/// Rows agent `id` has journalled so far in a running run (see `parquet_out`: a header of three
+/// lines, magic, value type and columns, then rows of 8-byte numbers).
 fn rows_journalled(run: &Path, id: u32) -> u64 {
     let Ok(bytes) = std::fs::read(run.join(format!("telemetry/agent-{id}.rows"))) else { return 0 };
-    let Some(header) = bytes.iter().enumerate().filter(|(_, b)| **b == b'\n').nth(1).map(|(i, _)| i + 1) else {
+    let Some(header) = bytes.iter().enumerate().filter(|(_, b)| **b == b'\n').nth(2).map(|(i, _)| i + 1) else {
         return 0;
     };
     let width = bytes[..header].iter().filter(|b| **b == b',').count() as u64 + 1;
@@ -335,6 +335,15 @@ fn an_agent_killed_by_surprise_keeps_its_parquet_telemetry_up_to_a_step_close_to
     );
     // The survivors' files are whole.
     assert_eq!(cohort::telemetry_table(&run, "agent-2").k.last(), Some(&1399));
+    // Its timing journal, too, was turned into its Parquet file (no histograms: it never exited).
+    let timing = run.join("timing");
+    let mut left: Vec<String> =
+        std::fs::read_dir(&timing).unwrap().flatten().map(|e| e.file_name().to_string_lossy().to_string()).collect();
+    left.sort();
+    assert!(left.contains(&"agent-3.parquet".to_string()) && !left.contains(&"agent-3.hlog".to_string()), "{left:?}");
+    assert!(!left.iter().any(|f| f.ends_with(".rows") || f.starts_with('.')), "{left:?}");
+    let k = cohort_runtime::record::timing_column(&timing, "agent-3", "k");
+    assert!(k.len() >= 500 && k.windows(2).all(|w| w[0] < w[1]), "{} timing rows", k.len());
     assert_clean(&run);
     let _ = std::fs::remove_dir_all(&dir);
 }

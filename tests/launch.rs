@@ -168,9 +168,17 @@ fn start_long_run(out: &Path, step_timeout_s: &str, on_loss: &str, duration_s: &
         .spawn()
         .expect("spawning the orchestrator");
     let deadline = Instant::now() + Duration::from_secs(60);
-    let plant_timing = out.join("timing/plant.csv");
-    // The plant writes its first timing rows once stepping (buffered: wait for some bytes).
-    while std::fs::metadata(&plant_timing).map(|m| m.len()).unwrap_or(0) < 70_000 {
+    // The plant writes its first timing rows once stepping (buffered: wait for some bytes), to
+    // `plant.csv` or, with Parquet (the default), to its journal `plant.rows` while it runs.
+    let timing_bytes = || {
+        ["timing/plant.csv", "timing/plant.rows"]
+            .iter()
+            .filter_map(|f| std::fs::metadata(out.join(f)).ok())
+            .map(|m| m.len())
+            .max()
+            .unwrap_or(0)
+    };
+    while timing_bytes() < 70_000 {
         assert!(Instant::now() < deadline, "the run did not start stepping within 60 s");
         std::thread::sleep(Duration::from_millis(20));
     }

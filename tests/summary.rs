@@ -1,6 +1,7 @@
 //! What a launch leaves a user: a small `summary.json` (latency percentiles per link, the
-//! histograms in `timing/latency_histograms.csv`), the verdict against the paper, `--json` on
-//! stdout, and the end-of-run table with 4 significant digits. Short runs (`--duration`) only.
+//! histograms once, in the receivers' latency logs `timing/<proc>.hlog`, never in `status/`),
+//! timing files in the telemetry's format, the verdict against the paper, `--json` on stdout,
+//! and the end-of-run table with 4 significant digits. Short runs (`--duration`) only.
 //! Run with `scripts/test` (it builds the release binaries).
 
 use std::collections::BTreeMap;
@@ -73,17 +74,13 @@ fn a_short_fig1_run_has_a_small_summary_its_histograms_a_verdict_and_json_on_std
     }
     assert_eq!(s["process_latency_ns"].as_object().map(|m| m.len()), Some(7), "{}", s["process_latency_ns"]);
 
-    // The histograms: a CSV that parses, one histogram per link, agreeing with the percentiles.
-    let csv = std::fs::read_to_string(run.join("timing/latency_histograms.csv")).unwrap();
-    let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("sender,receiver,bucket_upper_ns,count"));
-    let mut hist: BTreeMap<String, Vec<(u64, u64)>> = BTreeMap::new();
-    for l in lines {
-        let f: Vec<&str> = l.split(',').collect();
-        assert_eq!(f.len(), 4, "{l}");
-        let (v, n) = (f[2].parse::<u64>().unwrap(), f[3].parse::<u64>().unwrap());
-        hist.entry(format!("{} → {}", f[0], f[1])).or_default().push((v, n));
-    }
+    // The histograms: each process's latency log parses, one histogram per link, agreeing with
+    // the percentiles (the same percentiles the histograms gave when status/ carried them).
+    let hist: BTreeMap<String, Vec<(u64, u64)>> = cohort_runtime::record::read_latency_histograms(&run)
+        .unwrap()
+        .into_iter()
+        .map(|((from, to), b)| (format!("{from} → {to}"), b.0))
+        .collect();
     assert_eq!(hist.keys().collect::<Vec<_>>(), links.keys().collect::<Vec<_>>());
     for (name, b) in &hist {
         let q = &links[name];
@@ -94,10 +91,14 @@ fn a_short_fig1_run_has_a_small_summary_its_histograms_a_verdict_and_json_on_std
         let p50 = q["p50"].as_u64().unwrap();
         let below: u64 = b.iter().filter(|x| x.0 <= p50).map(|x| x.1).sum();
         assert!(2 * below >= total && b.iter().any(|x| x.0 == p50), "{name}: p50 {p50} is not the median bucket");
+        let h = cohort_runtime::record::LatencyHist::from_buckets(&cohort_runtime::record::LatencyBuckets(b.clone()));
+        for (k, v) in [("p99", h.quantile(0.99)), ("p99.9", h.quantile(0.999)), ("max", h.max())] {
+            assert_eq!(q[k].as_u64(), Some(v), "{name}: {k}");
+        }
     }
-    // status/ keeps the full per-process record, histograms included.
-    let plant = read_json(&run.join("status/plant.json"));
-    assert_eq!(plant["latency_from_ns"].as_object().map(|m| m.len()), Some(6), "{}", plant["latency_from_ns"]);
+    // status/ is the end report without a second copy of the histograms; the timing files are
+    // Parquet (the telemetry's format), one per process, a row per step.
+    status_and_timing(&run, "parquet", 200);
 
     // The verdict: fig1's lines, each pass, fail or n/a; a 2 s run cannot speak to a 360 s claim.
     let verdict = s["verdict"].as_array().expect("a verdict block");
@@ -128,6 +129,63 @@ fn a_short_fig1_run_has_a_small_summary_its_histograms_a_verdict_and_json_on_std
     assert!((shown - dv).abs() <= 5e-4 * dv.abs(), "servicer 1 Δv {dv} shown as {shown}");
     assert!(err.contains("verdict against the paper: N/A"), "{err}");
     assert!(!err.lines().any(|l| l.trim_start().starts_with("servicer_1.dv_total_mps = ")), "old output: {err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Every process's status has its counters but no histogram, its latency log is in `timing/`,
+/// and its timing file is in `format` (and not the other), readable, `steps` rows long, with
+/// units in a Parquet file's schema.
+fn status_and_timing(run: &Path, format: &str, steps: usize) {
+    let other = if format == "csv" { "parquet" } else { "csv" };
+    let timing = run.join("timing");
+    for p in ["plant", "agent-1", "agent-2", "agent-3", "agent-4", "agent-5", "agent-6"] {
+        let path = run.join(format!("status/{p}.json"));
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(!text.contains("latency_from_ns"), "{p}: histograms in status/");
+        // ≈ 2 kB of counters; one histogram alone is hundreds of buckets.
+        assert!(text.len() < 8_000, "{p}: status is {} bytes", text.len());
+        let status = read_json(&path);
+        assert!(status["steps_completed"].as_u64() == Some(steps as u64), "{p}: {status}");
+        assert!(status["received_from"].as_object().is_some_and(|m| !m.is_empty()), "{p}: {status}");
+        assert!(timing.join(format!("{p}.hlog")).is_file(), "{p}: no latency log");
+        let file = timing.join(format!("{p}.{format}"));
+        assert!(file.is_file() && !timing.join(format!("{p}.{other}")).exists(), "{}", file.display());
+        let column = if p == "plant" { "round_ns" } else { "compute_ns" };
+        let values = cohort_runtime::record::timing_column(&timing, p, column);
+        assert_eq!(values.len(), steps, "{p}: {column}");
+        assert!(values.iter().all(|&v| v > 0), "{p}: {column}: {values:?}");
+        assert_eq!(cohort_runtime::record::timing_column(&timing, p, "k"), (0..steps as u64).collect::<Vec<_>>());
+        if format == "parquet" {
+            let units = cohort_runtime::parquet_out::units(&file).unwrap();
+            assert!(units.iter().any(|(c, u)| c == column && u.as_deref() == Some("ns")), "{p}: {units:?}");
+        }
+    }
+    assert!(!timing.join("latency_histograms.csv").exists(), "a second copy of the histograms");
+    // The summary's wall-clock percentiles come from the timing files, whatever their format.
+    let s = summary(run);
+    for k in ["plant_round", "share_to_plant", "measurement_to_agent", "agent_neighbour_wait", "agent_compute"] {
+        let q = &s["latency_ns"][k];
+        let want = if k.starts_with("agent") || k.starts_with("measurement") { 6 * steps } else { steps };
+        assert_eq!(q["samples"].as_u64(), Some(want as u64), "{k}: {q}");
+    }
+}
+
+/// With `--telemetry csv` the timing files are CSV and the summary's timing percentiles read
+/// them as they read Parquet.
+#[test]
+fn a_csv_fig1_run_writes_its_timing_as_csv_and_the_summary_reads_it() {
+    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch_dir("summary-fig1-csv");
+    let run = dir.join("run");
+    let o = orchestrator_command()
+        .args(["launch", "topologies/fig1.toml", "--duration", "2", "--no-plots", "--telemetry", "csv", "--out"])
+        .arg(&run)
+        .output()
+        .expect("running the orchestrator");
+    assert!(o.status.success(), "{}", describe_output(&o));
+    status_and_timing(&run, "csv", 200);
+    let s = summary(&run);
+    assert_eq!(s["link_latency_ns"].as_object().map(|m| m.len()), Some(24), "{}", s["link_latency_ns"]);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -411,11 +411,9 @@ fn mac_ns(values: usize) -> (f64, f64) {
     (seal, check)
 }
 
-fn timing_column(path: &Path, col: &str) -> Vec<f64> {
-    let Ok(text) = std::fs::read_to_string(path) else { return Vec::new() };
-    let mut lines = text.lines();
-    let Some(i) = lines.next().and_then(|h| h.split(',').position(|c| c == col)) else { return Vec::new() };
-    lines.filter_map(|l| l.split(',').nth(i)?.parse().ok()).collect()
+/// One column of a process's timing file (Parquet or CSV), as f64.
+fn timing_column(dir: &Path, process: &str, col: &str) -> Vec<f64> {
+    cohort_runtime::record::timing_column(&dir.join("timing"), process, col).into_iter().map(|v| v as f64).collect()
 }
 
 fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
@@ -447,8 +445,8 @@ fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
         }
     }
     // Compute share of the round: agent compute (median agent) over plant round, per step.
-    let rounds = timing_column(&dir.join("timing/plant.csv"), "round_ns");
-    let compute = timing_column(&dir.join("timing/agent-1.csv"), "compute_ns");
+    let rounds = timing_column(dir, "plant", "round_ns");
+    let compute = timing_column(dir, "agent-1", "compute_ns");
     let compute_share = (!rounds.is_empty() && rounds.len() == compute.len()).then(|| {
         let mut r: Vec<f64> = compute.iter().zip(&rounds).map(|(c, r)| c / r.max(1.0)).collect();
         median(&mut r)

@@ -100,11 +100,15 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
         ),
     };
     progress.finish();
-    // A process killed while running (a fault, a crash) left its Parquet telemetry's journal:
-    // turn it into its file, as its own clean exit would have. A failure is a warning of the
-    // summary, printed after the run's error (on a full disk that error is the cause).
-    let sealed = cohort_runtime::parquet_out::seal_dir(&dirs.telemetry())
-        .map_err(|e| format!("cannot turn the telemetry journals in {}: {e}", dirs.telemetry().display()));
+    // A process killed while running (a fault, a crash) left its Parquet telemetry's and
+    // timing's journals: turn them into their files, as its own clean exit would have. A failure
+    // is a warning of the summary, printed after the run's error (on a full disk that error is
+    // the cause).
+    let sealed = [dirs.telemetry(), dirs.timing()].iter().try_for_each(|d| {
+        cohort_runtime::parquet_out::seal_dir(d)
+            .map(drop)
+            .map_err(|e| format!("cannot turn the telemetry journals in {}: {e}", d.display()))
+    });
     let mut summary = summary::build(
         s,
         dirs,

@@ -529,8 +529,8 @@ fn plots(out: &Path, rss: &[RssSample], shm: &[ShmSample], r: &SoakReport) -> Re
     let mut lat: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let mut misses = Vec::new();
     for run in &r.runs {
-        let path = out.join(format!("run-{:03}", run.run)).join(cohort_runtime::record::LATENCY_HISTOGRAMS);
-        let Ok(hists) = cohort_runtime::record::read_latency_histograms(&path) else { continue };
+        let root = out.join(format!("run-{:03}", run.run));
+        let Ok(hists) = cohort_runtime::record::read_latency_histograms(&root) else { continue };
         let mut all = LatencyHist::default();
         for b in hists.values() {
             all.add(&LatencyHist::from_buckets(b));

@@ -1,17 +1,15 @@
 //! `summary.json`: the run's headline metrics, message counters, and wall-clock figures, folded
-//! from every process's `status/<proc>.json` and the `timing/` CSVs, and the paper's verdict.
+//! from every process's `status/<proc>.json` and `timing/` files, and the paper's verdict.
 //!
-//! Kept small (a few kB): the per-link latency histograms the processes report (`status/` keeps
-//! them, the full record) move to `timing/latency_histograms.csv`
-//! ([`cohort_runtime::record::LATENCY_HISTOGRAMS`]); the summary keeps each link's and each
-//! receiving process's p50 / p99 / p99.9 / max.
+//! Kept small (a few kB): the per-link latency histograms stay where the processes wrote them,
+//! in their latency logs `timing/<proc>.hlog` ([`cohort_runtime::record::LATENCY_LOG`]); the
+//! summary keeps each link's and each receiving process's p50 / p99 / p99.9 / max.
 
 use std::collections::BTreeMap;
-use std::path::Path;
 
 use cohort_host::VerdictLine;
 use cohort_runtime::paper::Setup;
-use cohort_runtime::record::{LatencyBuckets, LatencyHist, ProcessReport, RunDirs};
+use cohort_runtime::record::{LatencyBuckets, LatencyHist, ProcessReport, RunDirs, timing_column};
 use cohort_scenario::Scenario;
 use serde::Serialize;
 
@@ -75,16 +73,16 @@ pub struct Summary {
     /// Wall-clock latencies from `timing/`, in ns.
     pub latency_ns: BTreeMap<String, Percentiles>,
     /// Message latency (send → receipt) per link, `"<sender> → <receiver>"`, ns; the histograms
-    /// are in `timing/latency_histograms.csv`.
+    /// are in the receivers' `timing/<receiver>.hlog`.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub link_latency_ns: BTreeMap<String, Percentiles>,
     /// The same per receiving process, over every link into it, ns.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub process_latency_ns: BTreeMap<String, Percentiles>,
-    /// Each process's end report, without its latency histograms.
+    /// Each process's end report (`status/`, which has no latency histograms).
     pub processes: Vec<ProcessReport>,
-    /// The histograms taken out of `processes`, (sender, receiver) → buckets (kept in memory
-    /// for a soak's merge, written to `timing/`, never to `summary.json`).
+    /// The histograms of the processes' latency logs, (sender, receiver) → buckets (kept in
+    /// memory for a soak's merge, never written to `summary.json`).
     #[serde(skip)]
     pub histograms: BTreeMap<(String, String), LatencyBuckets>,
     /// Messages that went missing without being counted anywhere (sent, but neither received
@@ -103,15 +101,6 @@ pub struct Summary {
     /// What the analyses could not do (printed after the run's error when it failed).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
-}
-
-/// Read one column of a timing CSV as integers (missing or malformed files give nothing: timing
-/// is diagnostic, never a reason to lose the summary).
-fn timing_column(path: &Path, column: &str) -> Vec<u64> {
-    let Ok(text) = std::fs::read_to_string(path) else { return Vec::new() };
-    let mut lines = text.lines();
-    let Some(idx) = lines.next().and_then(|h| h.split(',').position(|c| c == column)) else { return Vec::new() };
-    lines.filter_map(|l| l.split(',').nth(idx)?.parse().ok()).collect()
 }
 
 pub struct Outcome {
@@ -133,14 +122,13 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
             processes.push(r);
         }
     }
-    let (histograms, link_latency, process_latency) = take_histograms(&mut processes);
     let mut warnings = Vec::new();
-    if !histograms.is_empty() {
-        let path = dirs.root.join(cohort_runtime::record::LATENCY_HISTOGRAMS);
-        if let Err(e) = cohort_runtime::record::write_latency_histograms(&path, &histograms) {
-            warnings.push(format!("cannot write {}: {e}", path.display()));
-        }
-    }
+    // Latency is diagnostic: an unreadable log is a warning, never a lost summary.
+    let histograms = cohort_runtime::record::read_latency_histograms(&dirs.root).unwrap_or_else(|e| {
+        warnings.push(format!("latency histograms: {e}"));
+        BTreeMap::new()
+    });
+    let (link_latency, process_latency) = percentiles(&histograms);
     let plant = processes.iter().find(|p| p.process == "plant");
     let steps_completed = plant.map_or(0, |p| p.steps_completed);
     let loop_wall = plant.map_or(0.0, |p| p.wall_s);
@@ -152,20 +140,20 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
     }
     let mut latency = BTreeMap::new();
     let t = dirs.timing();
-    if let Some(p) = Percentiles::of(timing_column(&t.join("plant.csv"), "round_ns")) {
+    if let Some(p) = Percentiles::of(timing_column(&t, "plant", "round_ns")) {
         latency.insert("plant_round".to_string(), p);
     }
-    if let Some(p) = Percentiles::of(timing_column(&t.join("plant.csv"), "share_latency_max_ns")) {
+    if let Some(p) = Percentiles::of(timing_column(&t, "plant", "share_latency_max_ns")) {
         latency.insert("share_to_plant".to_string(), p);
     }
     let mut meas = Vec::new();
     let mut nbr = Vec::new();
     let mut compute = Vec::new();
     for i in 1..=s.n_agents() {
-        let f = t.join(format!("agent-{i}.csv"));
-        meas.extend(timing_column(&f, "meas_latency_ns"));
-        nbr.extend(timing_column(&f, "neighbour_wait_ns"));
-        compute.extend(timing_column(&f, "compute_ns"));
+        let name = format!("agent-{i}");
+        meas.extend(timing_column(&t, &name, "meas_latency_ns"));
+        nbr.extend(timing_column(&t, &name, "neighbour_wait_ns"));
+        compute.extend(timing_column(&t, &name, "compute_ns"));
     }
     for (name, xs) in [("measurement_to_agent", meas), ("agent_neighbour_wait", nbr), ("agent_compute", compute)] {
         if let Some(p) = Percentiles::of(xs) {
@@ -206,29 +194,21 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
 
 type LinkHistograms = BTreeMap<(String, String), LatencyBuckets>;
 
-/// Move every process's latency histograms out of its report: (sender, receiver) → buckets, and
-/// the percentiles per link and per receiving process (all its links merged).
-fn take_histograms(
-    processes: &mut [ProcessReport],
-) -> (LinkHistograms, BTreeMap<String, Percentiles>, BTreeMap<String, Percentiles>) {
-    let mut links = BTreeMap::new();
+/// The percentiles per link and per receiving process (all its links merged) of a run's
+/// histograms.
+fn percentiles(links: &LinkHistograms) -> (BTreeMap<String, Percentiles>, BTreeMap<String, Percentiles>) {
     let mut per_link = BTreeMap::new();
-    let mut per_process = BTreeMap::new();
-    for p in processes.iter_mut() {
-        let mut all = LatencyHist::default();
-        for (from, b) in std::mem::take(&mut p.latency_from_ns) {
-            let h = LatencyHist::from_buckets(&b);
-            all.add(&h);
-            if let Some(q) = Percentiles::of_hist(&h) {
-                per_link.insert(format!("{from} → {}", p.process), q);
-            }
-            links.insert((from, p.process.clone()), b);
-        }
-        if let Some(q) = Percentiles::of_hist(&all) {
-            per_process.insert(p.process.clone(), q);
+    let mut merged: BTreeMap<&str, LatencyHist> = BTreeMap::new();
+    for ((from, to), b) in links {
+        let h = LatencyHist::from_buckets(b);
+        merged.entry(to.as_str()).or_default().add(&h);
+        if let Some(q) = Percentiles::of_hist(&h) {
+            per_link.insert(format!("{from} → {to}"), q);
         }
     }
-    (links, per_link, per_process)
+    let per_process =
+        merged.into_iter().filter_map(|(p, h)| Some((p.to_string(), Percentiles::of_hist(&h)?))).collect();
+    (per_link, per_process)
 }
 
 pub fn write(dirs: &RunDirs, summary: &Summary) -> std::io::Result<()> {

@@ -28,7 +28,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::checkpoint::{AgentState, Checkpoint};
 use crate::model::{AgentInput, Algorithm, Neighbour, PlantModel, ShareOut};
-use crate::record::{CsvWriter, LatencyHist, ProcessReport, RosterChange, RunDirs, TelemetryWriter, reject_map};
+use crate::record::{LatencyHist, ProcessReport, RosterChange, RunDirs, TelemetryWriter, TimingWriter, reject_map};
 
 /// Longest single blocking wait before re-polling.
 const POLL: Duration = Duration::from_millis(10);
@@ -623,9 +623,11 @@ fn plant_loop<T: Transport + ?Sized>(
     let tel_path = p.dirs.telemetry().join(format!("plant.{}", p.telemetry.extension()));
     let mut tel =
         TelemetryWriter::create(p.telemetry, &tel_path, &columns).map_err(io(tel_path.display().to_string()))?;
-    let tim_path = p.dirs.timing().join("plant.csv");
-    let mut timing = CsvWriter::create(&tim_path, &["k".into(), "round_ns".into(), "share_latency_max_ns".into()])
-        .map_err(io(tim_path.display().to_string()))?;
+    // Timing in the telemetry's format (Parquet's journal and writer thread keep it off the step).
+    let tim_path = p.dirs.timing().join(format!("plant.{}", p.telemetry.extension()));
+    let timing_columns = ["k".into(), "round_ns".into(), "share_latency_max_ns".into()];
+    let mut timing =
+        TimingWriter::create(p.telemetry, &tim_path, &timing_columns).map_err(io(tim_path.display().to_string()))?;
 
     // Start barrier: nothing is sent before every reader exists.
     let barrier_start = Instant::now();
@@ -809,7 +811,7 @@ fn plant_loop<T: Transport + ?Sized>(
             if write_row {
                 tel.row(k, &row).map_err(io("plant telemetry"))?;
             }
-            timing.row_u64(&[k, round_ns, inbox.latency_max_ns]).map_err(io("plant timing"))?;
+            timing.row(k, &[round_ns, inbox.latency_max_ns]).map_err(io("plant timing"))?;
             report.steps_completed = k + 1;
             if last_progress.elapsed() >= PROGRESS_EVERY {
                 last_progress = Instant::now();
@@ -832,7 +834,7 @@ fn plant_loop<T: Transport + ?Sized>(
         report.latency_from_ns.insert(name, h.buckets());
     }
     // Never lose telemetry: flush whatever was written, also after an error.
-    let flushed = tel.finish().and_then(|_| timing.flush()).map_err(io("plant telemetry"));
+    let flushed = tel.finish().and_then(|_| timing.finish()).map_err(io("plant telemetry"));
     result.and(flushed)
 }
 
@@ -1168,18 +1170,20 @@ fn agent_loop<T: Transport + ?Sized>(
     let mut columns = vec!["k".to_string(), "t_s".to_string()];
     columns.extend(algo.columns());
     let tel_path = p.dirs.telemetry().join(format!("{name}.{}", p.telemetry.extension()));
-    let tim_path = p.dirs.timing().join(format!("{name}.csv"));
+    let tim_path = p.dirs.timing().join(format!("{name}.{}", p.telemetry.extension()));
     let timing_columns = ["k".into(), "meas_latency_ns".into(), "neighbour_wait_ns".into(), "compute_ns".into()];
     // A relaunched agent goes on with its predecessor's files.
     let (mut tel, mut timing) = if restore.is_some() {
         (
             TelemetryWriter::append(p.telemetry, &tel_path, &columns).map_err(io(tel_path.display().to_string()))?,
-            CsvWriter::append(&tim_path, timing_columns.len()).map_err(io(tim_path.display().to_string()))?,
+            TimingWriter::append(p.telemetry, &tim_path, &timing_columns)
+                .map_err(io(tim_path.display().to_string()))?,
         )
     } else {
         (
             TelemetryWriter::create(p.telemetry, &tel_path, &columns).map_err(io(tel_path.display().to_string()))?,
-            CsvWriter::create(&tim_path, &timing_columns).map_err(io(tim_path.display().to_string()))?,
+            TimingWriter::create(p.telemetry, &tim_path, &timing_columns)
+                .map_err(io(tim_path.display().to_string()))?,
         )
     };
     let plan = &*p.faults;
@@ -1430,7 +1434,7 @@ fn agent_loop<T: Transport + ?Sized>(
             let step_start = monotonic_ns();
             advance(algo, &mut inbox, used, report);
             compute_ns += monotonic_ns() - step_start;
-            timing.row_u64(&[k, inbox.meas_latency_ns, neighbour_wait_ns, compute_ns]).map_err(io("agent timing"))?;
+            timing.row(k, &[inbox.meas_latency_ns, neighbour_wait_ns, compute_ns]).map_err(io("agent timing"))?;
             report.steps_completed = k + 1;
             k += 1;
         }
@@ -1448,7 +1452,7 @@ fn agent_loop<T: Transport + ?Sized>(
         report.faults.overrun.insert(name.clone(), peer.overrun);
         report.latency_from_ns.insert(name, peer.latency.buckets());
     }
-    let flushed = tel.finish().and_then(|_| timing.flush()).map_err(io("agent telemetry"));
+    let flushed = tel.finish().and_then(|_| timing.finish()).map_err(io("agent telemetry"));
     result.and(flushed)
 }
 

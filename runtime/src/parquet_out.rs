@@ -1,6 +1,8 @@
 //! Telemetry as Apache Parquet (`run.telemetry = "parquet"`, the default): one file per process,
 //! `k` (UInt64) then one Float64 column per value, each column's unit (from [`crate::units`]) in
-//! its Arrow field metadata under `unit`. Doubles are stored as they are (bit-exact).
+//! its Arrow field metadata under `unit`. Doubles are stored as they are (bit-exact). The same
+//! writer writes a process's wall-clock timing (`timing/<proc>.parquet`), whose value columns are
+//! UInt64 (nanoseconds): [`ParquetWriter`] is generic over the value type ([`Value`]).
 //!
 //! A Parquet file is readable only once its footer is written, so a process killed with SIGKILL
 //! would lose every row of an open file. Never lose telemetry: rows go to disk twice, both off the
@@ -33,8 +35,8 @@ use std::sync::mpsc::{Sender, channel};
 use std::thread::JoinHandle;
 
 use arrow_array::cast::AsArray;
-use arrow_array::types::{Float64Type, UInt64Type};
-use arrow_array::{ArrayRef, Float64Array, RecordBatch, UInt64Array};
+use arrow_array::types::{ArrowPrimitiveType, Float64Type, UInt64Type};
+use arrow_array::{Array, ArrayRef, Float64Array, PrimitiveArray, RecordBatch, UInt64Array};
 use arrow_schema::{DataType, Field, Schema, SchemaRef};
 use parquet::arrow::ArrowWriter;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
@@ -56,7 +58,32 @@ pub const JOURNAL_BATCH_BYTES: usize = 16 * 1024;
 const MIN_BATCH_ROWS: usize = 8;
 
 /// The first line of a journal.
-const JOURNAL_MAGIC: &[u8] = b"COHORT-ROWS 1\n";
+const JOURNAL_MAGIC: &[u8] = b"COHORT-ROWS 2\n";
+
+/// The type of a file's value columns (those after `k`): `f64` (telemetry) or `u64` (timing).
+pub trait Value: arrow_array::ArrowNativeTypeOp + Send + Sync + 'static {
+    type Arrow: ArrowPrimitiveType<Native = Self>;
+    /// Its name in a journal's header.
+    const NAME: &'static str;
+    fn data_type() -> DataType {
+        Self::Arrow::DATA_TYPE
+    }
+}
+
+impl Value for f64 {
+    type Arrow = Float64Type;
+    const NAME: &'static str = "f64";
+}
+
+impl Value for u64 {
+    type Arrow = UInt64Type;
+    const NAME: &'static str = "u64";
+}
+
+/// The value type a journal names.
+fn value_type(name: &str) -> Option<DataType> {
+    [(f64::NAME, f64::data_type()), (u64::NAME, u64::data_type())].into_iter().find(|(n, _)| *n == name).map(|x| x.1)
+}
 
 /// The metadata key of a field's unit.
 pub const UNIT_KEY: &str = "unit";
@@ -66,17 +93,15 @@ pub fn journal_path(path: &Path) -> PathBuf {
     path.with_extension("rows")
 }
 
-/// The Arrow schema of a telemetry file with these columns (`k` first, then the f64 columns).
-pub fn schema(columns: &[String]) -> SchemaRef {
+/// The Arrow schema of a file with these columns (`k` first, then the value columns, of type
+/// `value`: Float64 for telemetry, UInt64 for timing).
+pub fn schema(columns: &[String], value: DataType) -> SchemaRef {
     let fields: Vec<Field> = columns
         .iter()
         .enumerate()
         .map(|(i, name)| {
-            let field = if i == 0 {
-                Field::new(name, DataType::UInt64, false)
-            } else {
-                Field::new(name, DataType::Float64, false)
-            };
+            let field =
+                if i == 0 { Field::new(name, DataType::UInt64, false) } else { Field::new(name, value.clone(), false) };
             match crate::units::unit_of(name) {
                 Some(unit) => field.with_metadata(HashMap::from([(UNIT_KEY.to_string(), unit.to_string())])),
                 None => field,
@@ -87,19 +112,22 @@ pub fn schema(columns: &[String]) -> SchemaRef {
 }
 
 /// The final file's encoding.
-fn properties(first_column: &str) -> WriterProperties {
+fn properties(schema: &Schema) -> WriterProperties {
     // Byte-stream split puts the bytes of equal significance of every double together, which
     // zstd then compresses far better than plain doubles (the widest shipped plant file:
     // 23.5 MB against 28.3 MB plain); the steps are a delta-coded count. Measured on that run: zstd levels 6
     // and 9 and row groups of 16384 or all rows gain under 1 %, level 12 6 % at three times
-    // the CPU; dictionaries do not fit noisy doubles.
-    WriterProperties::builder()
+    // the CPU; dictionaries do not fit noisy doubles. Whole numbers (the steps, and timing's
+    // nanoseconds) are delta-coded: bit-packed differences, which zstd shrinks further.
+    let mut b = WriterProperties::builder()
         .set_compression(Compression::ZSTD(ZstdLevel::try_new(3).expect("zstd level 3 exists")))
         .set_dictionary_enabled(false)
         .set_encoding(Encoding::BYTE_STREAM_SPLIT)
-        .set_column_encoding(ColumnPath::from(first_column), Encoding::DELTA_BINARY_PACKED)
-        .set_max_row_group_row_count(Some(ROWS_PER_GROUP))
-        .build()
+        .set_max_row_group_row_count(Some(ROWS_PER_GROUP));
+    for f in schema.fields().iter().filter(|f| *f.data_type() == DataType::UInt64) {
+        b = b.set_column_encoding(ColumnPath::from(f.name().as_str()), Encoding::DELTA_BINARY_PACKED);
+    }
+    b.build()
 }
 
 type Ack = Sender<std::io::Result<()>>;
@@ -112,11 +140,12 @@ enum Cmd {
     Finish(Ack),
 }
 
-/// Buffers rows and has a thread write them; see the module docs.
-pub struct ParquetWriter {
+/// Buffers rows and has a thread write them; see the module docs. `V` is the type of the value
+/// columns (f64 for telemetry, u64 for timing).
+pub struct ParquetWriter<V: Value = f64> {
     schema: SchemaRef,
     k: Vec<u64>,
-    values: Vec<Vec<f64>>,
+    values: Vec<Vec<V>>,
     batch_rows: usize,
     tx: Option<Sender<Cmd>>,
     thread: Option<JoinHandle<()>>,
@@ -124,7 +153,7 @@ pub struct ParquetWriter {
     finished: bool,
 }
 
-impl ParquetWriter {
+impl<V: Value> ParquetWriter<V> {
     /// A new file at `path` (replacing any, and any journal of one), `columns[0]` the step column.
     pub fn create(path: &Path, columns: &[String]) -> std::io::Result<Self> {
         if path.exists() {
@@ -141,10 +170,10 @@ impl ParquetWriter {
         Self::open(path, columns)
     }
     fn open(path: &Path, columns: &[String]) -> std::io::Result<Self> {
-        let schema = schema(columns);
+        let schema = schema(columns, V::data_type());
         let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
         // The journal now, with its header: a run directory that cannot be written fails here.
-        let journal = new_journal(&journal_path(path), columns)?;
+        let journal = new_journal(&journal_path(path), V::NAME, columns)?;
         let mut state = FileState {
             path: path.to_path_buf(),
             tmp: path.with_file_name(format!(".{name}.tmp")),
@@ -195,7 +224,7 @@ impl ParquetWriter {
         self.batch_rows
     }
     /// Buffer one row: step `k`, then the values (one per column after `k`).
-    pub fn row(&mut self, k: u64, values: &[f64]) -> std::io::Result<()> {
+    pub fn row(&mut self, k: u64, values: &[V]) -> std::io::Result<()> {
         debug_assert_eq!(values.len(), self.values.len(), "{}", self.path.display());
         self.k.push(k);
         for (column, v) in self.values.iter_mut().zip(values) {
@@ -214,7 +243,7 @@ impl ParquetWriter {
         arrays.push(Arc::new(UInt64Array::from(k)));
         for column in &mut self.values {
             let v = std::mem::replace(column, Vec::with_capacity(n));
-            arrays.push(Arc::new(Float64Array::from(v)));
+            arrays.push(Arc::new(PrimitiveArray::<V::Arrow>::new(v.into(), None)));
         }
         let batch = RecordBatch::try_new(self.schema.clone(), arrays).map_err(std::io::Error::other)?;
         self.send(Cmd::Rows(batch, ack))
@@ -253,31 +282,36 @@ impl ParquetWriter {
     }
 }
 
-impl Drop for ParquetWriter {
+impl<V: Value> Drop for ParquetWriter<V> {
     fn drop(&mut self) {
         // Rows not written yet (an unwinding panic) still reach the file.
         let _ = self.finish();
     }
 }
 
-/// A new journal at `path` with the header of these columns: the magic line, then the column
-/// names joined by commas and a newline.
-fn new_journal(path: &Path, columns: &[String]) -> std::io::Result<File> {
+/// A new journal at `path` with the header of these columns: the magic line, the value type's
+/// name ([`Value::NAME`]) and a newline, then the column names joined by commas and a newline.
+fn new_journal(path: &Path, value: &str, columns: &[String]) -> std::io::Result<File> {
     let mut f = File::create(path)?;
     f.write_all(JOURNAL_MAGIC)?;
+    f.write_all(value.as_bytes())?;
+    f.write_all(b"\n")?;
     f.write_all(columns.join(",").as_bytes())?;
     f.write_all(b"\n")?;
     Ok(f)
 }
 
 /// The columns and the complete rows of a journal: after the header (see [`new_journal`]),
-/// each row is `k` (u64) and then every value (f64 bits), 8 bytes each, little-endian. A row
-/// cut short by the end of the file (the process died while writing it) is left out.
+/// each row is `k` (u64) and then every value (f64 bits or u64), 8 bytes each, little-endian. A
+/// row cut short by the end of the file (the process died while writing it) is left out.
 pub fn read_journal(path: &Path) -> std::io::Result<(Vec<String>, RecordBatch)> {
     let bad = |why: &str| std::io::Error::other(format!("{}: not a telemetry journal: {why}", path.display()));
     let mut bytes = Vec::new();
     File::open(path)?.read_to_end(&mut bytes)?;
     let rest = bytes.strip_prefix(JOURNAL_MAGIC).ok_or_else(|| bad("no header"))?;
+    let eol = rest.iter().position(|&b| b == b'\n').ok_or_else(|| bad("no value type line"))?;
+    let value = std::str::from_utf8(&rest[..eol]).ok().and_then(value_type).ok_or_else(|| bad("unknown value type"))?;
+    let rest = &rest[eol + 1..];
     let eol = rest.iter().position(|&b| b == b'\n').ok_or_else(|| bad("no column line"))?;
     let names = std::str::from_utf8(&rest[..eol]).map_err(|_| bad("column names are not UTF-8"))?;
     let columns: Vec<String> = names.split(',').map(str::to_string).collect();
@@ -294,10 +328,46 @@ pub fn read_journal(path: &Path) -> std::io::Result<(Vec<String>, RecordBatch)> 
     let mut arrays: Vec<ArrayRef> =
         vec![Arc::new(UInt64Array::from((0..rows).map(|r| word(r, 0)).collect::<Vec<_>>()))];
     for c in 1..width {
-        arrays.push(Arc::new(Float64Array::from((0..rows).map(|r| f64::from_bits(word(r, c))).collect::<Vec<_>>())));
+        let words = (0..rows).map(|r| word(r, c));
+        arrays.push(if value == DataType::Float64 {
+            Arc::new(Float64Array::from(words.map(f64::from_bits).collect::<Vec<_>>()))
+        } else {
+            Arc::new(UInt64Array::from(words.collect::<Vec<_>>()))
+        });
     }
-    let batch = RecordBatch::try_new(schema(&columns), arrays).map_err(std::io::Error::other)?;
+    let batch = RecordBatch::try_new(schema(&columns, value), arrays).map_err(std::io::Error::other)?;
     Ok((columns, batch))
+}
+
+/// One UInt64 column of a Parquet file (a timing file's nanoseconds, or any file's `k`).
+pub fn read_u64_column(path: &Path, column: &str) -> std::io::Result<Vec<u64>> {
+    let bad = |e: &dyn std::fmt::Display| std::io::Error::other(format!("{}: {e}", path.display()));
+    let builder =
+        ParquetRecordBatchReaderBuilder::try_new(File::open(path).map_err(|e| bad(&e))?).map_err(|e| bad(&e))?;
+    let Some(i) = builder.schema().fields().iter().position(|f| f.name() == column) else {
+        return Err(bad(&format!("no column `{column}`")));
+    };
+    let mask = parquet::arrow::ProjectionMask::roots(builder.parquet_schema(), [i]);
+    let mut out = Vec::new();
+    for batch in builder.with_projection(mask).build().map_err(|e| bad(&e))? {
+        let batch = batch.map_err(|e| bad(&e))?;
+        let c = batch.column(0);
+        let values =
+            c.as_primitive_opt::<UInt64Type>().ok_or_else(|| bad(&format!("column `{column}` is not UInt64")))?;
+        if values.null_count() > 0 {
+            return Err(bad(&format!("column `{column}` has missing values")));
+        }
+        out.extend_from_slice(values.values());
+    }
+    Ok(out)
+}
+
+/// Each column's name and unit (the `unit` of its field metadata, if any), in file order.
+pub fn units(path: &Path) -> std::io::Result<Vec<(String, Option<String>)>> {
+    let bad = |e: &dyn std::fmt::Display| std::io::Error::other(format!("{}: {e}", path.display()));
+    let builder =
+        ParquetRecordBatchReaderBuilder::try_new(File::open(path).map_err(|e| bad(&e))?).map_err(|e| bad(&e))?;
+    Ok(builder.schema().fields().iter().map(|f| (f.name().clone(), f.metadata().get(UNIT_KEY).cloned())).collect())
 }
 
 /// Every batch of a Parquet file.
@@ -328,7 +398,7 @@ impl FileState {
     }
     /// Open the final file's temporary file, with the rows of the file in place first (if any).
     fn start(&mut self) -> std::io::Result<()> {
-        let props = properties(self.schema.field(0).name());
+        let props = properties(&self.schema);
         let out = File::create(&self.tmp).map_err(|e| self.err(e))?;
         let mut w = ArrowWriter::try_new(out, self.schema.clone(), Some(props)).map_err(|e| self.err(e))?;
         if self.path.exists() {
@@ -346,12 +416,12 @@ impl FileState {
     fn write(&mut self, batch: &RecordBatch) -> std::io::Result<()> {
         self.bytes.clear();
         let k = batch.column(0).as_primitive::<UInt64Type>().values();
-        let columns: Vec<&[f64]> =
-            batch.columns()[1..].iter().map(|c| &c.as_primitive::<Float64Type>().values()[..]).collect();
+        // Every value column as 64-bit words (a double's bits, or the whole number itself).
+        let columns: Vec<&[u64]> = batch.columns()[1..].iter().map(|c| words(c.as_ref())).collect();
         for (r, k) in k.iter().enumerate() {
             self.bytes.extend_from_slice(&k.to_le_bytes());
             for c in &columns {
-                self.bytes.extend_from_slice(&c[r].to_bits().to_le_bytes());
+                self.bytes.extend_from_slice(&c[r].to_le_bytes());
             }
         }
         let journal = self.journal.as_mut().ok_or_else(|| std::io::Error::other("the journal is closed"))?;
@@ -386,13 +456,13 @@ impl FileState {
 /// journal after them (a process killed between renaming its file and removing its journal has
 /// them in both), then remove the journal.
 pub fn seal(path: &Path) -> std::io::Result<()> {
-    let (columns, rows) = read_journal(&journal_path(path))?;
+    let (_, rows) = read_journal(&journal_path(path))?;
     let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
     let mut state = FileState {
         path: path.to_path_buf(),
         tmp: path.with_file_name(format!(".{name}.tmp")),
         journal: None,
-        schema: schema(&columns),
+        schema: rows.schema(),
         writer: None,
         error: None,
         bytes: Vec::new(),
@@ -404,6 +474,16 @@ pub fn seal(path: &Path) -> std::io::Result<()> {
     let w = state.writer.as_mut().expect("started");
     w.write(&rows.slice(from, rows.num_rows() - from)).map_err(|e| state.err(e))?;
     state.finish()
+}
+
+/// The values of an unsliced 8-byte primitive array (Float64 or UInt64) as 64-bit words.
+fn words(a: &dyn Array) -> &[u64] {
+    if let Some(f) = a.as_primitive_opt::<Float64Type>() {
+        // The same bytes read as whole numbers (arrow checks size and alignment).
+        f.values().inner().typed_data::<u64>()
+    } else {
+        a.as_primitive::<UInt64Type>().values()
+    }
 }
 
 fn last_k(b: &RecordBatch) -> Option<u64> {
@@ -537,6 +617,47 @@ mod tests {
         }
         assert_eq!(schema.field(2).metadata().get(UNIT_KEY).map(String::as_str), Some("rad/s"));
         assert!(seal_dir(&dir).unwrap().is_empty(), "sealed twice");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Timing's whole numbers: UInt64 columns with their units, back exactly, also from the
+    /// journal of a writer that never finished.
+    #[test]
+    fn whole_number_columns_round_trip_with_units_also_through_a_journal() {
+        let dir = scratch("u64");
+        let cols: Vec<String> = ["k", "round_ns", "share_latency_max_ns"].iter().map(|s| s.to_string()).collect();
+        let value = |k: u64, j: u64| k.wrapping_mul(2_654_435_761).rotate_left(j as u32 * 7) >> (j * 5);
+        let n = ROWS_PER_GROUP as u64 + 123;
+        let write = |path: &Path, finish: bool| {
+            let mut w = ParquetWriter::<u64>::create(path, &cols).unwrap();
+            for k in 0..n {
+                w.row(k, &[value(k, 1), value(k, 2)]).unwrap();
+            }
+            if finish {
+                w.finish().unwrap();
+            } else {
+                w.flush().unwrap();
+                std::mem::forget(w);
+            }
+        };
+        let (a, b) = (dir.join("plant.parquet"), dir.join("agent-1.parquet"));
+        write(&a, true);
+        write(&b, false);
+        assert!(!b.exists() && journal_path(&b).exists());
+        assert_eq!(seal_dir(&dir).unwrap(), vec![b.clone()]);
+        for path in [&a, &b] {
+            assert_eq!(read_u64_column(path, "k").unwrap(), (0..n).collect::<Vec<_>>());
+            for (j, c) in [(1, "round_ns"), (2, "share_latency_max_ns")] {
+                let want: Vec<u64> = (0..n).map(|k| value(k, j)).collect();
+                assert_eq!(read_u64_column(path, c).unwrap(), want, "{c}");
+            }
+            let u = units(path).unwrap();
+            assert_eq!(u[1], ("round_ns".to_string(), Some("ns".to_string())));
+        }
+        let e = read_u64_column(&a, "compute_ns").unwrap_err().to_string();
+        assert!(e.contains("plant.parquet") && e.contains("compute_ns"), "{e}");
+        let e = read_u64_column(&dir.join("other.parquet"), "k").unwrap_err().to_string();
+        assert!(e.contains("other.parquet"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 

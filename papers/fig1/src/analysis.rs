@@ -27,10 +27,8 @@ pub fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, 
         }
     }
     let plant = Table::read_columns(&dirs.telemetry().join("plant.csv"), &want_plant).map_err(|e| e.to_string())?;
-    let want_agent: Vec<String> = ["k", "zeta_hat_x_mps", "zeta_hat_y_mps", "zeta_hat_z_mps", "theta_norm"]
-        .iter()
-        .map(|x| x.to_string())
-        .collect();
+    let want_agent: Vec<String> =
+        ["k", "zeta_hat_x_mps", "zeta_hat_y_mps", "zeta_hat_z_mps"].iter().map(|x| x.to_string()).collect();
     let agents: Vec<Table> = (1..=n)
         .map(|i| {
             Table::read_columns(&dirs.telemetry().join(format!("agent-{i}.csv")), &want_agent)
@@ -43,9 +41,11 @@ pub fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, 
     let row_of: Vec<std::collections::HashMap<u64, usize>> =
         agents.iter().map(|a| a.steps().iter().enumerate().map(|(r, k)| (*k, r)).collect()).collect();
     std::fs::create_dir_all(dirs.root.join("derived")).map_err(|e| format!("derived/: {e}"))?;
+    // No copy of the agents' ‖θ̂ᵢ‖ (`theta_norm`, in their own telemetry): nothing here needs a
+    // join for it, and it was a fifth of this file.
     let mut cols = vec!["k".to_string(), "t_s".to_string()];
     for i in 1..=n {
-        for c in ["e_norm_m", "zeta_err_norm_mps", "u_norm_mps2", "theta_norm"] {
+        for c in ["e_norm_m", "zeta_err_norm_mps", "u_norm_mps2"] {
             cols.push(format!("a{i}_{c}"));
         }
     }
@@ -80,9 +80,8 @@ pub fn servicing(s: &Scenario, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, 
                     .sqrt(),
                 None => f64::NAN,
             };
-            let theta = ar.map_or(f64::NAN, |ar| a.col("theta_norm")[ar]);
             let un: f64 = axes.iter().map(|ax| plant.col(&format!("a{i}_u_{ax}_mps2"))[r].powi(2)).sum::<f64>().sqrt();
-            row.extend([plant.col(&format!("a{i}_e_norm_m"))[r], zt, un, theta]);
+            row.extend([plant.col(&format!("a{i}_e_norm_m"))[r], zt, un]);
             if last10 {
                 let e = &mut e_last[i as usize - 1];
                 *e = (e.0 + plant.col(&format!("a{i}_e_norm_m"))[r], e.1 + 1);

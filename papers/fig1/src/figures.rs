@@ -15,8 +15,8 @@
 //! are in Fig. 2 (and, as range to the defunct spacecraft, in ‖eᵢ‖).
 //!
 //! `derived/fig1.csv` has the usual `k,t_s` columns, then per agent `i`: `a<i>_e_norm_m`,
-//! `a<i>_zeta_err_norm_mps`, `a<i>_u_norm_mps2` (all three required) and `a<i>_theta_norm`
-//! (not drawn here). On log axes, zeros and values more than [`LOG_MAX_DECADES`] decades below
+//! `a<i>_zeta_err_norm_mps` and `a<i>_u_norm_mps2` (all three required; older runs also have
+//! `a<i>_theta_norm`, a copy of the agents' `theta_norm`, not read). On log axes, zeros and values more than [`LOG_MAX_DECADES`] decades below
 //! the largest are drawn at the axis floor; non-finite values leave gaps.
 
 use std::path::Path;
