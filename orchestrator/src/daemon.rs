@@ -82,34 +82,34 @@ fn default_name() -> String {
 pub fn run(listen: &str, name: Option<String>) -> ExitCode {
     let name = name.unwrap_or_else(default_name);
     if name.is_empty() || name.len() > 64 || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
-        errln!("error: --name {name:?}: must be 1 to 64 letters, digits, '-' or '_'");
+        tracing::error!("--name {name:?}: must be 1 to 64 letters, digits, '-' or '_'");
         return ExitCode::from(crate::EXIT_INVALID);
     }
     if let Some(why) = cohort_scenario::hosts::endpoint_problem(listen) {
-        errln!("error: --listen {listen:?}: {why}");
+        tracing::error!("--listen {listen:?}: {why}");
         return ExitCode::from(crate::EXIT_INVALID);
     }
     for bin in ["plant", "agent"] {
         if let Err(e) = sibling_binary(bin) {
-            errln!("error: {e}");
+            tracing::error!("{e}");
             return ExitCode::from(crate::EXIT_FAILED);
         }
     }
     let base = match cohort_wire::transport::iox::ensure_user_base() {
         Ok(b) => b.join("hosts").join(&name),
         Err(e) => {
-            errln!("error: {e}");
+            tracing::error!("{e}");
             return ExitCode::from(crate::EXIT_FAILED);
         }
     };
     if let Err(e) = std::fs::create_dir_all(&base) {
-        errln!("error: {}: {e}", base.display());
+        tracing::error!("{}: {e}", base.display());
         return ExitCode::from(crate::EXIT_FAILED);
     }
     let session = match open_session(&[listen.to_string()], &[]) {
         Ok(s) => s,
         Err(e) => {
-            errln!("error: cannot listen on {listen}: {e}");
+            tracing::error!("cannot listen on {listen}: {e}");
             return ExitCode::from(crate::EXIT_FAILED);
         }
     };
@@ -117,23 +117,27 @@ pub fn run(listen: &str, name: Option<String>) -> ExitCode {
         match session.declare_queryable(request_key(&name, "*")).wait() {
             Ok(q) => q,
             Err(e) => {
-                errln!("error: cannot declare the daemon's queryable: {e}");
+                tracing::error!("cannot declare the daemon's queryable: {e}");
                 return ExitCode::from(crate::EXIT_FAILED);
             }
         };
     let _token: LivelinessToken = match session.liveliness().declare_token(hostproto::host_token(&name)).wait() {
         Ok(t) => t,
         Err(e) => {
-            errln!("error: cannot declare the daemon's liveliness token: {e}");
+            tracing::error!("cannot declare the daemon's liveliness token: {e}");
             return ExitCode::from(crate::EXIT_FAILED);
         }
     };
-    errln!("host {name}: listening on {listen} (build {}), runs under {}", cohort_wire::BUILD_ID, base.display());
+    tracing::info!(
+        "host {name}: listening on {listen} (build {}), runs under {}",
+        cohort_wire::BUILD_ID,
+        base.display()
+    );
     let mut d = Daemon { name, session, base, runs: HashMap::new() };
     loop {
         let sig = SIGNALLED.load(Ordering::SeqCst);
         if sig != 0 {
-            errln!("host {}: signal {sig}: stopping every child", d.name);
+            tracing::info!("host {}: signal {sig}: stopping every child", d.name);
             let ids: Vec<u64> = d.runs.keys().copied().collect();
             for id in ids {
                 d.end_run(id);
@@ -146,7 +150,7 @@ pub fn run(listen: &str, name: Option<String>) -> ExitCode {
         let orphaned: Vec<u64> =
             d.runs.iter().filter(|(_, r)| r.orphaned.load(Ordering::SeqCst)).map(|(id, _)| *id).collect();
         for id in orphaned {
-            errln!("host {}: run {id:016x}: its orchestrator is gone; killing its processes", d.name);
+            tracing::warn!("host {}: run {id:016x}: its orchestrator is gone; killing its processes", d.name);
             d.end_run(id);
         }
     }
@@ -185,7 +189,7 @@ impl Daemon {
         let _ = match result {
             Ok(body) => q.reply(q.key_expr().clone(), body).wait(),
             Err(e) => {
-                errln!("host {}: {verb}: {e}", self.name);
+                tracing::error!("host {}: {verb}: {e}", self.name);
                 q.reply_err(e.into_bytes()).wait()
             }
         };
@@ -252,6 +256,9 @@ impl Daemon {
             .stdin(Stdio::null())
             .stdout(Stdio::from(writer))
             .stderr(Stdio::from(writer2));
+        if let Some(log) = &r.log {
+            log.apply(&mut cmd);
+        }
         crate::supervise::child_setup(&mut cmd, key.as_ref().map(std::os::fd::AsRawFd::as_raw_fd));
         let mut child = cmd.spawn().map_err(|e| format!("cannot start {}: {e}", bin.display()))?;
         drop(cmd); // our copies of the pipe's write end, so the reader sees EOF when the child ends
