@@ -2,7 +2,6 @@
 //! orchestrator; see `cohort_runtime::process` for exit codes. The algorithm comes from the paper
 //! that registered the scenario's algorithm kind (`papers/registry`).
 
-use std::io::Write;
 use std::process::ExitCode;
 
 use clap::Parser;
@@ -67,7 +66,7 @@ fn load(
     let again =
         Checkpoint { state: AgentState { algorithm: algo.save_state(), held: c.state.held.clone() }, ..c.clone() };
     again.write(&dir.join(format!("agent-{id}.restored.ckpt"))).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let _ = writeln!(std::io::stderr(), "agent-{id}: restored from checkpoint step {} ({})", c.step, path.display());
+    tracing::info!("restored from checkpoint step {} ({})", c.step, path.display());
     Ok(c)
 }
 

@@ -495,7 +495,7 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     let lab = match cohort_supervisor::netlab::Lab::start() {
         Ok(l) => Some(l),
         Err(e) => {
-            errln!("no network-namespace lab (zenoh across namespaces not measured): {e}");
+            tracing::warn!("no network-namespace lab (zenoh across namespaces not measured): {e}");
             None
         }
     };
@@ -524,7 +524,7 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             }
             Err(e) => {
                 l.netem(None)?;
-                errln!("no netem on this kernel (the 1 ms rows are not measured): {e}");
+                tracing::warn!("no netem on this kernel (the 1 ms rows are not measured): {e}");
                 cases.retain(|c| c.lab.is_none_or(|netem| netem.is_empty()));
             }
         }
@@ -551,7 +551,7 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
                 return Err(BenchError::Failed(format!("{} (repetition {}): {e}", c.key, rep + 1)));
             }
             let smp = sample(&c.scenario, &dir, &summary, outcome.wall_s);
-            errln!(
+            tracing::info!(
                 "[{:6.1} s] rep {}/{reps} {:32} {:9.0} steps/s  round p50 {:8.1} µs  max {:7.2} ms",
                 started.elapsed().as_secs_f64(),
                 rep + 1,

@@ -66,6 +66,13 @@ fn coupled(s: &Setup, dirs: &RunDirs, progress: &progress::Progress) -> Option<(
 /// after the run's error (the root cause first); a successful run's are printed here.
 pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool) -> (LaunchOutcome, summary::Summary) {
     let run_id = new_run_id();
+    // The children's log times count from here.
+    cohort_runtime::logging::start_run();
+    tracing::debug!(
+        "run {run_id:016x} ({}) in {}",
+        if reference { "reference" } else { "multi-process" },
+        dirs.root.display()
+    );
     let progress = progress::Progress::new(s.n_steps(), s.scenario.dt_s, &s.scenario.name, show_progress);
     // run.authenticate: a fresh key per run, from the kernel's generator.
     let key = match s.run.authenticate.then(MacKey::generate).transpose() {
@@ -151,13 +158,13 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
     summary.verdict = verdict;
     if outcome.error.is_none() {
         for w in &summary.warnings {
-            errln!("warning: {w}");
+            tracing::warn!("{w}");
         }
     }
     if let Err(e) = summary::write(dirs, &summary) {
         summary.warnings.push(format!("cannot write {}: {e}", dirs.root.join("summary.json").display()));
         if outcome.error.is_none() {
-            errln!("error: cannot write {}: {e}", dirs.root.join("summary.json").display());
+            tracing::error!("cannot write {}: {e}", dirs.root.join("summary.json").display());
         }
     }
     (outcome, summary)
@@ -188,16 +195,16 @@ fn mark_divergence(s: &Setup, outcome: &mut LaunchOutcome, summary: &mut summary
 /// Create the run directory and write the resolved scenario into it.
 pub fn prepare(s: &Setup, out: Option<&Path>) -> Result<RunDirs, ExitCode> {
     let dirs = rundir::create(out, &s.scenario.name).map_err(|e| {
-        errln!("error: {e}");
+        tracing::error!("{e}");
         ExitCode::from(EXIT_INVALID)
     })?;
     let path = dirs.root.join("scenario.toml");
     let text = s.to_toml().map_err(|e| {
-        errln!("error: {}: the resolved scenario does not serialise: {e}", path.display());
+        tracing::error!("{}: the resolved scenario does not serialise: {e}", path.display());
         ExitCode::from(EXIT_INVALID)
     })?;
     cohort_runtime::record::write_atomic(&path, text.as_bytes()).map_err(|e| {
-        errln!("error: {}: {e}", path.display());
+        tracing::error!("{}: {e}", path.display());
         ExitCode::from(EXIT_FAILED)
     })?;
     Ok(dirs)
@@ -209,7 +216,7 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, String> {
     let setup = match load(&run_dir.join("scenario.toml"), &Overrides::default()) {
         Ok(s) => Some(s),
         Err(e) => {
-            errln!("warning: the run's scenario does not load, so only the generic figures are drawn: {e}");
+            tracing::warn!("the run's scenario does not load, so only the generic figures are drawn: {e}");
             None
         }
     };
@@ -240,7 +247,7 @@ impl Launcher for Orchestrator {
             && outcome.error.is_none()
             && let Err(e) = report(&dirs.root)
         {
-            errln!("warning: {}: plots not drawn: {e}", dirs.root.display());
+            tracing::warn!("{}: plots not drawn: {e}", dirs.root.display());
         }
         Ok(RunResult {
             dir: dirs.root.clone(),

@@ -43,8 +43,12 @@ use cohort_registry::HOSTS;
 use cohort_runtime::paper::Setup;
 use cohort_scenario::Overrides;
 use cohort_supervisor::{daemon, supervise, zping};
+use tracing::{error, info, warn};
 
 pub(crate) use launcher::{load, prepare, run_once};
+
+/// `-q`: no progress bar either.
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 const EXIT_FAILED: u8 = 1;
 const EXIT_INVALID: u8 = 2;
@@ -79,6 +83,13 @@ fn version() -> &'static str {
 struct Cli {
     #[command(subcommand)]
     command: Cmd,
+    /// More log lines: -v debug, -vv trace (the children log so too; RUST_LOG, when set, decides
+    /// instead).
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
+    /// Warnings and errors only, no progress bar (RUST_LOG, when set, decides the log lines).
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    quiet: bool,
 }
 
 #[derive(Subcommand)]
@@ -347,13 +358,16 @@ fn main() -> ExitCode {
     // Descriptors grow with a run's size (iceoryx2 ports); children inherit the raised limit.
     cohort_wire::limits::raise_nofile_to_hard();
     let matches = command_line().get_matches();
+    let quiet = matches.get_flag("quiet");
+    cohort_runtime::logging::init_orchestrator(cohort_runtime::logging::level_of(matches.get_count("verbose"), quiet));
+    QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
     // Commands that run things stop them in order on Ctrl-C, SIGTERM or SIGHUP and exit 128 +
     // signal; `check` and `report` only read and `train` only computes: they die on the signal as
     // usual.
     if !matches!(matches.subcommand_name(), Some("check" | "report" | "train"))
         && let Err(e) = supervise::install_signal_handlers()
     {
-        errln!("error: {e}");
+        error!("{e}");
         return ExitCode::from(EXIT_FAILED);
     }
     match matches.subcommand() {
@@ -375,7 +389,7 @@ fn main() -> ExitCode {
                     finish(h.run_trainer(name, sub))
                 }
                 None => {
-                    errln!("error: no trainer {name:?}");
+                    error!("no trainer {name:?}");
                     ExitCode::from(EXIT_INVALID)
                 }
             }
@@ -399,7 +413,7 @@ fn finish(result: Result<String, CommandError>) -> ExitCode {
             ExitCode::SUCCESS
         }
         Err(e) => {
-            errln!("error: {e}");
+            error!("{e}");
             ExitCode::from(e.exit_code)
         }
     }
@@ -414,19 +428,19 @@ fn generic(command: Cmd) -> ExitCode {
             let wall = match soak::parse_wall(&wall) {
                 Ok(w) => w,
                 Err(e) => {
-                    errln!("error: {e}");
+                    error!("{e}");
                     return ExitCode::from(EXIT_INVALID);
                 }
             };
             let faults = match faults.as_deref().map(soak::parse_fault_kinds).transpose() {
                 Ok(f) => f.unwrap_or_default(),
                 Err(e) => {
-                    errln!("error: {e}");
+                    error!("{e}");
                     return ExitCode::from(EXIT_INVALID);
                 }
             };
             if realtime && !(rate.is_finite() && rate > 0.0) {
-                errln!("error: --rate {rate}: must be a positive number");
+                error!("--rate {rate}: must be a positive number");
                 return ExitCode::from(EXIT_INVALID);
             }
             let out = out.unwrap_or_else(|| {
@@ -441,7 +455,7 @@ fn generic(command: Cmd) -> ExitCode {
                     if ok { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILED) }
                 }
                 Err(e) => {
-                    errln!("error: {e}");
+                    error!("{e}");
                     ExitCode::from(EXIT_INVALID)
                 }
             }
@@ -454,11 +468,11 @@ fn generic(command: Cmd) -> ExitCode {
                     ExitCode::SUCCESS
                 }
                 Err(bench::BenchError::Invalid(e)) => {
-                    errln!("error: {e}");
+                    error!("{e}");
                     ExitCode::from(EXIT_INVALID)
                 }
                 Err(bench::BenchError::Failed(e)) => {
-                    errln!("error: {e}");
+                    error!("{e}");
                     ExitCode::from(EXIT_FAILED)
                 }
             }
@@ -476,14 +490,14 @@ fn generic(command: Cmd) -> ExitCode {
                 ExitCode::SUCCESS
             }
             Err(e) => {
-                errln!("error: {e}");
+                error!("{e}");
                 ExitCode::from(EXIT_FAILED)
             }
         },
         Cmd::Host { listen, name } => match daemon::run(&listen, name) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
-                errln!("error: {e}");
+                error!("{e}");
                 ExitCode::from(match e {
                     daemon::DaemonError::Invalid(_) => EXIT_INVALID,
                     daemon::DaemonError::Failed(_) => EXIT_FAILED,
@@ -493,7 +507,7 @@ fn generic(command: Cmd) -> ExitCode {
         Cmd::ZenohEcho { listen } => match zping::echo(&listen) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
-                errln!("error: {e}");
+                error!("{e}");
                 ExitCode::from(EXIT_FAILED)
             }
         },
@@ -503,7 +517,7 @@ fn generic(command: Cmd) -> ExitCode {
                 ExitCode::SUCCESS
             }
             Err(e) => {
-                errln!("error: {e}");
+                error!("{e}");
                 ExitCode::from(EXIT_FAILED)
             }
         },
@@ -516,7 +530,7 @@ fn generic(command: Cmd) -> ExitCode {
                 ExitCode::SUCCESS
             }
             Err(e) => {
-                errln!("error: {e}");
+                error!("{e}");
                 ExitCode::from(EXIT_INVALID)
             }
         },
@@ -552,7 +566,7 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
         match cohort_scenario::faults::FaultSpec::parse_cli(f) {
             Ok(spec) => faults.push(spec),
             Err(e) => {
-                errln!("error: --fault (#{}): {e}", k + 1);
+                error!("--fault (#{}): {e}", k + 1);
                 return ExitCode::from(EXIT_INVALID);
             }
         }
@@ -600,18 +614,17 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         Err(code) => return code,
     };
     if reference && let Some(f) = s.faults.iter().find(|f| f.is_process_fault()) {
-        errln!(
-            "error: --reference runs every process as a thread of this one, so it cannot {} agent {} \
+        error!(
+            "--reference runs every process as a thread of this one, so it cannot {} agent {} \
              (process faults signal processes); drop --reference, or keep only delay, drop and corrupt faults",
-            f.kind,
-            f.agent
+            f.kind, f.agent
         );
         return ExitCode::from(EXIT_INVALID);
     }
     if !reference && !s.hosts.is_empty() {
         // Every daemon reachable, named as the scenario says, of this build: before anything starts.
         if let Err(e) = cohort_supervisor::preflight(&s.hosts) {
-            errln!("error: {}: {e}", file.display());
+            error!("{}: {e}", file.display());
             return ExitCode::from(EXIT_INVALID);
         }
     }
@@ -624,7 +637,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         None if reference => "reference",
         None => "multi-process",
     };
-    errln!(
+    info!(
         "launching {} ({mode}): {} agents, {} steps of {} s, seed {} → {}",
         file.display(),
         s.n_agents(),
@@ -634,24 +647,21 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         dirs.root.display()
     );
     for n in &s.notes {
-        errln!("note: {n}");
+        info!("{n}");
     }
     if s.run.record
         && let Some(c) = s.algorithm.coupled()
     {
-        errln!(
-            "note: run.record records nothing here: the scenario is {} (no messages between processes)",
-            c.describe()
-        );
+        info!("run.record records nothing here: the scenario is {} (no messages between processes)", c.describe());
     }
     if reference && let Some(c) = s.algorithm.coupled() {
-        errln!(
-            "note: --reference changes nothing here: the scenario is {} by design; there is no \
+        info!(
+            "--reference changes nothing here: the scenario is {} by design; there is no \
              separate multi-process run to compare",
             c.describe()
         );
     }
-    let (outcome, summary) = run_once(&s, &dirs, reference, true);
+    let (outcome, summary) = run_once(&s, &dirs, reference, !QUIET.load(std::sync::atomic::Ordering::Relaxed));
     let expect_divergence = s.scenario.expect == cohort_scenario::Expect::Diverge;
     if outcome.status == "diverged" {
         // A divergence is a result: its time and last metrics are printed and plotted like a
@@ -660,13 +670,13 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         if expect_divergence {
             errln!("diverged, as this study expects (scenario.expect = \"diverge\"): {e}");
         } else {
-            errln!("error: {e}");
+            error!("{e}");
         }
     } else if let Some(e) = &outcome.error {
         // The root cause first, then what it left undone.
-        errln!("error: {e}");
+        error!("{e}");
         for w in &summary.warnings {
-            errln!("warning: {w}");
+            warn!("{w}");
         }
         errln!("run directory (partial): {}", dirs.root.display());
         if json {
@@ -675,7 +685,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         return ExitCode::from(outcome.exit_code);
     }
     if expect_divergence && outcome.status == "ok" {
-        errln!("warning: scenario.expect = \"diverge\", but the run completed every step");
+        warn!("scenario.expect = \"diverge\", but the run completed every step");
     }
     humanln!(
         json,
@@ -701,7 +711,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     if plots {
         match launcher::report(&dirs.root) {
             Ok(_) => humanln!(json, "plots: {}", dirs.root.join("plots").display()),
-            Err(e) => errln!("warning: plots not drawn: {e}"),
+            Err(e) => warn!("plots not drawn: {e}"),
         }
     }
     if json {
@@ -718,13 +728,13 @@ fn print_json(run_dir: &Path) {
             use std::io::Write as _;
             let _ = std::io::stdout().write_all(text.as_bytes());
         }
-        Err(e) => errln!("error: {}: {e}", run_dir.join("summary.json").display()),
+        Err(e) => error!("{}: {e}", run_dir.join("summary.json").display()),
     }
 }
 
 fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
     if args.first_seed.checked_add(args.seeds - 1).is_none_or(|last| last > cohort_scenario::validate::MAX_SEED) {
-        errln!("error: --first-seed {} --seeds {}: the last seed passes 2^63 − 1", args.first_seed, args.seeds);
+        error!("--first-seed {} --seeds {}: the last seed passes 2^63 − 1", args.first_seed, args.seeds);
         return ExitCode::from(EXIT_INVALID);
     }
     // Validate once up front, with the first seed, so a bad file fails before any run.
@@ -737,11 +747,11 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
     let root =
         args.out.clone().unwrap_or_else(|| PathBuf::from(format!("runs/{name}-sweep-{}", cohort_host::utc_stamp())));
     if let Err(e) = std::fs::create_dir_all(&root) {
-        errln!("error: {}: {e}", root.display());
+        error!("{}: {e}", root.display());
         return ExitCode::from(EXIT_INVALID);
     }
     let mode = if args.multi_process { "multi-process" } else { "reference" };
-    errln!(
+    info!(
         "sweep of {} over seeds {}..={} ({mode}) → {}",
         file.display(),
         args.first_seed,
@@ -760,14 +770,14 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
         };
         let (outcome, summary) = run_once(&s, &dirs, !args.multi_process, false);
         if outcome.status == "interrupted" {
-            errln!("interrupted at seed {seed}");
+            warn!("interrupted at seed {seed}");
             return ExitCode::from(outcome.exit_code);
         }
         if let Some(e) = &outcome.error {
-            errln!("error: seed {seed}: {e}");
+            error!("seed {seed}: {e}");
             return ExitCode::from(outcome.exit_code);
         }
-        errln!("seed {seed}: {} steps in {:.2} s", summary.steps_completed, outcome.wall_s);
+        info!("seed {seed}: {} steps in {:.2} s", summary.steps_completed, outcome.wall_s);
         if !args.keep_telemetry {
             // Ten headline runs would otherwise leave ~1.5 GB; summaries stay.
             for d in ["telemetry", "timing", "derived"] {
@@ -783,7 +793,7 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
             ExitCode::SUCCESS
         }
         Err(e) => {
-            errln!("error: {e}");
+            error!("{e}");
             ExitCode::from(EXIT_FAILED)
         }
     }

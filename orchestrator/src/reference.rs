@@ -55,14 +55,18 @@ fn run_one(s: &Setup, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) -> Pr
         // Let every other thread stop at its next wait instead of timing out.
         bus.request_stop();
     }
+    // The format of a child's log line (level, name, run time), as a thread of this process.
+    let (name, t_s) = (p.name(), cohort_runtime::logging::run_time_s());
     let log = match &report.error {
-        None => format!(
-            "{} (reference thread): done: {} steps in {:.3} s\n",
-            p.name(),
-            report.steps_completed,
-            report.wall_s
+        None => cohort_runtime::logging::child_line(
+            tracing::Level::INFO,
+            &name,
+            t_s,
+            format!("done (reference thread): {} steps in {:.3} s", report.steps_completed, report.wall_s),
         ),
-        Some(e) => format!("{} (reference thread): error: {e}\n", p.name()),
+        Some(e) => {
+            cohort_runtime::logging::child_line(tracing::Level::ERROR, &name, t_s, format!("(reference thread) {e}"))
+        }
     };
     let _ = std::fs::write(params.dirs.logs().join(format!("{}.log", p.name())), log);
     let _ = report.write(&params.dirs);

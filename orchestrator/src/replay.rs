@@ -20,11 +20,11 @@ pub fn command(run_dir: &Path, agent: u32, out: Option<&Path>) -> ExitCode {
     let (outcome, out) = match run(run_dir, agent, out) {
         Ok(x) => x,
         Err(e) => {
-            errln!("error: {e}");
+            tracing::error!("{e}");
             return ExitCode::from(EXIT_INVALID);
         }
     };
-    errln!("replayed agent's telemetry: {}", out.join("telemetry").display());
+    tracing::info!("replayed agent's telemetry: {}", out.join("telemetry").display());
     if outcome.identical() {
         outln!("replayed {} steps of agent {agent}: all {} shares identical", outcome.steps, outcome.identical);
         return ExitCode::SUCCESS;
@@ -77,7 +77,7 @@ fn run(run_dir: &Path, agent: u32, out: Option<&Path>) -> Result<(replay::Replay
     }
     let rec = reader::read(&recording::path_for(run_dir, Proc::Agent(agent))).map_err(|e| e.to_string())?;
     if let Some(b) = rec.meta.get("build_id").filter(|b| b.as_str() != cohort_wire::BUILD_ID) {
-        errln!("note: recorded by build {b}, replayed with build {}", cohort_wire::BUILD_ID);
+        tracing::warn!("recorded by build {b}, replayed with build {}", cohort_wire::BUILD_ID);
     }
     let out = out.map_or_else(|| run_dir.join("replay").join(Proc::Agent(agent).name()), Path::to_path_buf);
     let outcome = replay::replay_agent(&s, &rec, agent, &RunDirs::new(&out)).map_err(|e| e.to_string())?;

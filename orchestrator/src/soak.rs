@@ -334,7 +334,7 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
             })
         };
         let wall_start_s = started.elapsed().as_secs_f64();
-        errln!(
+        tracing::info!(
             "soak run {index}: seed {seed}, {} steps{}",
             s.n_steps(),
             if s.faults.is_empty() {

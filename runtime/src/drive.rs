@@ -605,6 +605,7 @@ impl PlantRoster {
         }
         self.live.set(id, live);
         let wall_s = self.since.elapsed().as_secs_f64();
+        tracing::debug!("step {step}: agent {id} {} the roster ({why})", if live { "joins" } else { "leaves" });
         self.changes.push(RosterChange { step, agent: id, live, reason: why.into(), wall_s });
         t.report(&status(p, PLANT_ID, if live { STATUS_ALIVE } else { STATUS_DEAD }, step, id));
     }
@@ -716,6 +717,7 @@ fn plant_loop<T: Transport + ?Sized>(
         }
         for k in 0..p.n_steps {
             let t_s = p.t_s(k);
+            tracing::trace!("step {k} (t = {t_s:.3} s)");
             inbox.k = k;
             inbox.latency_max_ns = 0;
             for j in 1..=n_agents {
@@ -1326,6 +1328,7 @@ fn agent_loop<T: Transport + ?Sized>(
                 let path = crate::checkpoint::path_for(&p.dirs.root, id);
                 ck.write(&path).map_err(io(path.display().to_string()))?;
                 report.faults.checkpoints_written += 1;
+                tracing::debug!("step {k}: checkpoint written ({})", path.display());
             }
 
             if hold_steps.binary_search(&k).is_ok() {

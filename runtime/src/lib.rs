@@ -2,10 +2,12 @@
 //! provides them ([`paper`]), the
 //! lockstep step drivers generic over the transport ([`drive`]), what a process records
 //! ([`record`]), per-process random generators ([`rng`]), and the message recordings of
-//! `run.record` with the replay of one agent against them ([`recording`]).
+//! `run.record` with the replay of one agent against them ([`recording`]), and every process's
+//! logging ([`logging`]).
 
 pub mod checkpoint;
 pub mod drive;
+pub mod logging;
 pub mod model;
 pub mod paper;
 pub mod parquet_out;

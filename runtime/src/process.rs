@@ -21,6 +21,8 @@ use cohort_wire::transport::udp;
 use cohort_wire::transport::zenoh::{ZenohData, ZenohRun};
 use cohort_wire::transport::{Proc, Transport};
 
+use tracing::{debug, error, info};
+
 use crate::drive::DriveParams;
 use crate::paper::{Paper, Setup};
 use crate::record::{ErrorKind, ProcessError, ProcessReport, RunDirs};
@@ -88,13 +90,6 @@ pub struct ChildSpec {
     pub zenoh_listen: Vec<String>,
 }
 
-/// One line to this process's log (its stderr). A failed write (a full disk) is ignored: the
-/// process goes on and its exit code and report say what happened; `eprintln!` would panic.
-fn log(me: Proc, start: Instant, msg: impl std::fmt::Display) {
-    use std::io::Write;
-    let _ = writeln!(std::io::stderr(), "[{:9.3} s] {}: {msg}", start.elapsed().as_secs_f64(), me.name());
-}
-
 /// Run one child process to its end. The run directory's resolved scenario is configured with
 /// the kinds of `papers` (the registry's list); `run` builds the model and calls the driver.
 pub fn child_main(
@@ -104,20 +99,19 @@ pub fn child_main(
 ) -> ExitCode {
     let start = Instant::now();
     let me = spec.me;
+    // Lines to this process's log (its stderr, a file under the run's logs/), with level, name
+    // and run time; a failed write (a full disk) is ignored: the exit code and report say it.
+    crate::logging::init_child(&me.name());
     if spec.build_id != cohort_wire::BUILD_ID {
-        log(
-            me,
-            start,
-            format!(
-                "refusing to run: built from {} but the orchestrator is {} — rebuild the workspace (cargo build --release)",
-                cohort_wire::BUILD_ID,
-                spec.build_id
-            ),
+        error!(
+            "refusing to run: built from {} but the orchestrator is {} — rebuild the workspace (cargo build --release)",
+            cohort_wire::BUILD_ID,
+            spec.build_id
         );
         return ExitCode::from(EXIT_BUILD_MISMATCH);
     }
     let Ok(run_id) = u64::from_str_radix(&spec.run_id, 16) else {
-        log(me, start, format!("--run-id {:?}: not a hexadecimal run id", spec.run_id));
+        error!("--run-id {:?}: not a hexadecimal run id", spec.run_id);
         return ExitCode::from(EXIT_BAD_INPUT);
     };
     let dirs = RunDirs::new(&spec.run_dir);
@@ -125,26 +119,26 @@ pub fn child_main(
     let scenario = match crate::paper::load(&spec.run_dir.join("scenario.toml"), &overrides, papers) {
         Ok(s) => s,
         Err(e) => {
-            log(me, start, e);
+            error!("{e}");
             return ExitCode::from(EXIT_BAD_INPUT);
         }
     };
     if let Proc::Agent(id) = me
         && (id == 0 || id > scenario.n_agents())
     {
-        log(me, start, format!("--id {id}: out of range, the scenario has agents 1..={}", scenario.n_agents()));
+        error!("--id {id}: out of range, the scenario has agents 1..={}", scenario.n_agents());
         return ExitCode::from(EXIT_BAD_INPUT);
     }
     let key = match (spec.key_fd, scenario.run.authenticate) {
         (Some(fd), _) => match MacKey::read_from_fd(fd) {
             Ok(k) => Some(k),
             Err(e) => {
-                log(me, start, format!("--key-fd {fd}: cannot read the run's key: {e}"));
+                error!("--key-fd {fd}: cannot read the run's key: {e}");
                 return ExitCode::from(EXIT_BAD_INPUT);
             }
         },
         (None, true) => {
-            log(me, start, "run.authenticate is on but no --key-fd was given: the orchestrator hands the key over");
+            error!("run.authenticate is on but no --key-fd was given: the orchestrator hands the key over");
             return ExitCode::from(EXIT_BAD_INPUT);
         }
         (None, false) => None,
@@ -156,10 +150,17 @@ pub fn child_main(
     unsafe { libc_ignore_sigint() };
     for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP] {
         if let Err(e) = signal_hook::flag::register(sig, Arc::clone(&terminate)) {
-            log(me, start, format!("cannot install the handler of signal {sig}: {e}"));
+            error!("cannot install the handler of signal {sig}: {e}");
             return ExitCode::from(EXIT_RUN_FAILED);
         }
     }
+    debug!(
+        "scenario {:?}: {} agents, transport {:?}, run dir {}",
+        scenario.scenario.name,
+        scenario.n_agents(),
+        scenario.run.transport,
+        spec.run_dir.display()
+    );
     let topo = scenario.topology();
     let iox_run = IoxRun::new(run_id).with_key(key);
     let opened: Result<Box<dyn Transport>, _> = match scenario.run.transport {
@@ -179,13 +180,14 @@ pub fn child_main(
     let mut transport = match opened {
         Ok(t) => t,
         Err(e) => {
-            log(me, start, format!("cannot open the run's services: {e}"));
+            error!("cannot open the run's services: {e}");
             return ExitCode::from(EXIT_RUN_FAILED);
         }
     };
+    debug!("the run's services are open");
     let mut params = DriveParams::from_setup(&scenario, run_id, dirs.clone(), terminate, start);
     params.key = key;
-    log(me, start, format!("ready ({} steps of {} s)", params.n_steps, params.dt_s));
+    info!("ready ({} steps of {} s)", params.n_steps, params.dt_s);
     let report = if scenario.run.record && matches!(me, Proc::Agent(_)) {
         // `run.record`: this agent's messages to record/<proc>.mcap (see `recording`).
         let meta = RecordMeta::from_setup(&scenario, run_id, me);
@@ -209,19 +211,19 @@ pub fn child_main(
     };
     drop(transport); // release the ports before exiting
     if let Err(e) = report.write(&dirs) {
-        log(me, start, format!("cannot write status/{}.json: {e}", me.name()));
+        error!("cannot write status/{}.json: {e}", me.name());
     }
     match &report.error {
         None => {
-            log(me, start, format!("done: {} steps in {:.3} s", report.steps_completed, report.wall_s));
+            info!("done: {} steps in {:.3} s", report.steps_completed, report.wall_s);
             ExitCode::from(EXIT_OK)
         }
         Some(e) if e.is_stop() => {
-            log(me, start, e);
+            info!("{e}");
             ExitCode::from(EXIT_STOPPED)
         }
         Some(e) => {
-            log(me, start, format!("error: {e}"));
+            error!("{e}");
             ExitCode::from(EXIT_RUN_FAILED)
         }
     }

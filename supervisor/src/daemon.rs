@@ -125,12 +125,12 @@ pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
         .declare_token(hostproto::host_token(&name))
         .wait()
         .map_err(|e| DaemonError::Failed(format!("cannot declare the daemon's liveliness token: {e}")))?;
-    errln!("host {name}: listening on {listen} (build {}), runs under {}", cohort_wire::BUILD_ID, base.display());
+    tracing::info!("host {name}: listening on {listen} (build {}), runs under {}", cohort_wire::BUILD_ID, base.display());
     let mut d = Daemon { name, session, base, runs: HashMap::new() };
     loop {
         let sig = SIGNALLED.load(Ordering::SeqCst);
         if sig != 0 {
-            errln!("host {}: signal {sig}: stopping every child", d.name);
+            tracing::info!("host {}: signal {sig}: stopping every child", d.name);
             let ids: Vec<u64> = d.runs.keys().copied().collect();
             for id in ids {
                 d.end_run(id);
@@ -143,7 +143,7 @@ pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
         let orphaned: Vec<u64> =
             d.runs.iter().filter(|(_, r)| r.orphaned.load(Ordering::SeqCst)).map(|(id, _)| *id).collect();
         for id in orphaned {
-            errln!("host {}: run {id:016x}: its orchestrator is gone; killing its processes", d.name);
+            tracing::warn!("host {}: run {id:016x}: its orchestrator is gone; killing its processes", d.name);
             d.end_run(id);
         }
     }
@@ -182,7 +182,7 @@ impl Daemon {
         let _ = match result {
             Ok(body) => q.reply(q.key_expr().clone(), body).wait(),
             Err(e) => {
-                errln!("host {}: {verb}: {e}", self.name);
+                tracing::error!("host {}: {verb}: {e}", self.name);
                 q.reply_err(e.into_bytes()).wait()
             }
         };
@@ -249,6 +249,9 @@ impl Daemon {
             .stdin(Stdio::null())
             .stdout(Stdio::from(writer))
             .stderr(Stdio::from(writer2));
+        if let Some(log) = &r.log {
+            log.apply(&mut cmd);
+        }
         crate::supervise::child_setup(&mut cmd, key.as_ref().map(std::os::fd::AsRawFd::as_raw_fd));
         let mut child = cmd.spawn().map_err(|e| format!("cannot start {}: {e}", bin.display()))?;
         drop(cmd); // our copies of the pipe's write end, so the reader sees EOF when the child ends

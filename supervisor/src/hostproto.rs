@@ -69,6 +69,10 @@ pub struct SpawnRequest {
     pub connect: Vec<String>,
     /// Where the child listens for its peers.
     pub listen: Vec<String>,
+    /// The child's log filter and the run's time zero (its environment's `RUST_LOG` and
+    /// `COHORT_LOG_T0_NS`); absent: the daemon's own environment decides.
+    #[serde(default)]
+    pub log: Option<cohort_runtime::logging::ChildLog>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]

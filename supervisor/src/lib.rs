@@ -22,15 +22,6 @@
 //! what it needs (the configured scenario, the run directories, a progress hook) and maps the
 //! errors it returns to exit codes.
 
-/// `eprintln!` that never panics (a closed or full stderr): a failed write must not end a run
-/// early or change its exit code. (The orchestrator's binary has its own copy.)
-macro_rules! errln {
-    ($($t:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($t)*);
-    }};
-}
-
 pub mod daemon;
 mod hostproto;
 pub mod netlab;

@@ -318,6 +318,7 @@ fn spawn(
         .stdin(Stdio::null())
         .stdout(Stdio::from(log))
         .stderr(Stdio::from(log2));
+    cohort_runtime::logging::ChildLog::current().apply(&mut cmd);
     child_setup(&mut cmd, key_raw);
     let child = cmd.spawn().map_err(|e| format!("cannot start {}: {e}", bin.display()));
     drop(key_read); // the child has its own copy of the read end
@@ -371,7 +372,7 @@ impl Resources {
         }
         check_descriptors(s.n_agents(), spare)?;
         for id in IoxRun::sweep_stale() {
-            errln!("removed the iceoryx2 resources of run {id:016x}, whose orchestrator is gone");
+            tracing::info!("removed the iceoryx2 resources of run {id:016x}, whose orchestrator is gone");
         }
         let claim =
             run.claim().map_err(|e| format!("cannot claim the run's directory {}: {e}", run.root_dir().display()))?;
@@ -451,6 +452,7 @@ impl Spawner<'_> {
             key_hex: self.run.key.map(|k| k.bytes().iter().map(|b| format!("{b:02x}")).collect()),
             connect: vec![link.connect.clone()],
             listen: vec![link.listen.clone()],
+            log: Some(cohort_runtime::logging::ChildLog::current()),
         };
         let pid = remote.spawn(link, &req)?;
         Ok(Handle::Remote { remote: Arc::clone(remote), link: Arc::clone(link), proc_name: p.name(), pid })
@@ -525,7 +527,7 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) ->
     }
     drop(spawner);
     for w in resources.finish(run, dirs) {
-        errln!("warning: {w}");
+        tracing::warn!("{w}");
         if failure.is_none() && signal.is_none() && !w.starts_with("host ") {
             failure = Some(w);
         }
@@ -787,8 +789,8 @@ impl Supervisor<'_> {
                         let live: Vec<bool> = off_roster.iter().skip(1).map(|off| !off).collect();
                         let now = s.roster_warnings(&live);
                         for w in now.iter().filter(|w| !warned.contains(*w)) {
-                            errln!(
-                                "warning: from step {} (t = {:.3} s): {w}",
+                            tracing::warn!(
+                                "from step {} (t = {:.3} s): {w}",
                                 st.step,
                                 st.step as f64 * s.scenario.dt_s
                             );
@@ -913,7 +915,7 @@ impl Supervisor<'_> {
     fn report_full_disk(&mut self, a: u32) {
         let Some(line) = last_log_line(&self.dirs.logs().join(format!("agent-{a}.log"))) else { return };
         if !self.full_disk_reported && (line.contains("No space left on device") || line.contains("os error 28")) {
-            errln!("error: agent-{a} stopped: {line}");
+            tracing::error!("agent-{a} stopped: {line}");
             self.full_disk_reported = true;
         }
     }
@@ -933,7 +935,7 @@ impl Supervisor<'_> {
                  taking {} with it",
                 on.join(", ")
             );
-            errln!("warning: {msg}");
+            tracing::warn!("{msg}");
             self.event(plant_step, 0, "host-lost", msg);
             self.hosts_lost.push(h);
         }

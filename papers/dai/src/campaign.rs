@@ -110,7 +110,7 @@ pub(crate) fn run(
         ));
     }
     let a = s.algorithm_as::<DaiAttitude>().ok_or("checked by variant")?;
-    eprintln!(
+    tracing::info!(
         "  {label}: {:.2} s wall ({}){}",
         outcome.wall_s,
         outcome.mode,

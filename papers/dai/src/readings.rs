@@ -83,7 +83,7 @@ pub(crate) fn study(
     project: &[Run],
     out: &Path,
 ) -> Result<(String, String), String> {
-    eprintln!("readings of the set-up (continuous-time, Table 4 cases):");
+    tracing::info!("readings of the set-up (continuous-time, Table 4 cases):");
     let mut md = String::new();
     let mut csv = String::from("reading,case,tracking_error_mean,tracking_error_dev,published_dev,difference_pct\n");
     let _ = writeln!(md, "## Readings of the set-up — Table 4 under each, continuous-time\n");

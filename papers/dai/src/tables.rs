@@ -53,7 +53,7 @@ pub fn run_all(o: &Options, launcher: &dyn Launcher) -> Result<String, String> {
     }
     let r0 = base.r;
 
-    eprintln!("continuous-time runs (in-process, coupled ODE):");
+    tracing::info!("continuous-time runs (in-process, coupled ODE):");
     let mut t2 = Vec::new();
     for law in LAWS {
         let s = variant(launcher, &cont, &format!("dai-t2-{}", law.name()), law, r0, None)?;
@@ -68,7 +68,7 @@ pub fn run_all(o: &Options, launcher: &dyn Launcher) -> Result<String, String> {
     let (readings_md, readings_csv) = crate::readings::study(launcher, &cont, &t4, &o.out)?;
     let mut sampled_runs = Vec::new();
     if !o.periods_s.is_empty() {
-        eprintln!(
+        tracing::info!(
             "sampled-data runs ({}):",
             if o.sampled_multi_process { "multi-process, iceoryx2" } else { "in-process reference" }
         );

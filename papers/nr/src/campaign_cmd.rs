@@ -186,7 +186,7 @@ fn gamma_sweep(
         o.cache_dir = (a.cache != "none").then(|| PathBuf::from(&a.cache));
         let started = Instant::now();
         let report = train(&o).map_err(|e| CommandError::failed(format!("training γ = {gamma}: {e}")))?;
-        eprintln!("γ = {gamma}: trained in {:.0} s ({})", started.elapsed().as_secs_f64(), report.timings());
+        tracing::info!("γ = {gamma}: trained in {:.0} s ({})", started.elapsed().as_secs_f64(), report.timings());
         notes.push(same_as_scenario(&path, p.scenario_weights.as_deref(), gamma));
         let net = Arc::new(SnDnn::load(&path).map_err(|e| CommandError::failed(e.to_string()))?);
         for (nav, scale) in [("noisy", p.base.plant.nav_scale), ("perfect", 0.0)] {

@@ -268,7 +268,7 @@ pub fn command(
                 return Err(CommandError { message: format!("{}: {e}", dir.display()), exit_code: r.exit_code });
             }
             let f = run_figures(&dir, s.n_agents(), r.metric("fuel_total_ns")).map_err(CommandError::failed)?;
-            eprintln!("{}: fuel {:.2} N·s", dir.display(), f.fuel_ns);
+            tracing::info!("{}: fuel {:.2} N·s", dir.display(), f.fuel_ns);
             Ok(f)
         };
         for (vi, v) in fixed.iter().enumerate() {

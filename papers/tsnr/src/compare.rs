@@ -117,16 +117,16 @@ pub fn command(
     }
     std::fs::create_dir_all(&root)
         .map_err(|e| CommandError::invalid(format!("{}: cannot create: {e}", root.display())))?;
-    eprintln!("comparing {} over {} (multi-process) → {}", file.display(), methods.join(", "), root.display());
+    tracing::info!("comparing {} over {} (multi-process) → {}", file.display(), methods.join(", "), root.display());
     let mut runs = Vec::new();
     for (method, s) in &setups {
         let dir = root.join(method);
         let r = launcher.run(s, &dir, RunOptions { mode: Mode::MultiProcess, plots }).map_err(CommandError::failed)?;
         if let Some(e) = &r.error {
-            eprintln!("run directory (partial): {}", dir.display());
+            tracing::info!("run directory (partial): {}", dir.display());
             return Err(CommandError { message: format!("{method}: {e}"), exit_code: r.exit_code });
         }
-        eprintln!(
+        tracing::info!(
             "{method}: {} steps in {:.2} s; fuel {:.2} N·s",
             r.steps_completed,
             r.wall_s,
@@ -139,7 +139,7 @@ pub fn command(
     let figures = if plots {
         let dirs: Vec<(String, PathBuf)> = methods.iter().map(|m| (m.clone(), root.join(m))).collect();
         crate::figures::draw_comparison(&root, &dirs, Some(&first.scenario.name)).unwrap_or_else(|e| {
-            eprintln!("warning: comparison figures not drawn: {e}");
+            tracing::warn!("comparison figures not drawn: {e}");
             Vec::new()
         })
     } else {

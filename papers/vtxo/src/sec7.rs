@@ -101,7 +101,7 @@ pub fn run(o: &Options, launcher: &dyn Launcher) -> Result<String, String> {
                 let own_step = (dt_s - base.scenario.dt_s).abs() <= 1e-12 * dt_s;
                 let mode = if own_step { Mode::MultiProcess } else { Mode::Reference };
                 let dir = o.out.join(&name);
-                eprintln!("vtxo sec7: {name} ({:?}) → {}", mode, dir.display());
+                tracing::info!("vtxo sec7: {name} ({:?}) → {}", mode, dir.display());
                 let run = launcher.run(&setup, &dir, RunOptions { mode, plots: true })?;
                 if let Some(e) = &run.error {
                     return Err(format!("{name}: {e}"));

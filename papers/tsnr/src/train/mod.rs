@@ -162,9 +162,12 @@ pub fn run(o: &Options, command: &str) -> Result<String, String> {
     let train_w = data::windows(train_tr, o.n_t);
     let test_w = data::windows(test_tr, o.n_t);
     let data_s = t_data.elapsed().as_secs_f64();
-    eprintln!(
+    tracing::info!(
         "data: {} trajectories ({} train, {held_out} held out), {} + {} windows, {data_s:.1} s",
-        o.trajectories, n_train, train_w.count, test_w.count
+        o.trajectories,
+        n_train,
+        train_w.count,
+        test_w.count
     );
 
     let t_train = Instant::now();
@@ -178,7 +181,7 @@ pub fn run(o: &Options, command: &str) -> Result<String, String> {
     let mut rng = model::rng(o.seed);
     let mlp = model::Mlp::new(&sizes, &mut rng, &dev).map_err(e("network"))?;
     let losses = model::train(&mlp, &train_d, &hyper, o.n_t, o.epochs, &mut rng, |ep, l| {
-        eprintln!("epoch {}/{}: loss {l:.5} ({:.0} s)", ep + 1, o.epochs, t_train.elapsed().as_secs_f64())
+        tracing::info!("epoch {}/{}: loss {l:.5} ({:.0} s)", ep + 1, o.epochs, t_train.elapsed().as_secs_f64())
     })
     .map_err(e("training"))?;
     let train_s = t_train.elapsed().as_secs_f64();
