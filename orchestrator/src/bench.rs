@@ -226,6 +226,13 @@ fn cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<Case>, 
     for wait in ["event", "adaptive"] {
         push("loaded", 6, wait, "loaded", ring(6, steps, RingRun { wait, ..RING })?, false);
     }
+    // Scale: N = 200 and 256 agent processes at the machine's own open-file limit (the
+    // orchestrator raises its soft limit to the hard one); start-up against N, 200 steps.
+    if !quick {
+        for n in [200, 256] {
+            push("scale", n, "adaptive", "scale", ring(n, 200, RING)?, false);
+        }
+    }
     let (n_long, steps_long) = if quick { (20, 1000) } else { (100, 10_000) };
     push("long", n_long, "adaptive", "long", ring(n_long, steps_long, RING)?, false);
     // Agents behind a plant paced at 10 Hz (dt 0.1 s, real time): how much CPU do they burn?
@@ -845,6 +852,28 @@ fn markdown(a: &[Aggregate], quick: bool, reps: u32, only: Option<&str>, took_s:
             f0(x.steps_per_s_max),
             worst
         );
+    }
+    let scale: Vec<&Aggregate> = a.iter().filter(|x| x.group == "scale").collect();
+    if !scale.is_empty() {
+        md.push_str(
+            "\n## Scale: start-up against N (consensus ring, adaptive)\n\nStart-up: launch until every \
+             process is ready (the summary's `startup_s`); medians with [min–max]. N ≤ 100 from the ring \
+             rows above.\n\n| N | start-up s | start-up s per agent | steps/s |\n|---|---|---|---|\n",
+        );
+        for x in scale {
+            let mut up: Vec<f64> = x.samples.iter().filter_map(|s| s.startup_s).collect();
+            let (lo, hi) = up.iter().fold((f64::INFINITY, 0.0_f64), |(l, h), &v| (l.min(v), h.max(v)));
+            let m = median(&mut up);
+            let _ = writeln!(
+                md,
+                "| {} | {m:.2} [{lo:.2}–{hi:.2}] | {:.3} | {} [{}–{}] |",
+                x.n,
+                m / f64::from(x.n),
+                f0(x.steps_per_s_median),
+                f0(x.steps_per_s_min),
+                f0(x.steps_per_s_max)
+            );
+        }
     }
     for x in a.iter().filter(|x| x.group == "idle") {
         let share = median(&mut x.samples.iter().map(|s| s.agent_cpu_share).collect::<Vec<_>>());
