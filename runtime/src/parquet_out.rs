@@ -542,6 +542,16 @@ pub fn seal_dir(telemetry: &Path) -> std::io::Result<Vec<PathBuf>> {
     Ok(sealed)
 }
 
+/// nice 19 for the calling thread only (Linux: `setpriority` on a thread id is per thread). A
+/// refusal changes nothing but the speed, so it is ignored.
+fn lower_this_threads_priority() {
+    // SAFETY: gettid has no preconditions; setpriority on our own thread id with a valid value.
+    unsafe {
+        let tid = libc::syscall(libc::SYS_gettid) as libc::id_t;
+        let _ = libc::setpriority(libc::PRIO_PROCESS, tid, 19);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -721,15 +731,5 @@ mod tests {
         seal(&path).unwrap();
         assert_eq!(read_back(&path).1, want);
         let _ = std::fs::remove_dir_all(&dir);
-    }
-}
-
-/// nice 19 for the calling thread only (Linux: `setpriority` on a thread id is per thread). A
-/// refusal changes nothing but the speed, so it is ignored.
-fn lower_this_threads_priority() {
-    // SAFETY: gettid has no preconditions; setpriority on our own thread id with a valid value.
-    unsafe {
-        let tid = libc::syscall(libc::SYS_gettid) as libc::id_t;
-        let _ = libc::setpriority(libc::PRIO_PROCESS, tid, 19);
     }
 }
