@@ -99,14 +99,37 @@ impl CsvWriter {
     }
 }
 
-/// A process's telemetry file in the run's format (`run.telemetry`): rows of step `k` and f64
-/// values, the same columns and numbers either way.
-pub enum TelemetryWriter {
-    Csv(CsvWriter),
-    Parquet(crate::parquet_out::ParquetWriter),
+/// A values type a row file holds: f64 (telemetry) or u64 (timing, ns). CSV writes each in its
+/// shortest exact text; Parquet stores it as it is.
+pub trait RowValue: crate::parquet_out::Value {
+    fn csv_row(w: &mut CsvWriter, k: u64, values: &[Self]) -> std::io::Result<()>;
+}
+impl RowValue for f64 {
+    fn csv_row(w: &mut CsvWriter, k: u64, values: &[f64]) -> std::io::Result<()> {
+        w.row(k, values)
+    }
+}
+impl RowValue for u64 {
+    fn csv_row(w: &mut CsvWriter, k: u64, values: &[u64]) -> std::io::Result<()> {
+        w.row_u64(k, values)
+    }
 }
 
-impl TelemetryWriter {
+/// A process's row file in the run's format (`run.telemetry`): rows of step `k` and values, the
+/// same columns and numbers either way.
+pub enum RowWriter<V: RowValue> {
+    Csv(CsvWriter),
+    Parquet(crate::parquet_out::ParquetWriter<V>),
+}
+
+/// Telemetry: f64 values.
+pub type TelemetryWriter = RowWriter<f64>;
+/// Wall-clock timing (`timing/<proc>.parquet`, or `.csv` with `run.telemetry = "csv"`): whole
+/// numbers (nanoseconds), written by the telemetry's writers (so Parquet's units are in the
+/// schema, as for telemetry).
+pub type TimingWriter = RowWriter<u64>;
+
+impl<V: RowValue> RowWriter<V> {
     /// A new file with these columns (`k` first).
     pub fn create(format: TelemetryFormat, path: &Path, columns: &[String]) -> std::io::Result<Self> {
         Ok(match format {
@@ -121,9 +144,10 @@ impl TelemetryWriter {
             TelemetryFormat::Parquet => Self::Parquet(crate::parquet_out::ParquetWriter::append(path, columns)?),
         })
     }
-    pub fn row(&mut self, k: u64, values: &[f64]) -> std::io::Result<()> {
+    /// Step `k`, then the values (one per column after `k`).
+    pub fn row(&mut self, k: u64, values: &[V]) -> std::io::Result<()> {
         match self {
-            Self::Csv(w) => w.row(k, values),
+            Self::Csv(w) => V::csv_row(w, k, values),
             Self::Parquet(w) => w.row(k, values),
         }
     }
@@ -137,52 +161,6 @@ impl TelemetryWriter {
     }
     /// The end of the process's rows: every row on disk in the complete file (also after an
     /// error).
-    pub fn finish(&mut self) -> std::io::Result<()> {
-        match self {
-            Self::Csv(w) => w.flush(),
-            Self::Parquet(w) => w.finish(),
-        }
-    }
-}
-
-/// A process's wall-clock timing file (`timing/<proc>.parquet`, or `.csv` with
-/// `run.telemetry = "csv"`): rows of step `k` and whole numbers (nanoseconds), written by the
-/// telemetry's writers (so Parquet's units are in the schema, as for telemetry).
-pub enum TimingWriter {
-    Csv(CsvWriter),
-    Parquet(crate::parquet_out::ParquetWriter<u64>),
-}
-
-impl TimingWriter {
-    /// A new file with these columns (`k` first).
-    pub fn create(format: TelemetryFormat, path: &Path, columns: &[String]) -> std::io::Result<Self> {
-        Ok(match format {
-            TelemetryFormat::Csv => Self::Csv(CsvWriter::create(path, columns)?),
-            TelemetryFormat::Parquet => Self::Parquet(crate::parquet_out::ParquetWriter::create(path, columns)?),
-        })
-    }
-    /// Go on with an existing file (a relaunched agent).
-    pub fn append(format: TelemetryFormat, path: &Path, columns: &[String]) -> std::io::Result<Self> {
-        Ok(match format {
-            TelemetryFormat::Csv => Self::Csv(CsvWriter::append(path, columns.len())?),
-            TelemetryFormat::Parquet => Self::Parquet(crate::parquet_out::ParquetWriter::append(path, columns)?),
-        })
-    }
-    /// Step `k`, then the values (one per column after `k`).
-    pub fn row(&mut self, k: u64, values: &[u64]) -> std::io::Result<()> {
-        match self {
-            Self::Csv(w) => w.row_u64(k, values),
-            Self::Parquet(w) => w.row(k, values),
-        }
-    }
-    /// As [`TelemetryWriter::flush`].
-    pub fn flush(&mut self) -> std::io::Result<()> {
-        match self {
-            Self::Csv(w) => w.flush(),
-            Self::Parquet(w) => w.flush(),
-        }
-    }
-    /// As [`TelemetryWriter::finish`].
     pub fn finish(&mut self) -> std::io::Result<()> {
         match self {
             Self::Csv(w) => w.flush(),
