@@ -67,7 +67,7 @@ pub fn iceoryx2_leftovers(run_id_hex: &str) -> Vec<String> {
                 .collect()
         })
         .unwrap_or_default();
-    let root = cohort_wire::transport::iox::user_base().join(format!("cohort_{run_id_hex}"));
+    let root = cohort_wire::transport::iox::user_base().join(run_id_hex);
     if root.exists() {
         left.push(root.display().to_string());
     }

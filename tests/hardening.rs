@@ -168,15 +168,8 @@ fn sighup_and_sigterm_stop_a_run_in_order() {
 fn a_run_too_large_for_the_open_file_limit_is_refused_up_front() {
     let _g = heavy();
     let dir = scratch_dir("nofile");
-    let mut text = String::from(
-        "[scenario]\nname = \"ring60\"\nseed = 3\ndt_s = 0.01\nduration_s = 0.1\n\n[plant]\nkind = \"null\"\n\
-         readings = 3\n\n[algorithm]\nkind = \"null\"\nshare_values = 6\n",
-    );
-    for i in 1..=60u32 {
-        text.push_str(&format!("\n[[agents]]\nid = {i}\nneighbours = [{}, {}]\n", (i + 58) % 60 + 1, i % 60 + 1));
-    }
     let file = dir.join("ring60.toml");
-    std::fs::write(&file, text).unwrap();
+    std::fs::write(&file, null_ring(60)).unwrap();
     let mut cmd = orchestrator_command();
     cmd.args(["launch", &file.display().to_string(), "--no-plots", "--out"]).arg(dir.join("run"));
     // SAFETY: setrlimit between fork and exec, on the child only.
@@ -195,6 +188,85 @@ fn a_run_too_large_for_the_open_file_limit_is_refused_up_front() {
     assert!(err.contains("open files, the limit is 512; raise it with ulimit -n"), "{err}");
     assert!(started.elapsed() < Duration::from_secs(20), "not refused up front");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// iceoryx2's event sockets live in the run's root directory, and a unix socket path has at most
+/// 107 bytes: a long `XDG_RUNTIME_DIR` made large runs fail with a bare `ResourceCreationFailed`.
+/// A root of 42 bytes (the longest allowed) runs 60 agents; a longer one is refused up front,
+/// naming the variable to change.
+#[test]
+fn a_long_runtime_dir_runs_or_is_refused_with_the_reason() {
+    let _g = heavy();
+    if !Path::new("/dev/shm").is_dir() {
+        eprintln!("skipped: no /dev/shm");
+        return;
+    }
+    let dir = scratch_dir("xdg");
+    let file = dir.join("ring60.toml");
+    std::fs::write(&file, null_ring(60)).unwrap();
+    let pid = std::process::id() % 10_000_000;
+    // `<xdg>/cohort/<16 hex>`: 18 + 7 + 17 = 42 bytes; then 30 + 24 = 54.
+    for (xdg, runs) in [(format!("/dev/shm/cx{pid:07}"), true), (format!("/dev/shm/cohort-xdg-test{pid:07}"), false)] {
+        std::fs::create_dir_all(&xdg).unwrap();
+        std::fs::set_permissions(&xdg, std::os::unix::fs::PermissionsExt::from_mode(0o700)).unwrap();
+        let run = dir.join(if runs { "runs" } else { "refused" });
+        let o = orchestrator_command()
+            .args(["launch", &file.display().to_string(), "--no-plots", "--out"])
+            .arg(&run)
+            .env("XDG_RUNTIME_DIR", &xdg)
+            .output()
+            .unwrap();
+        no_panic(&xdg, &o);
+        if runs {
+            assert!(o.status.success(), "XDG_RUNTIME_DIR={xdg}: {}", describe_output(&o));
+            assert_clean(&run);
+        } else {
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
+            assert!(err.contains("bytes long") && err.contains("set XDG_RUNTIME_DIR to a shorter"), "{err}");
+        }
+        let _ = std::fs::remove_dir_all(&xdg);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A one-step run: each agent's only share is also the plant's first sample from it, and an
+/// agent that left at once took that sample's iceoryx2 segment with it before the plant mapped it
+/// (the run degraded: "agent 2 went silent: no share of step 0"). Agents now keep their ports
+/// until the orchestrator's stop, sent when the plant is done.
+#[test]
+fn a_one_step_run_loses_no_share() {
+    let _g = heavy();
+    let dir = scratch_dir("onestep");
+    let file = dir.join("ring50.toml");
+    std::fs::write(&file, null_ring(50).replace("duration_s = 0.1", "duration_s = 0.01")).unwrap();
+    for i in 0..2 {
+        let run = dir.join(format!("run{i}"));
+        let o = orchestrator_command()
+            .args(["launch", &file.display().to_string(), "--no-plots", "--step-timeout", "20", "--out"])
+            .arg(&run)
+            .output()
+            .unwrap();
+        no_panic("one step", &o);
+        assert!(o.status.success(), "{}", describe_output(&o));
+        let s = summary(&run);
+        assert_eq!(s["status"], "ok", "{}", s["error"]);
+        assert_eq!(s["steps_completed"], 1);
+        assert_clean(&run);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A ring of `n` agents with the null plant and algorithm, 10 steps (`duration_s = 0.1`).
+fn null_ring(n: u32) -> String {
+    let mut text = format!(
+        "[scenario]\nname = \"ring{n}\"\nseed = 3\ndt_s = 0.01\nduration_s = 0.1\n\n[plant]\nkind = \"null\"\n\
+         readings = 3\n\n[algorithm]\nkind = \"null\"\nshare_values = 6\n",
+    );
+    for i in 1..=n {
+        text.push_str(&format!("\n[[agents]]\nid = {i}\nneighbours = [{}, {}]\n", (i + n - 2) % n + 1, i % n + 1));
+    }
+    text
 }
 
 /// Finding 7: on a full disk the cause comes first, and no summary or status file is left empty.
@@ -306,6 +378,7 @@ fn a_second_user_can_run_after_root() {
         .collect();
     assert!(leftover.is_empty(), "{leftover:?}");
     let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all("/dev/shm/cohort-65534");
     let _ = std::fs::remove_dir_all("/tmp/cohort-65534");
 }
 

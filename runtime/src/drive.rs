@@ -912,8 +912,26 @@ pub fn run_agent<T: Transport + ?Sized>(
         report.error = Some(e.to_report());
     } else {
         t.report(&status(p, id, STATUS_DONE, p.n_steps, 0));
+        linger(t, p);
     }
     report
+}
+
+/// After an agent's last step, where the transport needs it, keep its ports open until the
+/// orchestrator's stop request (sent once the plant has finished, so every last share was read)
+/// or a signal. Bounded by two step timeouts, in which the plant finishes its last step or the
+/// run fails anyway; leaving then loses nothing the run still needs.
+fn linger<T: Transport + ?Sized>(t: &mut T, p: &DriveParams) {
+    if !t.keeps_ports_until_stopped() {
+        return;
+    }
+    let until = Instant::now().checked_add(p.step_timeout.saturating_mul(2));
+    while until.is_none_or(|u| Instant::now() < u) && !t.stop_requested() && !p.terminate.load(Ordering::Relaxed) {
+        // Nothing is awaited but the stop: a wakeup from a late share only shortens the nap.
+        if t.wait(POLL).is_err() {
+            std::thread::sleep(POLL);
+        }
+    }
 }
 
 /// Whether a roster history (first step, live) says live at step `u` (live before any entry).

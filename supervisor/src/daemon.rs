@@ -109,9 +109,8 @@ pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
     for bin in ["plant", "agent"] {
         sibling_binary(bin).map_err(DaemonError::Failed)?;
     }
-    let base = cohort_wire::transport::iox::ensure_user_base()
+    let base = cohort_wire::transport::iox::ensure_user_files_base()
         .map_err(|e| DaemonError::Failed(e.to_string()))?
-        .join("hosts")
         .join(&name);
     std::fs::create_dir_all(&base).map_err(|e| DaemonError::Failed(format!("{}: {e}", base.display())))?;
     let session = open_session(&[listen.to_string()], &[])

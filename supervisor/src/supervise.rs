@@ -726,6 +726,7 @@ impl Supervisor<'_> {
         let startup_limit = Duration::from_secs_f64(s.run.startup_timeout_s);
         let my_hash = cohort_wire::build_id_hash();
         let mut start_granted = false;
+        let mut stop_sent = false;
         let mut plant_step = 0u64;
         // Latest "waiting for X at step k" per sender.
         let mut waiting: Vec<Option<Waiting>> = vec![None; s.n_agents() as usize + 1];
@@ -868,6 +869,12 @@ impl Supervisor<'_> {
             }
             on_step(plant_step);
             let plant_ok = kids[0].exit.is_some_and(|st| st.success());
+            if plant_ok && !stop_sent {
+                // Every last share has been read: the agents keeping their ports open for it
+                // (see `keeps_ports_until_stopped`) may leave.
+                let _ = self.services.request_stop();
+                stop_sent = true;
+            }
             // Done when the plant is, and every agent on its roster has finished.
             let agents_done =
                 kids.iter().enumerate().skip(1).all(|(i, k)| k.exit.is_some_and(|st| st.success()) || off_roster[i]);

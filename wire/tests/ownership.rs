@@ -97,7 +97,7 @@ fn the_sweep_removes_a_run_whose_orchestrator_is_gone_and_never_a_live_one() {
     let dead_claim = dead.claim().unwrap();
     let dead_services = IoxServices::create(&dead, &topo, 0).unwrap();
     drop(dead_services);
-    let lock = user_base().join(format!("cohort_{:016x}.lock", dead.run_id));
+    let lock = user_base().join(format!("{:016x}.lock", dead.run_id));
     // Dropping the claim removes its lock file; put an unlocked one back, as a killed
     // orchestrator leaves it.
     drop(dead_claim);
@@ -110,7 +110,7 @@ fn the_sweep_removes_a_run_whose_orchestrator_is_gone_and_never_a_live_one() {
     assert!(segments(&dead).is_empty() && !dead.root_dir().exists() && !lock.exists());
     assert_eq!(live.count_resources(), before, "the live run lost resources");
     // A forged file cannot make a live run look dead: its lock is held.
-    std::fs::write(user_base().join(format!("cohort_{:016x}.lock", live.run_id)), "1").ok();
+    std::fs::write(user_base().join(format!("{:016x}.lock", live.run_id)), "1").ok();
     assert!(!IoxRun::sweep_stale().contains(&live.run_id));
     assert_eq!(live.count_resources(), before);
     drop(live_services);

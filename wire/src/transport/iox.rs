@@ -54,7 +54,7 @@ type Svc = ipc::Service;
 const SHARE_BUFFER: usize = 8;
 const MEAS_BUFFER: usize = 2;
 const STATUS_BUFFER: usize = 64;
-/// In the user's base directory: a run's lock file is `cohort_<run id>.lock`.
+/// In the user's base directory: a run's lock file is `<run id>.lock` beside its root `<run id>/`.
 const LOCK_SUFFIX: &str = ".lock";
 
 /// This user's euid.
@@ -64,14 +64,28 @@ fn euid() -> u32 {
 }
 
 /// The parent of this user's run directories: `$XDG_RUNTIME_DIR/cohort` when that variable names
-/// an absolute directory, else `/tmp/cohort-<uid>`. Per user, so one user's runs never meet
-/// another's (a shared `/tmp/iceoryx2` let a second user neither run nor trust the sweep).
+/// an absolute directory, else `/dev/shm/cohort-<uid>` (`/tmp/cohort-<uid>` where there is no
+/// `/dev/shm`). Per user, so one user's runs never meet another's (a shared `/tmp/iceoryx2` let a
+/// second user neither run nor trust the sweep). On a memory file system because iceoryx2 writes
+/// and fsyncs a file for every service, port and node: on this project's ext4 disk that cost
+/// ≈ 9 ms per service (26 ms per agent for the orchestrator alone, and the plant opens three
+/// services per agent), against 0.25 ms on tmpfs — it was most of a large run's start-up.
 pub fn user_base() -> PathBuf {
     match std::env::var_os("XDG_RUNTIME_DIR").map(PathBuf::from) {
         Some(x) if x.is_absolute() && x.is_dir() => x.join("cohort"),
+        _ if StdPath::new("/dev/shm").is_dir() => PathBuf::from(format!("/dev/shm/cohort-{}", euid())),
         _ => PathBuf::from(format!("/tmp/cohort-{}", euid())),
     }
 }
+
+/// The longest run root directory whose iceoryx2 event sockets still fit a unix socket address
+/// (107 bytes, `sun_path` less its NUL). A socket is `<root>/<prefix><id>.event`: the prefix is
+/// `cohort_<16 hex>_` (24), the id a `UniqueSystemId` printed in decimal — 96 bits of time and
+/// pid under a per-process counter, so 29 digits for the first id and 34 for the 65 536th — and
+/// `.event` (6): 107 − 6 − 34 − 24 − 1 = 42. Past it iceoryx2 fails with a bare
+/// `ResourceCreationFailed` once a process's counter grows (it did at N = 50 with
+/// `XDG_RUNTIME_DIR=/run/user/1000` when run directories were named `cohort_<id>`).
+pub const MAX_ROOT_DIR_LEN: usize = 42;
 
 /// Why a directory cannot hold this user's runs: it must be a real directory (not a symlink)
 /// owned by this user that nobody else can enter.
@@ -103,15 +117,25 @@ pub fn check_private_dir(path: &StdPath) -> Result<(), String> {
 /// Create this user's base directory (mode 0700) if absent, then check that it is a directory
 /// owned by this user that nobody else can enter. Returns it.
 pub fn ensure_user_base() -> Result<PathBuf, TransportError> {
+    ensure_private_dir(user_base())
+}
+
+/// Where a host daemon keeps its processes' run files until the orchestrator fetches them: on
+/// disk (`$TMPDIR/cohort-<uid>-hosts`, else `/tmp/…`), not in [`user_base`]'s memory file system,
+/// since telemetry can be large. Created and checked like the base.
+pub fn ensure_user_files_base() -> Result<PathBuf, TransportError> {
+    ensure_private_dir(std::env::temp_dir().join(format!("cohort-{}-hosts", euid())))
+}
+
+fn ensure_private_dir(dir: PathBuf) -> Result<PathBuf, TransportError> {
     use std::os::unix::fs::DirBuilderExt;
-    let base = user_base();
-    match std::fs::DirBuilder::new().mode(0o700).create(&base) {
+    match std::fs::DirBuilder::new().mode(0o700).create(&dir) {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
-        Err(e) => return Err(TransportError::Other(format!("cannot create {}: {e}", base.display()))),
+        Err(e) => return Err(TransportError::Other(format!("cannot create {}: {e}", dir.display()))),
     }
-    check_private_dir(&base).map_err(|e| TransportError::Other(format!("unsafe run directory: {e}")))?;
-    Ok(base)
+    check_private_dir(&dir).map_err(|e| TransportError::Other(format!("unsafe run directory: {e}")))?;
+    Ok(dir)
 }
 
 /// flock(2) on `f`, without blocking. Ok(true): taken; Ok(false): someone holds it.
@@ -161,12 +185,27 @@ impl IoxRun {
     pub fn prefix(&self) -> String {
         format!("cohort_{:016x}_", self.run_id)
     }
-    /// The run's own iceoryx2 root directory (removed whole at the end of the run).
+    /// The run's own iceoryx2 root directory (removed whole at the end of the run): the run id
+    /// alone, to keep socket paths short (see [`MAX_ROOT_DIR_LEN`]).
     pub fn root_dir(&self) -> PathBuf {
-        user_base().join(format!("cohort_{:016x}", self.run_id))
+        user_base().join(format!("{:016x}", self.run_id))
     }
     fn lock_path(&self) -> PathBuf {
-        user_base().join(format!("cohort_{:016x}{LOCK_SUFFIX}", self.run_id))
+        user_base().join(format!("{:016x}{LOCK_SUFFIX}", self.run_id))
+    }
+    /// Refuse a root directory too long for iceoryx2's socket paths, naming it and the way out.
+    pub fn check_root_len(&self) -> Result<(), TransportError> {
+        let root = self.root_dir();
+        let len = root.as_os_str().len();
+        if len > MAX_ROOT_DIR_LEN {
+            return Err(TransportError::Other(format!(
+                "the run directory {} is {len} bytes long, more than the {MAX_ROOT_DIR_LEN} that keep its \
+                 iceoryx2 socket paths within the kernel's 107-byte limit: set XDG_RUNTIME_DIR to a shorter \
+                 directory, or unset it",
+                root.display()
+            )));
+        }
+        Ok(())
     }
     pub fn config(&self) -> Result<Config, TransportError> {
         let mut cfg = Config::default();
@@ -227,6 +266,7 @@ impl IoxRun {
     pub fn claim(&self) -> Result<RunClaim, TransportError> {
         use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt};
         let base = ensure_user_base()?;
+        self.check_root_len()?;
         let err = |what: &str, e: std::io::Error| TransportError::Other(format!("{what}: {e}"));
         let tmp = base.join(format!(".claim-{:016x}-{}", self.run_id, std::process::id()));
         let file = std::fs::OpenOptions::new()
@@ -260,8 +300,11 @@ impl IoxRun {
         let mut roots = Vec::new();
         for e in rd.flatten() {
             let name = e.file_name().to_string_lossy().to_string();
-            let Some(rest) = name.strip_prefix("cohort_") else { continue };
-            if let Some(hex) = rest.strip_suffix(LOCK_SUFFIX) {
+            // Run ids are 16 hex digits; anything else here (a daemon's `hosts/`, a claim being
+            // made) is not a run.
+            let is_id = |h: &str| h.len() == 16 && h.bytes().all(|b| b.is_ascii_hexdigit());
+            let rest = name.as_str();
+            if let Some(hex) = rest.strip_suffix(LOCK_SUFFIX).filter(|h| is_id(h)) {
                 let Ok(id) = u64::from_str_radix(hex, 16) else { continue };
                 let Ok(f) = std::fs::OpenOptions::new().read(true).write(true).open(e.path()) else { continue };
                 if try_lock(&f).unwrap_or(false) {
@@ -271,7 +314,7 @@ impl IoxRun {
                 } else {
                     locked.insert(id);
                 }
-            } else if let Ok(id) = u64::from_str_radix(rest, 16) {
+            } else if let Some(id) = Some(rest).filter(|h| is_id(h)).and_then(|h| u64::from_str_radix(h, 16).ok()) {
                 roots.push(id);
             }
         }
@@ -758,5 +801,8 @@ impl DataPath for IoxData {
             Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => Ok(()),
             r => r.map(|_| ()).map_err(|e| TransportError::iox("wait", e)),
         }
+    }
+    fn keeps_ports_until_stopped(&self) -> bool {
+        true
     }
 }

@@ -109,6 +109,14 @@ pub trait DataPath {
     /// [`Transport::drain`] after every return, because a wakeup can be lost under heavy
     /// preemption: waits are always short and repeated, never one long one.
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError>;
+    /// Whether a process must keep its ports open after its last step until the orchestrator's
+    /// stop request (it sends one as soon as the plant has finished), because a message it sent
+    /// can still be lost when it leaves: an iceoryx2 sample lives in its publisher's segment,
+    /// which a reader that has not mapped it yet (in a one-step run, the plant at its first
+    /// receive) can no longer reach once the publisher is gone.
+    fn keeps_ports_until_stopped(&self) -> bool {
+        false
+    }
 }
 
 /// The run-control port of one process: the orchestrator's requests in, its status out.
@@ -170,6 +178,9 @@ impl<D: DataPath, C> DataPath for Split<D, C> {
     }
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError> {
         self.data.wait(timeout)
+    }
+    fn keeps_ports_until_stopped(&self) -> bool {
+        self.data.keeps_ports_until_stopped()
     }
 }
 
