@@ -11,10 +11,11 @@
 //! 2 ms ± 0.5 ms and 1 % loss on c's link the run is still bit-identical and the plant's latency
 //! histograms show c's servicers behind the delay. Serialised: one set of namespaces at a time.
 //!
-//! Host c's link is a TAP pair with a user-space pump between its ends (`support/linkemu.rs`), so
-//! that the delay-and-loss case runs on kernels built without `sch_netem`: the case first asks
-//! the kernel for netem on both TAPs and, when it is refused, sets the same delay, jitter and
-//! loss in the pump, saying which it used. Without /dev/net/tun, c gets a veth like a and b.
+//! Host c's link is a TAP pair with a user-space pump between its ends (`cohort_supervisor::
+//! linkemu`, which the bench's network lab uses too), so that the delay-and-loss case runs on
+//! kernels built without `sch_netem`: the case first asks the kernel for netem on both TAPs and,
+//! when it is refused, sets the same delay, jitter and loss in the pump in both directions, saying
+//! which it used. Without /dev/net/tun, c gets a veth like a and b.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -24,8 +25,7 @@ use std::time::{Duration, Instant};
 use cohort::{bin_path, describe_output, processes_mentioning, repo_root, scratch_dir, summary, telemetry_bits};
 use serde_json::Value;
 
-#[path = "support/linkemu.rs"]
-mod linkemu;
+use cohort_supervisor::linkemu;
 
 static HEAVY: Mutex<()> = Mutex::new(());
 
@@ -160,7 +160,7 @@ impl Net {
             (Ok(()), _, _) => Ok("the kernel's netem".into()),
             (Err(why), Some(link), "c") => {
                 let ms = |v: f64| Duration::from_secs_f64(v / 1e3);
-                link.impairment.set(ms(delay_ms), ms(jitter_ms), loss_pct / 100.0);
+                link.set_both(ms(delay_ms), ms(jitter_ms), loss_pct / 100.0);
                 Ok(format!("the user-space pump (the kernel refused netem: {why})"))
             }
             (Err(why), _, _) => Err(why),

@@ -14,17 +14,22 @@
 //! processes, and steps/s of the headline (shortened to 2 000 steps) and the ring at N = 6 and 20
 //! over zenoh against iceoryx2 on one host, and over zenoh across three network namespaces
 //! ([`cohort_supervisor::netlab`], when this runs as root) with no delay and with 1 ms each way, each
-//! reported as steps/s × round trip (1.0: one round trip per step).
+//! reported as steps/s × round trip (1.0: one round trip per step). The lab's links are veth pairs
+//! delayed by the kernel's netem where the kernel has it, else TAP pairs with the user-space pump
+//! of [`cohort_supervisor::linkemu`] (the rows say which); with the pump, the bench also measures
+//! the round trip across a veth lab, so the pump's own latency can be read off.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use std::fmt::Write as _;
 
 use cohort_runtime::paper::Setup;
 use cohort_scenario::Overrides;
 use serde::Serialize;
+
+use cohort_supervisor::netlab::{Lab, Links};
 
 use crate::summary::Summary;
 
@@ -42,8 +47,8 @@ struct Case {
     reference: bool,
     /// Run with two busy-loop hogs on the machine (the "loaded" rows).
     hogs: bool,
-    /// Across the lab's namespaces, with this netem on every link (empty: none).
-    lab: Option<&'static [&'static str]>,
+    /// Across the lab's namespaces, with this delay on what every namespace sends (zero: none).
+    lab: Option<Duration>,
 }
 
 /// What one run of a case measured.
@@ -242,8 +247,8 @@ fn cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<Case>, 
     Ok(out)
 }
 
-/// netem of the lab's "1 ms" rows: every namespace delays what it sends by 1 ms.
-const DELAY_1MS: &[&str] = &["delay", "1ms"];
+/// The lab's "1 ms" rows: every namespace delays what it sends by 1 ms.
+const DELAY_1MS: Duration = Duration::from_millis(1);
 
 /// Loads a zenoh-row scenario: (transport, hosts file) → the setup.
 type LoadFn = dyn Fn(&str, Option<&Path>) -> Result<Setup, String>;
@@ -254,7 +259,7 @@ type LoadFn = dyn Fn(&str, Option<&Path>) -> Result<Setup, String>;
 fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<Case>, String> {
     let steps: u64 = if quick { 500 } else { 2000 };
     let mut out = Vec::new();
-    let mut push = |label: String, n: u32, variant: &str, scenario: Setup, lab: Option<&'static [&'static str]>| {
+    let mut push = |label: String, n: u32, variant: &str, scenario: Setup, lab: Option<Duration>| {
         let key = format!("zenoh/{label}/N={n}/{variant}");
         out.push(Case {
             key,
@@ -300,8 +305,8 @@ fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<C
         push(label.clone(), *n, "iceoryx2", load("iceoryx2", None)?, None);
         push(label.clone(), *n, "zenoh", load("zenoh", None)?, None);
         if let Some(dir) = lab_dir {
-            let hosts = cohort_supervisor::netlab::Lab::hosts_file(dir, *n)?;
-            push(label.clone(), *n, "zenoh-3ns", load("zenoh", Some(&hosts))?, Some(&[]));
+            let hosts = Lab::hosts_file(dir, *n)?;
+            push(label.clone(), *n, "zenoh-3ns", load("zenoh", Some(&hosts))?, Some(Duration::ZERO));
             push(label.clone(), *n, "zenoh-3ns-1ms", load("zenoh", Some(&hosts))?, Some(DELAY_1MS));
         }
     }
@@ -312,6 +317,8 @@ fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<C
 #[derive(Debug, Clone, Serialize)]
 struct Rtt {
     place: String,
+    /// The zenoh case variant whose steps/s this round trip goes with (none: a reference row).
+    variant: Option<&'static str>,
     p50_us: f64,
     p99_us: f64,
     max_ms: f64,
@@ -319,12 +326,12 @@ struct Rtt {
 
 /// The zenoh round trip between an echo process and a ping process, on one host or from lab
 /// namespace a to b.
-fn measure_rtt(lab: Option<&cohort_supervisor::netlab::Lab>, place: &str) -> Result<Rtt, String> {
+fn measure_rtt(lab: Option<&Lab>, place: &str, variant: Option<&'static str>) -> Result<Rtt, String> {
     use std::process::Stdio;
     let me = std::env::current_exe().map_err(|e| e.to_string())?;
     let (listen, connect) = match lab {
         Some(_) => {
-            let e = cohort_supervisor::netlab::Lab::endpoint(1).replace(":7447", ":7500");
+            let e = Lab::endpoint(1).replace(":7447", ":7500");
             (e.clone(), e)
         }
         None => {
@@ -357,7 +364,48 @@ fn measure_rtt(lab: Option<&cohort_supervisor::netlab::Lab>, place: &str) -> Res
     }
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).map_err(|e| format!("zenoh-ping output: {e}"))?;
     let f = |k: &str| v[k].as_f64().unwrap_or(f64::NAN);
-    Ok(Rtt { place: place.into(), p50_us: f("p50_us"), p99_us: f("p99_us"), max_ms: f("max_ms") })
+    Ok(Rtt { place: place.into(), variant, p50_us: f("p50_us"), p99_us: f("p99_us"), max_ms: f("max_ms") })
+}
+
+/// The namespace lab (`None`: none can be made here, e.g. not root), with veth links where the
+/// kernel has netem and pumped links where it has not. With pumped links, first the round trip
+/// a → b across a veth lab made and removed for it (the two labs share names and addresses, so
+/// one at a time): the pump's own latency is the difference from the pumped lab's undelayed row.
+fn start_lab() -> (Option<Lab>, Option<Rtt>) {
+    let links = match cohort_supervisor::netlab::netem_probe() {
+        Ok(()) => Links::Veth,
+        Err(e) => {
+            tracing::info!("no netem on this kernel ({e}): the lab's links are TAP pairs with a user-space pump");
+            Links::Pumped
+        }
+    };
+    let veth_rtt = (links == Links::Pumped)
+        .then(|| {
+            let veth = Lab::start_with(Links::Veth)?;
+            measure_rtt(Some(&veth), "namespace a → b across veth (no pump, no delay)", None)
+        })
+        .transpose()
+        .unwrap_or_else(|e| {
+            tracing::warn!("no veth lab for the pump's own latency: {e}");
+            None
+        });
+    match Lab::start_with(links) {
+        Ok(l) => (Some(l), veth_rtt),
+        Err(e) => {
+            tracing::warn!("no network-namespace lab (zenoh across namespaces not measured): {e}");
+            (None, None)
+        }
+    }
+}
+
+/// The round trip from namespace a to b in the lab, without and with the 1 ms delay.
+fn lab_rtts(l: &Lab) -> Result<Vec<Rtt>, String> {
+    let how = l.links().describe();
+    let plain = measure_rtt(Some(l), &format!("namespace a → b ({how}, no delay)"), Some("zenoh-3ns"))?;
+    l.set_delay(DELAY_1MS)?;
+    let delayed = measure_rtt(Some(l), &format!("namespace a → b, 1 ms each way ({how})"), Some("zenoh-3ns-1ms"));
+    l.set_delay(Duration::ZERO)?;
+    Ok(vec![plain, delayed?])
 }
 
 /// Two threads that burn a core each until dropped: a machine busy with other work (the
@@ -499,13 +547,7 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     let repo = std::env::current_dir().map_err(|e| e.to_string())?;
     let scratch = std::env::temp_dir().join(format!("cohort-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&scratch);
-    let lab = match cohort_supervisor::netlab::Lab::start() {
-        Ok(l) => Some(l),
-        Err(e) => {
-            tracing::warn!("no network-namespace lab (zenoh across namespaces not measured): {e}");
-            None
-        }
-    };
+    let (lab, veth_rtt) = start_lab();
     let lab_dir = scratch.join("lab");
     let mut cases = cases(quick, &repo, lab.as_ref().map(|_| lab_dir.as_path()))?;
     if let Some(prefix) = only {
@@ -518,23 +560,10 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             )));
         }
     }
-    let mut rtts = vec![measure_rtt(None, "one host (TCP loopback)")?];
+    let mut rtts = vec![measure_rtt(None, "one host (TCP loopback)", Some("zenoh"))?];
+    rtts.extend(veth_rtt);
     if let Some(l) = &lab {
-        rtts.push(measure_rtt(Some(l), "namespace a → b")?);
-        // A kernel without the netem qdisc (sch_netem) has the lab but no delayed links: the
-        // delayed rows are left out, saying why, instead of failing the whole campaign.
-        match l.netem(Some(DELAY_1MS)) {
-            Ok(()) => {
-                let r = measure_rtt(Some(l), "namespace a → b, 1 ms netem each way");
-                l.netem(None)?;
-                rtts.push(r?);
-            }
-            Err(e) => {
-                l.netem(None)?;
-                tracing::warn!("no netem on this kernel (the 1 ms rows are not measured): {e}");
-                cases.retain(|c| c.lab.is_none_or(|netem| netem.is_empty()));
-            }
-        }
+        rtts.extend(lab_rtts(l)?);
     }
     let mut samples: BTreeMap<String, Vec<Sample>> = BTreeMap::new();
     let started = Instant::now();
@@ -545,12 +574,12 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             let dirs =
                 crate::prepare(&c.scenario, Some(&dir)).map_err(|_| format!("{}: cannot prepare", dir.display()))?;
             let hogs = c.hogs.then(Hogs::start);
-            if let (Some(l), Some(netem)) = (&lab, c.lab) {
-                l.netem((!netem.is_empty()).then_some(netem))?;
+            if let (Some(l), Some(delay)) = (&lab, c.lab) {
+                l.set_delay(delay)?;
             }
             let (outcome, summary) = crate::run_once(&c.scenario, &dirs, c.reference, false);
             if let (Some(l), Some(_)) = (&lab, c.lab) {
-                l.netem(None)?;
+                l.set_delay(Duration::ZERO)?;
             }
             drop(hogs);
             if let Some(e) = outcome.error {
@@ -595,11 +624,12 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             }
         })
         .collect();
+    let links = lab.as_ref().map(|l| l.links());
     drop(lab);
     let mac = [6usize, 106, 512].map(|v| (v, mac_ns(v)));
     let mut md = markdown(&aggregates, quick, reps, only, started.elapsed().as_secs_f64());
     md.push_str(&mac_markdown(&aggregates, &mac));
-    md.push_str(&zenoh_markdown(&aggregates, &rtts));
+    md.push_str(&zenoh_markdown(&aggregates, &rtts, links));
     std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let json = serde_json::json!({
         "machine": machine(),
@@ -607,6 +637,7 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
         "repetitions": reps,
         "cases": aggregates,
         "zenoh_rtt": rtts,
+        "lab_links": links.map(|l| l.describe()),
         "mac_seal_check_ns": mac.iter().map(|(v, (s, c))| serde_json::json!({"values": v, "seal_ns": s, "check_ns": c})).collect::<Vec<_>>(),
         "adaptive_spin_floor_us": cohort_runtime::drive::ADAPTIVE_FLOOR_US,
         "adaptive_spin_cap_us": cohort_runtime::drive::ADAPTIVE_CAP_US,
@@ -662,33 +693,36 @@ fn mac_markdown(a: &[Aggregate], mac: &[(usize, (f64, f64))]) -> String {
     md
 }
 
-/// The zenoh rows: steps/s and steps/s × the round trip of the same place.
-fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt]) -> String {
+/// The zenoh rows: steps/s and steps/s × the round trip of the same place; `links`: the lab's.
+fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt], links: Option<Links>) -> String {
     let mut md = String::from(
         "\n## zenoh (multi-host transport)\n\nRound trip between two processes (256 B, 5 000 pings after 200 warm-up):\n\n| where | p50 µs | p99 µs | max ms |\n|---|---|---|---|\n",
     );
     for r in rtts {
         let _ = writeln!(md, "| {} | {:.0} | {:.0} | {:.2} |", r.place, r.p50_us, r.p99_us, r.max_ms);
     }
+    let rtt_of = |variant: &str| rtts.iter().find(|r| r.variant == Some(variant)).map(|r| r.p50_us);
+    if let (Some(veth), Some(pumped), Some(Links::Pumped)) =
+        (rtts.iter().find(|r| r.variant.is_none()), rtt_of("zenoh-3ns"), links)
+    {
+        let _ = writeln!(
+            md,
+            "\nThe pump's own latency: {:.0} µs per round trip at p50 (pumped links with no delay against veth; a round \
+             trip a → b → a passes four pumps).",
+            pumped - veth.p50_us
+        );
+    }
     md.push_str(
         "\n| case | N | transport, placement | steps/s | RTT p50 µs | steps/s × RTT |\n|---|---|---|---|---|---|\n",
     );
-    let rtt_of = |variant: &str| -> Option<f64> {
-        let i = match variant {
-            "zenoh" => 0,
-            "zenoh-3ns" => 1,
-            "zenoh-3ns-1ms" => 2,
-            _ => return None,
-        };
-        rtts.get(i).map(|r| r.p50_us)
-    };
+    let how = links.map_or("", Links::describe);
     for x in a.iter().filter(|x| x.group == "zenoh") {
         let place = match x.variant.as_str() {
-            "iceoryx2" => "iceoryx2, one host",
-            "zenoh" => "zenoh, one host (TCP loopback)",
-            "zenoh-3ns" => "zenoh, plant on a, agents on b and c",
-            "zenoh-3ns-1ms" => "zenoh, a / b / c, 1 ms netem each way",
-            other => other,
+            "iceoryx2" => "iceoryx2, one host".to_string(),
+            "zenoh" => "zenoh, one host (TCP loopback)".to_string(),
+            "zenoh-3ns" => format!("zenoh, plant on a, agents on b and c ({how}, no delay)"),
+            "zenoh-3ns-1ms" => format!("zenoh, a / b / c, 1 ms each way ({how})"),
+            other => other.to_string(),
         };
         let rtt = rtt_of(&x.variant);
         let ratio = rtt.map_or("–".to_string(), |r| format!("{:.2}", x.steps_per_s_median * r * 1e-6));

@@ -11,8 +11,10 @@
 //!   answers to its name and has this build's id.
 //! - [`daemon`]: the host daemon (`orchestrator host`) that starts one machine's processes for an
 //!   orchestrator elsewhere, relays its signals and sends the run's files back.
-//! - [`netlab`] and [`zping`]: three network namespaces with host daemons and `tc netem`, and a
-//!   zenoh ping-pong, both for `orchestrator bench`.
+//! - [`netlab`] and [`zping`]: three network namespaces with host daemons and a delay on their
+//!   links, and a zenoh ping-pong, both for `orchestrator bench`.
+//! - [`linkemu`]: a user-space `tc netem` (a TAP pair with a pump that delays, jitters and drops
+//!   frames) for kernels without `sch_netem`; the lab's links and the multi-host test use it.
 //!
 //! Why a crate apart: this is the part of the orchestrator that deals in processes, signals and
 //! hosts rather than in scenarios and reports, and it grew with the multi-host transport; kept
@@ -24,6 +26,7 @@
 
 pub mod daemon;
 mod hostproto;
+pub mod linkemu;
 pub mod netlab;
 mod remote;
 pub mod supervise;

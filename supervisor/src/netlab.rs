@@ -1,10 +1,24 @@
 //! A three-machine lab on this one for `orchestrator bench`: network namespaces a, b and c joined
-//! by veth pairs to a bridge (198.18.77.0/24, the benchmarking range; the bridge itself is
-//! 198.18.77.254, so this process reaches them), a host daemon in each, and `tc netem` on their
-//! links. Needs root (CAP_NET_ADMIN); everything is removed when the lab is dropped.
+//! to a bridge (198.18.77.0/24, the benchmarking range; the bridge itself is 198.18.77.254, so
+//! this process reaches them), a host daemon in each, and a delay each namespace adds to what it
+//! sends. Needs root (CAP_NET_ADMIN); everything is removed when the lab is dropped.
+//!
+//! Each namespace's link to the bridge is one of ([`Links`]):
+//! - a veth pair, delayed by the kernel's `tc netem` on the namespace's end, where the kernel
+//!   has netem ([`netem_probe`]);
+//! - otherwise a TAP pair with the user-space pump of [`crate::linkemu`] between its ends, which
+//!   delays the frames the namespace sends. The pump is on every link, also when no delay is
+//!   set, so that a lab's rows with and without delay differ by the delay alone; its own latency
+//!   (against a veth) is what a caller measures apart (the bench does, with a second, veth lab).
+//!
+//! Either way a hop between two namespaces is delayed once per direction, so a delay d adds 2 d
+//! to a round trip between namespaces, and d to one between a namespace and this process.
 
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use crate::linkemu;
 
 pub const NAMES: [&str; 3] = ["a", "b", "c"];
 const BRIDGE_ADDR: &str = "198.18.77.254";
@@ -18,9 +32,41 @@ fn sh(args: &[&str]) -> Result<(), String> {
     }
 }
 
+/// What the lab's links are, and so what delays them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Links {
+    /// veth pairs; delay by the kernel's netem.
+    Veth,
+    /// TAP pairs with the user-space pump between their ends; delay in the pump.
+    Pumped,
+}
+
+impl Links {
+    /// As the bench's rows name it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Links::Veth => "veth, kernel netem",
+            Links::Pumped => "TAP pair, user-space pump",
+        }
+    }
+}
+
+/// Whether the kernel will put a netem qdisc on a device: tried on the loopback of a scratch
+/// namespace (so no real device is touched). `Err` says why not (e.g. no `sch_netem`).
+pub fn netem_probe() -> Result<(), String> {
+    let ns = format!("cblq{:05}", std::process::id() % 100_000);
+    sh(&["ip", "netns", "add", &ns])?;
+    let r = sh(&["ip", "netns", "exec", &ns, "tc", "qdisc", "add", "dev", "lo", "root", "netem", "delay", "1ms"]);
+    let _ = sh(&["ip", "netns", "del", &ns]);
+    r
+}
+
 pub struct Lab {
     tag: String,
+    links: Links,
     daemons: Vec<Child>,
+    /// The pumps of a `Pumped` lab, in the order of [`NAMES`].
+    pumps: Vec<linkemu::Link>,
 }
 
 impl Lab {
@@ -30,8 +76,12 @@ impl Lab {
     fn bridge(&self) -> String {
         format!("cblb{}", self.tag)
     }
-    fn veth(&self, x: &str) -> String {
-        format!("cblv{}{x}", self.tag)
+    /// Host `x`'s link: (its end on the bridge, its end in the namespace).
+    fn ends(&self, x: &str) -> (String, String) {
+        match self.links {
+            Links::Veth => (format!("cblv{}{x}", self.tag), format!("cblv{}{x}p", self.tag)),
+            Links::Pumped => (format!("cblt{}{x}o", self.tag), format!("cblt{}{x}", self.tag)),
+        }
     }
     pub fn addr(k: usize) -> String {
         format!("198.18.77.{}", k + 1)
@@ -40,11 +90,17 @@ impl Lab {
         format!("tcp/{}:7447", Self::addr(k))
     }
 
-    /// Make the namespaces and start a daemon in each (from this executable).
+    /// The lab with veth links where the kernel has netem, else with pumped links.
     pub fn start() -> Result<Self, String> {
+        Self::start_with(if netem_probe().is_ok() { Links::Veth } else { Links::Pumped })
+    }
+
+    /// Make the namespaces with `links` and start a daemon in each (from this executable).
+    pub fn start_with(links: Links) -> Result<Self, String> {
         let tag = format!("{:05}", std::process::id() % 100_000);
-        let mut lab = Lab { tag, daemons: Vec::new() };
-        lab.build().inspect_err(|_| lab.teardown())?;
+        // Dropped on any error below: the daemons started so far stop, everything made goes.
+        let mut lab = Lab { tag, links, daemons: Vec::new(), pumps: Vec::new() };
+        lab.build()?;
         let me = std::env::current_exe().map_err(|e| e.to_string())?;
         for (k, x) in NAMES.iter().enumerate() {
             let child = lab
@@ -63,30 +119,37 @@ impl Lab {
             .enumerate()
             .map(|(k, x)| cohort_scenario::HostSpec { name: (*x).into(), endpoint: Self::endpoint(k) })
             .collect();
-        let until = std::time::Instant::now() + std::time::Duration::from_secs(20);
+        let until = std::time::Instant::now() + Duration::from_secs(20);
         while let Err(e) = crate::remote::preflight(&hosts) {
             if std::time::Instant::now() > until {
                 return Err(format!("the lab's daemons did not come up: {e}"));
             }
-            std::thread::sleep(std::time::Duration::from_millis(200));
+            std::thread::sleep(Duration::from_millis(200));
         }
         Ok(lab)
     }
 
-    fn build(&self) -> Result<(), String> {
+    pub fn links(&self) -> Links {
+        self.links
+    }
+
+    fn build(&mut self) -> Result<(), String> {
         let br = self.bridge();
         sh(&["ip", "link", "add", &br, "type", "bridge"])?;
         sh(&["ip", "addr", "add", &format!("{BRIDGE_ADDR}/24"), "dev", &br])?;
         sh(&["ip", "link", "set", &br, "up"])?;
         for (k, x) in NAMES.iter().enumerate() {
-            let (ns, v, peer) = (self.ns(x), self.veth(x), format!("{}p", self.veth(x)));
+            let (ns, (outer, inner)) = (self.ns(x), self.ends(x));
             sh(&["ip", "netns", "add", &ns])?;
-            sh(&["ip", "link", "add", &v, "type", "veth", "peer", "name", &peer])?;
-            sh(&["ip", "link", "set", &peer, "netns", &ns])?;
-            sh(&["ip", "link", "set", &v, "master", &br])?;
-            sh(&["ip", "link", "set", &v, "up"])?;
-            sh(&["ip", "-n", &ns, "addr", "add", &format!("{}/24", Self::addr(k)), "dev", &peer])?;
-            sh(&["ip", "-n", &ns, "link", "set", &peer, "up"])?;
+            match self.links {
+                Links::Veth => sh(&["ip", "link", "add", &outer, "type", "veth", "peer", "name", &inner])?,
+                Links::Pumped => self.pumps.push(linkemu::Link::start(&inner, &outer, 0x5eed + k as u64)?),
+            }
+            sh(&["ip", "link", "set", &inner, "netns", &ns])?;
+            sh(&["ip", "link", "set", &outer, "master", &br])?;
+            sh(&["ip", "link", "set", &outer, "up"])?;
+            sh(&["ip", "-n", &ns, "addr", "add", &format!("{}/24", Self::addr(k)), "dev", &inner])?;
+            sh(&["ip", "-n", &ns, "link", "set", &inner, "up"])?;
             sh(&["ip", "-n", &ns, "link", "set", "lo", "up"])?;
         }
         Ok(())
@@ -95,7 +158,8 @@ impl Lab {
     fn teardown(&self) {
         for x in NAMES {
             let _ = sh(&["ip", "netns", "del", &self.ns(x)]);
-            let _ = sh(&["ip", "link", "del", &self.veth(x)]);
+            // A veth's other end (a TAP's goes with the pump, when it is dropped).
+            let _ = sh(&["ip", "link", "del", &self.ends(x).0]);
         }
         let _ = sh(&["ip", "link", "del", &self.bridge()]);
     }
@@ -107,25 +171,30 @@ impl Lab {
         c
     }
 
-    /// netem on every namespace's own end of its link (each direction of a namespace-to-namespace
-    /// hop is delayed once); `None` removes it.
-    pub fn netem(&self, args: Option<&[&str]>) -> Result<(), String> {
-        for x in NAMES {
-            let ns = self.ns(x);
-            let peer = format!("{}p", self.veth(x));
-            match args {
-                Some(a) => {
-                    let mut cmd =
-                        vec!["ip", "netns", "exec", &ns, "tc", "qdisc", "replace", "dev", &peer, "root", "netem"];
-                    cmd.extend_from_slice(a);
-                    sh(&cmd)?;
+    /// Every namespace delays what it sends by `delay` (each direction of a namespace-to-namespace
+    /// hop is delayed once); zero removes the delay. netem or the pump, as the lab's links are.
+    pub fn set_delay(&self, delay: Duration) -> Result<(), String> {
+        match self.links {
+            Links::Pumped => {
+                for p in &self.pumps {
+                    p.from_inner.set(delay, Duration::ZERO, 0.0);
                 }
-                None => {
-                    let _ = sh(&["ip", "netns", "exec", &ns, "tc", "qdisc", "del", "dev", &peer, "root"]);
+                Ok(())
+            }
+            Links::Veth => {
+                for x in NAMES {
+                    let (ns, (_, inner)) = (self.ns(x), self.ends(x));
+                    let tc = ["ip", "netns", "exec", &ns, "tc", "qdisc"];
+                    if delay.is_zero() {
+                        let _ = sh(&[&tc[..], &["del", "dev", &inner, "root"]].concat());
+                    } else {
+                        let us = format!("{}us", delay.as_micros());
+                        sh(&[&tc[..], &["replace", "dev", &inner, "root", "netem", "delay", &us]].concat())?;
+                    }
                 }
+                Ok(())
             }
         }
-        Ok(())
     }
 
     /// A hosts file: the plant on a, agents alternately on b and c.
@@ -156,5 +225,6 @@ impl Drop for Lab {
             let _ = d.wait();
         }
         self.teardown();
+        // The pumps (and their TAP devices) go after the namespaces, as the fields drop.
     }
 }
