@@ -32,6 +32,11 @@ use crate::record::{LatencyHist, ProcessReport, RosterChange, RunDirs, Telemetry
 
 /// Longest single blocking wait before re-polling.
 const POLL: Duration = Duration::from_millis(10);
+/// The same for an agent's wait for its first measurement, which lasts the whole start-up: the
+/// plant's wakeup ends it, the poll only covers a lost one. With every ready agent re-polling
+/// each 10 ms while the rest were spawned, start-up CPU grew as N² (a 256-agent ring: the late
+/// agents' start-up cost 3× the early ones').
+const POLL_BEFORE_START: Duration = Duration::from_millis(100);
 /// After this long in one wait, the process tells the orchestrator whom it is waiting for.
 const REPORT_WAITING_AFTER: Duration = Duration::from_millis(200);
 /// The plant reports progress at most this often.
@@ -404,7 +409,8 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
                     spin = Duration::ZERO;
                 }
             } else {
-                self.t.wait(POLL.min(limit.saturating_sub(waited)).max(Duration::from_micros(100)))?;
+                let poll = if step == 0 && kind == 0 { POLL_BEFORE_START } else { POLL };
+                self.t.wait(poll.min(limit.saturating_sub(waited)).max(Duration::from_micros(100)))?;
             }
         }
     }

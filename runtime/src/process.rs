@@ -155,11 +155,12 @@ pub fn child_main(
         }
     }
     debug!(
-        "scenario {:?}: {} agents, transport {:?}, run dir {}",
+        "scenario {:?}: {} agents, transport {:?}, run dir {} (CPU so far {:.1} ms)",
         scenario.scenario.name,
         scenario.n_agents(),
         scenario.run.transport,
-        spec.run_dir.display()
+        spec.run_dir.display(),
+        crate::record::cpu_and_rss().0 * 1e3
     );
     let topo = scenario.topology();
     let iox_run = IoxRun::new(run_id).with_key(key);
@@ -184,7 +185,7 @@ pub fn child_main(
             return ExitCode::from(EXIT_RUN_FAILED);
         }
     };
-    debug!("the run's services are open");
+    debug!("the run's services are open (CPU so far {:.1} ms)", crate::record::cpu_and_rss().0 * 1e3);
     let mut params = DriveParams::from_setup(&scenario, run_id, dirs.clone(), terminate, start);
     params.key = key;
     info!("ready ({} steps of {} s)", params.n_steps, params.dt_s);

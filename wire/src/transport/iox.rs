@@ -217,6 +217,12 @@ impl IoxRun {
         // N processes start or exit together, which at N = 100 stalled the last step ~190 ms.
         cfg.global.node.cleanup_dead_nodes_on_creation = false;
         cfg.global.node.cleanup_dead_nodes_on_destruction = false;
+        // Likewise every service open checked each node registered in the service for life: the
+        // run-wide services (control, status, the plant's wakeup) hold every process's node, so
+        // at N = 256 the last agent spent 68 ms opening its ports against 7 ms for the first,
+        // and start-up CPU grew as N². A relaunched agent finds its dead predecessor's ports
+        // still registered: every limit has spare places for that (`IoxServices::create`).
+        cfg.global.service.cleanup_dead_nodes_on_open = false;
         Ok(cfg)
     }
     fn service(&self, what: &str) -> Result<ServiceName, TransportError> {
@@ -804,5 +810,31 @@ impl DataPath for IoxData {
     }
     fn keeps_ports_until_stopped(&self) -> bool {
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// iceoryx2's dead-node scans cost O(nodes) on every node creation, node drop and service
+    /// open, so O(N²) for a run's start-up (a 256-agent ring took 20 s to start with them, 3.4 s
+    /// without); the orchestrator cleans up instead. A default that comes back is caught here.
+    #[test]
+    fn every_dead_node_scan_is_off() {
+        let cfg = IoxRun::new(1).config().unwrap();
+        assert!(!cfg.global.node.cleanup_dead_nodes_on_creation);
+        assert!(!cfg.global.node.cleanup_dead_nodes_on_destruction);
+        assert!(!cfg.global.service.cleanup_dead_nodes_on_open);
+    }
+
+    /// The longest root this user could get still leaves room for iceoryx2's socket names.
+    #[test]
+    fn the_default_root_fits_a_socket_path() {
+        if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+            let run = IoxRun::new(u64::MAX);
+            assert!(run.root_dir().as_os_str().len() <= MAX_ROOT_DIR_LEN, "{}", run.root_dir().display());
+            assert!(run.check_root_len().is_ok());
+        }
     }
 }
