@@ -7,7 +7,8 @@
 //! [`Vtxo`] its registry entry (host side: [`analysis`], [`figures`]). Scenarios:
 //! `topologies/vtxo*.toml`.
 //!
-//! What is here (the flight layer; the supervisor and the DNNs are not):
+//! What is here (the flight layer and the Sec. 8 supervisor, [`supervisor`] and [`mission`]; the
+//! DNNs are not):
 //! - the truth: [`plant::VtxoPlant`] (orbits, attitude, actuators, disturbances, sensors);
 //! - the agents: [`leader::Leader`] and [`follower::Follower`] (MEKF, attitude laws, relative
 //!   navigation and the relative-position laws), exchanging [`share`] values every step;
@@ -35,6 +36,10 @@ pub mod layout;
 pub mod leader;
 pub mod mekf;
 pub mod metrics;
+pub mod mission;
+pub mod mission_config;
+pub mod mission_figure;
+pub mod mission_kind;
 pub mod orbit;
 pub mod orbit_setup;
 pub mod plant;
@@ -46,6 +51,12 @@ pub mod sec7;
 pub mod sensors;
 pub mod share;
 pub mod sim;
+pub mod supervisor;
+pub mod supervisor_check;
+pub mod supervisor_exec;
+pub mod supervisor_lockstep;
+pub mod supervisor_share;
+pub mod transient_gains;
 pub mod verdict;
 
 use std::path::{Path, PathBuf};
@@ -72,7 +83,7 @@ impl Paper for Vtxo {
         &[&kinds::VtxoPlantKind]
     }
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
-        &[&kinds::VtxoFormationKind]
+        &[&kinds::VtxoFormationKind, &mission_kind::VtxoMissionKind]
     }
 }
 
@@ -141,6 +152,9 @@ impl PaperHost for Vtxo {
         analysis::analyse(run.dirs)
     }
     fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
+        if setup.algorithm_as::<mission_config::VtxoMissionConfig>().is_some() {
+            return Some(Box::new(mission_figure::MissionFigures));
+        }
         let p = setup.plant_as::<VtxoPlantConfig>()?;
         Some(Box::new(figures::VtxoFigures::of(p)))
     }
