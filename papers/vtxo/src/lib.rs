@@ -46,6 +46,14 @@ pub mod sec7;
 pub mod sensors;
 pub mod share;
 pub mod sim;
+pub mod transient_data;
+pub mod transient_dnn;
+pub mod transient_mc;
+pub mod transient_sa;
+pub mod transient_sim;
+pub mod transient_stats;
+pub mod transient_train;
+pub mod transient_trainer;
 pub mod verdict;
 
 use std::path::{Path, PathBuf};
@@ -104,6 +112,9 @@ enum VtxoCmd {
         #[arg(long)]
         no_ablation: bool,
     },
+    /// Closed-loop transient Monte Carlo (Sec. 5.1): fresh draws flown with the DNN's gains and
+    /// duration and with simulated annealing's; P99(e), P99(E) against the paper's bounds.
+    TransientMc(transient_trainer::McArgs),
 }
 
 impl PaperHost for Vtxo {
@@ -126,7 +137,19 @@ impl PaperHost for Vtxo {
                 let md = sec7::run(&o, launcher).map_err(CommandError::failed)?;
                 Ok(format!("{md}\nwritten: {}", o.out.join("sec7.md").display()))
             }
+            VtxoCmd::TransientMc(a) => transient_trainer::run_mc(&a),
         }
+    }
+    fn trainers(&self) -> Vec<clap::Command> {
+        transient_trainer::commands()
+    }
+    fn trainer_env(&self, _name: &str) -> Vec<(&'static str, &'static str)> {
+        // candle threads its CPU matrix products by this; one thread is the fastest on these
+        // small matrices, and the bytes written do not depend on it.
+        vec![("RAYON_NUM_THREADS", "1")]
+    }
+    fn run_trainer(&self, name: &str, matches: &clap::ArgMatches) -> Result<String, CommandError> {
+        transient_trainer::run(name, matches)
     }
     fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
         verdict::lines(input)
