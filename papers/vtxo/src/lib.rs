@@ -7,8 +7,9 @@
 //! [`Vtxo`] its registry entry (host side: [`analysis`], [`figures`]). Scenarios:
 //! `topologies/vtxo*.toml`.
 //!
-//! What is here (the flight layer and the Sec. 8 supervisor, [`supervisor`] and [`mission`]; the
-//! DNNs are not):
+//! What is here (the flight layer, the Sec. 8 supervisor, [`supervisor`] and [`mission`], and the
+//! Sec. 3.2.1 transient gain search with its DNN, [`transient_sa`] and [`transient_dnn`]; the
+//! science DNN is not):
 //! - the truth: [`plant::VtxoPlant`] (orbits, attitude, actuators, disturbances, sensors);
 //! - the agents: [`leader::Leader`] and [`follower::Follower`] (MEKF, attitude laws, relative
 //!   navigation and the relative-position laws), exchanging [`share`] values every step;
@@ -56,7 +57,15 @@ pub mod supervisor_check;
 pub mod supervisor_exec;
 pub mod supervisor_lockstep;
 pub mod supervisor_share;
+pub mod transient_data;
+pub mod transient_dnn;
 pub mod transient_gains;
+pub mod transient_mc;
+pub mod transient_sa;
+pub mod transient_sim;
+pub mod transient_stats;
+pub mod transient_train;
+pub mod transient_trainer;
 pub mod verdict;
 
 use std::path::{Path, PathBuf};
@@ -115,6 +124,9 @@ enum VtxoCmd {
         #[arg(long)]
         no_ablation: bool,
     },
+    /// Closed-loop transient Monte Carlo (Sec. 5.1): fresh draws flown with the DNN's gains and
+    /// duration and with simulated annealing's; P99(e), P99(E) against the paper's bounds.
+    TransientMc(transient_trainer::McArgs),
 }
 
 impl PaperHost for Vtxo {
@@ -137,7 +149,19 @@ impl PaperHost for Vtxo {
                 let md = sec7::run(&o, launcher).map_err(CommandError::failed)?;
                 Ok(format!("{md}\nwritten: {}", o.out.join("sec7.md").display()))
             }
+            VtxoCmd::TransientMc(a) => transient_trainer::run_mc(&a),
         }
+    }
+    fn trainers(&self) -> Vec<clap::Command> {
+        transient_trainer::commands()
+    }
+    fn trainer_env(&self, _name: &str) -> Vec<(&'static str, &'static str)> {
+        // candle threads its CPU matrix products by this; one thread is the fastest on these
+        // small matrices, and the bytes written do not depend on it.
+        vec![("RAYON_NUM_THREADS", "1")]
+    }
+    fn run_trainer(&self, name: &str, matches: &clap::ArgMatches) -> Result<String, CommandError> {
+        transient_trainer::run(name, matches)
     }
     fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
         verdict::lines(input)
