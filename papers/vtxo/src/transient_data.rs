@@ -76,7 +76,7 @@ pub fn draw(seed: u64, index: u64) -> (Start, f64, ChaCha8Rng) {
     let mut q = Quat::from_fn(|_, _| rng.random_range(-1.0..1.0));
     q[3] = q[3].abs();
     let q = q.normalize();
-    let n = Normal::new(0.0, 0.6).expect("σ > 0");
+    let n = Normal::new(0.0, crate::transient_gains::OMEGA0_SIGMA_RAD_S).expect("σ > 0");
     let omega = V3::from_fn(|_, _| n.sample(&mut rng));
     let u: f64 = rng.random();
     let w = if u < W_ODDS[0] {

@@ -208,6 +208,17 @@ impl TransientDnn {
 /// The committed weights, relative to the repository root.
 pub const COMMITTED: &str = "papers/vtxo/weights/transient.safetensors";
 
+/// The DNN as the supervisor's source of u2 = T and the transient gains
+/// ([`crate::transient_gains`]), each spacecraft predicting from its own measured state.
+impl crate::transient_gains::TransientPredictor for TransientDnn {
+    fn predict(&self, x: &crate::transient_gains::MeasuredState, w: f64) -> crate::transient_gains::TransientGains {
+        let [q1, q2, q3, q4] = x.q_body_eci;
+        let [w1, w2, w3] = x.omega_body_rad_s;
+        let p = TransientDnn::predict(self, &Quat::new(q1, q2, q3, q4), &V3::new(w1, w2, w3), w);
+        crate::transient_gains::TransientGains { k1: p.k1, k2: p.k2, t_s: p.duration_s }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -291,5 +302,17 @@ mod tests {
         d.w2[4] = f64::NAN;
         let e = TransientDnn::from_bytes(&d.to_bytes(), Path::new("n.safetensors")).expect_err("nan");
         assert!(e.reason.contains("\"w2\"") && e.reason.contains("not finite"), "{e}");
+    }
+
+    #[test]
+    fn the_dnn_is_the_supervisors_transient_predictor() {
+        use crate::transient_gains::{MeasuredState, TransientPredictor};
+        let d =
+            TransientDnn::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("weights/transient.safetensors")).unwrap();
+        let x = MeasuredState { q_body_eci: [0.3, -0.2, 0.5, 0.78], omega_body_rad_s: [0.4, -0.6, 0.2] };
+        let direct = TransientDnn::predict(&d, &Quat::new(0.3, -0.2, 0.5, 0.78), &V3::new(0.4, -0.6, 0.2), 4.5);
+        let via: &dyn TransientPredictor = &d;
+        let g = via.predict(&x, 4.5);
+        assert_eq!((g.k1, g.k2, g.t_s), (direct.k1, direct.k2, direct.duration_s));
     }
 }
