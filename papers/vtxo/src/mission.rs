@@ -29,7 +29,7 @@ use crate::supervisor_share::{LeaderShare, MasterShare};
 use crate::transient_gains::{TransientGains, TransientPredictor, draw_entry_state, u2_ticks};
 
 /// The mission's inputs in ticks.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MissionParams {
     pub tick_s: f64,
     pub u1: u64,

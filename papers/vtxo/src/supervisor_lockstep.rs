@@ -27,15 +27,8 @@ use crate::transient_gains::{MeasuredState, TransientGains, TransientPredictor, 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SupervisorAgent {
     pub master: bool,
-    pub tick_s: f64,
-    pub u1: u64,
-    pub u3: Vec<u64>,
-    pub window: u64,
-    pub reach: u64,
-    pub last_object: u32,
-    pub w: f64,
-    pub t_min_s: f64,
-    pub t_max_s: f64,
+    /// The mission's inputs in ticks, as the event-by-event run has them.
+    pub p: MissionParams,
     /// The fixed predictor's answer (the DNN's place).
     pub gains: (f64, f64, f64),
     pub sup: Supervisor,
@@ -54,15 +47,7 @@ impl SupervisorAgent {
         let x = &cfg.transient;
         Self {
             master: id == 2,
-            tick_s,
-            u1: p.u1,
-            u3: p.u3,
-            window: p.window,
-            reach: p.reach,
-            last_object: p.last_object,
-            w: p.w,
-            t_min_s: p.t_min_s,
-            t_max_s: p.t_max_s,
+            p,
             gains: (x.k1, x.k2, x.t_s),
             sup: Supervisor::new(&a),
             u2: 0,
@@ -79,30 +64,30 @@ impl SupervisorAgent {
             MeasuredState { q_body_eci: [q[0], q[1], q[2], q[3]], omega_body_rad_s: [g[0], g[1], g[2]] }
         });
         let (k1, k2, t_s) = self.gains;
-        crate::transient_gains::FixedTransient(TransientGains { k1, k2, t_s }).predict(&x, self.w)
+        crate::transient_gains::FixedTransient(TransientGains { k1, k2, t_s }).predict(&x, self.p.w)
     }
 
     fn inputs(&self) -> Inputs {
         Inputs {
-            u1: self.u1,
+            u1: self.p.u1,
             u2: self.u2,
-            u3: self.u3.clone(),
-            u4: self.reach,
-            window: self.window,
-            formation: !(self.sup.state == S4 && self.sup.clocks[S4] < self.reach),
+            u3: self.p.u3.clone(),
+            u4: self.p.reach,
+            window: self.p.window,
+            formation: !(self.sup.state == S4 && self.sup.clocks[S4] < self.p.reach),
         }
     }
 
     /// The master's transitions at this instant (at most one per location, a bounded chain).
     fn master_fire(&mut self, r: Option<&Readings>) {
-        let a = Automaton::vtxo(self.last_object);
+        let a = Automaton::vtxo(self.p.last_object);
         for _ in 0..a.states.len() {
             let i = self.inputs();
             let Some((0, k)) = self.sup.next(&a, &i) else { break };
             self.sup.fire(&a, k);
             if self.sup.state == S2 {
                 self.t_hat_s = self.predict(r).t_s;
-                self.u2 = u2_ticks(self.t_hat_s, self.t_hat_s, self.t_min_s, self.t_max_s, self.tick_s);
+                self.u2 = u2_ticks(self.t_hat_s, self.t_hat_s, self.p.t_min_s, self.p.t_max_s, self.p.tick_s);
             }
         }
     }
@@ -152,21 +137,21 @@ impl Algorithm for SupervisorAgent {
             if self.master {
                 if let Some(l) = LeaderShare::read(n.values).filter(|l| l.t_hat_s > 0.0 && self.sup.state == S2) {
                     self.leader_t_hat_s = l.t_hat_s;
-                    self.u2 = u2_ticks(l.t_hat_s, self.t_hat_s, self.t_min_s, self.t_max_s, self.tick_s);
+                    self.u2 = u2_ticks(l.t_hat_s, self.t_hat_s, self.p.t_min_s, self.p.t_max_s, self.p.tick_s);
                 }
             } else {
                 self.master_share = Some(n.values.to_vec());
             }
         }
-        let a = Automaton::vtxo(self.last_object);
-        let ticks = (dt_s / self.tick_s).round().max(0.0) as u64;
+        let a = Automaton::vtxo(self.p.last_object);
+        let ticks = (dt_s / self.p.tick_s).round().max(0.0) as u64;
         self.sup.advance(&a, ticks);
     }
 
     fn row(&self, out: &mut Vec<f64>) {
         out.extend([self.sup.state as f64, f64::from(self.sup.id)]);
-        out.extend(self.sup.clocks.iter().map(|c| *c as f64 * self.tick_s));
-        out.extend([self.u2 as f64 * self.tick_s, self.t_hat_s]);
+        out.extend(self.sup.clocks.iter().map(|c| *c as f64 * self.p.tick_s));
+        out.extend([self.u2 as f64 * self.p.tick_s, self.t_hat_s]);
     }
 }
 
