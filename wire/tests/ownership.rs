@@ -142,4 +142,6 @@ fn a_directory_someone_else_owns_or_can_enter_is_refused_with_the_reason() {
     let _ = std::fs::remove_file(&link);
     let _ = std::fs::remove_dir_all(&dir);
     assert!(ensure_user_base().is_ok());
+    // Leave no empty base behind (a run in another test keeps it: rmdir refuses then).
+    let _ = std::fs::remove_dir(user_base());
 }

@@ -162,7 +162,15 @@ impl Drop for RunClaim {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.path);
         let _ = &self.file; // the lock goes with the descriptor, after the file is gone
+        remove_user_base_if_empty();
     }
+}
+
+/// Remove this user's base directory once no run is in it (`rmdir` refuses a non-empty one, so
+/// a concurrent run keeps it): nothing of ours stays in `/dev/shm` after the last run. A run
+/// that is setting up meanwhile creates it again ([`IoxRun::claim`] retries).
+fn remove_user_base_if_empty() {
+    let _ = std::fs::remove_dir(user_base());
 }
 
 /// The names and locations of one run's iceoryx2 resources, and its MAC key when
@@ -263,6 +271,7 @@ impl IoxRun {
             removed += count_files(&root);
             let _ = std::fs::remove_dir_all(&root);
         }
+        remove_user_base_if_empty();
         removed
     }
 
@@ -271,17 +280,26 @@ impl IoxRun {
     /// place, so a sweeping orchestrator never finds it unlocked while the run is set up.
     pub fn claim(&self) -> Result<RunClaim, TransportError> {
         use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt};
-        let base = ensure_user_base()?;
         self.check_root_len()?;
         let err = |what: &str, e: std::io::Error| TransportError::Other(format!("{what}: {e}"));
-        let tmp = base.join(format!(".claim-{:016x}-{}", self.run_id, std::process::id()));
-        let file = std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .mode(0o600)
-            .custom_flags(libc::O_NOFOLLOW)
-            .open(&tmp)
-            .map_err(|e| err(&tmp.display().to_string(), e))?;
+        // The base may vanish between its check and the first file in it (the last run of
+        // another orchestrator removing it as it ends): then make it again.
+        let mut attempts = 0;
+        let (tmp, file) = loop {
+            let base = ensure_user_base()?;
+            let tmp = base.join(format!(".claim-{:016x}-{}", self.run_id, std::process::id()));
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .mode(0o600)
+                .custom_flags(libc::O_NOFOLLOW)
+                .open(&tmp)
+            {
+                Ok(file) => break (tmp, file),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound && attempts < 3 => attempts += 1,
+                Err(e) => return Err(err(&tmp.display().to_string(), e)),
+            }
+        };
         if !try_lock(&file).map_err(|e| err("flock", e))? {
             let _ = std::fs::remove_file(&tmp);
             return Err(TransportError::Other(format!("{}: locked by another process", tmp.display())));
