@@ -44,6 +44,7 @@ pub mod relative;
 pub mod scp;
 pub mod sim;
 pub mod sn_dnn;
+pub mod swarm_obs;
 pub mod tracking;
 pub mod train;
 pub mod trainer;
