@@ -76,6 +76,8 @@ struct Sample {
     solver_p50_us: Option<f64>,
     solver_p99_us: Option<f64>,
     solver_max_us: Option<f64>,
+    /// Every process's waits for messages, summed (how adaptive waiting spun or blocked).
+    wait: cohort_runtime::record::WaitStats,
 }
 
 #[derive(Debug, Serialize)]
@@ -487,7 +489,13 @@ fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
         solver_max.push(st.solve_time_max_s * 1e6);
     }
     let largest = |xs: &[f64]| xs.iter().copied().reduce(f64::max);
+    let mut wait = cohort_runtime::record::WaitStats::default();
     for p in &summary.processes {
+        wait.waits += p.wait.waits;
+        wait.spun += p.wait.spun;
+        wait.spin_stalls += p.wait.spin_stalls;
+        wait.spin_expired += p.wait.spin_expired;
+        wait.spin_s += p.wait.spin_s;
         if p.process == "plant" {
             plant_cpu = per_k(p.cpu_s);
             plant_rss = p.max_rss_kb as f64 / 1024.0;
@@ -524,6 +532,7 @@ fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
         solver_p50_us: (!solver_p50.is_empty()).then(|| median(&mut solver_p50)),
         solver_p99_us: largest(&solver_p99),
         solver_max_us: largest(&solver_max),
+        wait,
     }
 }
 
@@ -675,6 +684,20 @@ fn mac_markdown(a: &[Aggregate], mac: &[(usize, (f64, f64))]) -> String {
             ratios.iter().map(|r| format!("{r:.2}")).collect::<Vec<_>>().join(", "),
             if ratio <= 1.2 { "met" } else { "not met" }
         );
+        md.push_str(
+            "\nWaits of every process, summed, per repetition (a wait is one that did not find its messages at once):\n\n\
+             | wait | waits | spun | stalled spins | expired spins | spinning s | wall s |\n|---|---|---|---|---|---|---|\n",
+        );
+        for (label, agg) in [("event", ev), ("adaptive", ad)] {
+            for x in &agg.samples {
+                let w = &x.wait;
+                let _ = writeln!(
+                    md,
+                    "| {label} | {} | {} | {} | {} | {:.3} | {:.2} |",
+                    w.waits, w.spun, w.spin_stalls, w.spin_expired, w.spin_s, x.wall_s
+                );
+            }
+        }
     }
     let _ = writeln!(md, "\n## run.authenticate (keyed BLAKE3 MAC on every message)\n");
     if let (Some(off), Some(on)) = (get(a, "ring/N=6/adaptive"), get(a, "mac/N=6/adaptive+authenticate")) {

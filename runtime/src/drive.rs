@@ -28,7 +28,9 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::checkpoint::{AgentState, Checkpoint};
 use crate::model::{AgentInput, Algorithm, Neighbour, PlantModel, ShareOut};
-use crate::record::{LatencyHist, ProcessReport, RosterChange, RunDirs, TelemetryWriter, TimingWriter, reject_map};
+use crate::record::{
+    LatencyHist, ProcessReport, RosterChange, RunDirs, TelemetryWriter, TimingWriter, WaitStats, reject_map,
+};
 
 /// Longest single blocking wait before re-polling.
 const POLL: Duration = Duration::from_millis(10);
@@ -216,11 +218,14 @@ pub const ADAPTIVE_CAP_US: f64 = 2000.0;
 /// the peer it waits for. A peer's step that would end a spin is microseconds (a slower one makes
 /// the typical wait exceed [`ADAPTIVE_CAP_US`], which stops spinning anyway).
 pub const YIELD_STALL: Duration = Duration::from_millis(1);
-/// After a stalled yield, the next waits block without spinning: this many, doubled for every
-/// further spinning wait that stalls in a row (up to [`BACKOFF_MAX`]); a spin that completes
-/// without a stall resets it. A lone stall (another user's burst) costs a few blocking waits.
+/// After a stalled yield, the next waits block without spinning: at least this many, at most
+/// [`BACKOFF_MAX`], growing by [`BACKOFF_GROWTH`] per stall and halving per clean spin
+/// ([`Contention`]).
 const BACKOFF_MIN: u32 = 16;
 const BACKOFF_MAX: u32 = 4096;
+/// Growth of the back-off per stalled spin; a clean spin halves it, so spinning goes on being
+/// tried often only while fewer than one spin in three stalls (4^(1−f)·2^(−f) < 1 ⇔ f < 1/3).
+const BACKOFF_GROWTH: u32 = 4;
 /// Weight of the newest wait in the running typical wait.
 const ADAPTIVE_EWMA: f64 = 0.1;
 /// Spin for up to this many typical waits.
@@ -272,17 +277,26 @@ struct Waiter<'a, T: Transport + ?Sized> {
     /// Running typical wait, µs, per kind of wait (measurement, share): adaptive spinning.
     typical_wait_us: [f64; 2],
     contention: Contention,
+    stats: WaitStats,
     events: Vec<RunControl>,
 }
 
 /// Adaptive waiting's view of CPU contention: whether spinning pays on this machine right now.
+///
+/// A stalled spin costs a scheduler slice (milliseconds); a spin that pays saves a wake-up
+/// (tens of µs). So spinning is worth trying again only when stalls are rare: each stalled spin
+/// multiplies the number of waits that block before the next try by [`BACKOFF_GROWTH`] (from
+/// [`BACKOFF_MIN`] up to [`BACKOFF_MAX`]), each clean one only halves it. Under sustained
+/// contention, where even one spin in three stalls, the gap grows to its maximum and the process
+/// waits as `event` would, trying a spin once in [`BACKOFF_MAX`] waits; on an idle machine a lone
+/// stall (another user's burst) is forgotten after a few clean spins.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct Contention {
-    /// Spinning waits that stalled in a row.
-    streak: u32,
+    /// Waits to block between two spinning waits: the back-off's memory of recent stalls.
+    gap: u32,
     /// Waits left to block without spinning.
     skip: u32,
-    /// Stalled spins so far (reported as `spin_stalls`).
+    /// Stalled spins so far.
     pub stalls: u64,
 }
 
@@ -299,10 +313,10 @@ impl Contention {
     fn spun(&mut self, stalled: bool) {
         if stalled {
             self.stalls += 1;
-            self.skip = BACKOFF_MIN.checked_shl(self.streak).unwrap_or(BACKOFF_MAX).min(BACKOFF_MAX);
-            self.streak = self.streak.saturating_add(1);
+            self.gap = self.gap.saturating_mul(BACKOFF_GROWTH).clamp(BACKOFF_MIN, BACKOFF_MAX);
+            self.skip = self.gap;
         } else {
-            self.streak = 0;
+            self.gap /= 2;
         }
     }
 }
@@ -316,6 +330,7 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
             timeouts: 0,
             typical_wait_us: [0.0; 2],
             contention: Contention::default(),
+            stats: WaitStats::default(),
             events: Vec::new(),
         }
     }
@@ -350,6 +365,8 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
         let mut stalled = false;
         let mut reported = false;
         let mut spins = 0u32;
+        let mut first = true;
+        let mut spin_ended: Option<Instant> = None;
         loop {
             self.t.drain(&mut |inc| inbox.take(inc))?;
             if inbox.complete() {
@@ -358,8 +375,17 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
                 if spun && adaptive {
                     self.contention.spun(stalled);
                 }
+                if !first {
+                    self.stats.count(
+                        spun,
+                        stalled,
+                        spin_ended.is_some(),
+                        spin_ended.unwrap_or_else(Instant::now) - started,
+                    );
+                }
                 return Ok(());
             }
+            first = false;
             if inbox.fresh() {
                 silent_since = Instant::now();
             }
@@ -370,6 +396,9 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
                 return Err(RunError::Timeout { step, from, what, after_s: waited.as_secs_f64() });
             }
             let spinning = started.elapsed() < spin;
+            if spun && !spinning && spin_ended.is_none() {
+                spin_ended = Some(Instant::now());
+            }
             spins = spins.wrapping_add(1);
             // While spinning, look at the control service only now and then: it is not free.
             if !spinning || spins.is_multiple_of(1024) {
@@ -456,6 +485,7 @@ fn new_report(me: Proc, p: &DriveParams) -> ProcessReport {
         received_from: Default::default(),
         latency_from_ns: Default::default(),
         solver: None,
+        wait: Default::default(),
     }
 }
 
@@ -830,6 +860,7 @@ fn plant_loop<T: Transport + ?Sized>(
     })();
     report.wall_s = loop_start.elapsed().as_secs_f64();
     report.timeouts = waiter.timeouts;
+    report.wait = waiter.stats;
     report.messages_received = inbox.received;
     report.messages_rejected = reject_map(&inbox.rejects);
     report.faults.late = inbox.late;
@@ -1468,6 +1499,7 @@ fn agent_loop<T: Transport + ?Sized>(
         Ok(())
     })();
     report.timeouts = waiter.timeouts;
+    report.wait = waiter.stats;
     report.messages_received = inbox.received;
     report.messages_rejected = reject_map(&inbox.rejects);
     report.received_from.insert("plant".into(), inbox.from_plant);
@@ -1757,24 +1789,40 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn contention_stops_spinning_for_longer_the_longer_it_lasts_and_a_good_spin_resets_it() {
+    fn contention_backs_off_while_stalls_are_common_and_forgets_a_lone_one() {
+        let blocked = |c: &mut Contention| (0..10_000).take_while(|_| !c.may_spin()).count();
         let mut c = Contention::default();
         assert!(c.may_spin());
         c.spun(true);
-        let blocked = (0..100).take_while(|_| !c.may_spin()).count();
-        assert_eq!(blocked, BACKOFF_MIN as usize);
+        assert_eq!(blocked(&mut c), BACKOFF_MIN as usize);
         c.spun(true);
-        let blocked = (0..100).take_while(|_| !c.may_spin()).count();
-        assert_eq!(blocked, 2 * BACKOFF_MIN as usize);
-        for _ in 0..40 {
+        assert_eq!(blocked(&mut c), (BACKOFF_GROWTH * BACKOFF_MIN) as usize);
+        // Sustained contention where every other spin stalls still grows the gap to its maximum.
+        for _ in 0..20 {
+            c.spun(false);
             c.spun(true);
         }
-        assert_eq!(c.skip, BACKOFF_MAX);
-        c.skip = 0;
-        c.spun(false);
+        assert_eq!(blocked(&mut c), BACKOFF_MAX as usize);
+        // A lone stall on an idle machine: a few clean spins forget it.
+        let mut c = Contention::default();
         c.spun(true);
-        assert_eq!(c.skip, BACKOFF_MIN, "a spin without a stall resets the back-off");
-        assert_eq!(c.stalls, 43);
+        for _ in 0..5 {
+            c.spun(false);
+        }
+        c.spun(true);
+        assert_eq!(blocked(&mut c), BACKOFF_MIN as usize);
+        assert_eq!(c.stalls, 2);
+    }
+
+    #[test]
+    fn wait_stats_count_spins_stalls_and_expiries() {
+        let mut w = WaitStats::default();
+        w.count(false, false, false, Duration::ZERO);
+        w.count(true, false, false, Duration::from_micros(30));
+        w.count(true, true, true, Duration::from_millis(2));
+        w.count(true, false, true, Duration::from_micros(80));
+        assert_eq!((w.waits, w.spun, w.spin_stalls, w.spin_expired), (4, 3, 1, 1));
+        assert!((w.spin_s - 2.11e-3).abs() < 1e-12, "{}", w.spin_s);
     }
 
     fn fault(kind: &str, agent: u32, t_s: f64) -> cohort_scenario::faults::FaultSpec {

@@ -299,6 +299,42 @@ pub struct ProcessReport {
     /// times (see [`crate::model::Algorithm::solver_stats`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solver: Option<crate::solver_stats::SolverStats>,
+    /// How this process's waits for messages went (spinning against blocking): what adaptive
+    /// waiting decided and what it cost.
+    #[serde(default)]
+    pub wait: WaitStats,
+}
+
+/// A process's waits for its messages (measurements or shares), counted by the step loop.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct WaitStats {
+    /// Waits that found their messages incomplete at first and so waited.
+    pub waits: u64,
+    /// Of those, waits that spun (drained and yielded the CPU) before blocking.
+    pub spun: u64,
+    /// Spinning waits cut short because a yield came back only after another program had held
+    /// the core for a scheduler slice (the machine is contended).
+    pub spin_stalls: u64,
+    /// Spinning waits whose spin budget ran out before the messages came (they then blocked).
+    pub spin_expired: u64,
+    /// Wall time spent spinning, s.
+    pub spin_s: f64,
+}
+
+impl WaitStats {
+    /// One wait that did not find its messages at once: whether it `spun`, whether one of its
+    /// yields `stalled`, whether it blocked after spinning (`blocked_after_spin`), and how long it
+    /// spun.
+    pub fn count(&mut self, spun: bool, stalled: bool, blocked_after_spin: bool, spin: std::time::Duration) {
+        self.waits += 1;
+        if spun {
+            self.spun += 1;
+            self.spin_stalls += u64::from(stalled);
+            self.spin_expired += u64::from(blocked_after_spin && !stalled);
+            self.spin_s += spin.as_secs_f64();
+        }
+    }
 }
 
 impl ProcessReport {
@@ -322,6 +358,7 @@ impl ProcessReport {
             received_from: Default::default(),
             latency_from_ns: Default::default(),
             solver: None,
+            wait: WaitStats::default(),
         }
     }
 }

@@ -314,6 +314,7 @@ pub fn launch(s: &Setup, dirs: &RunDirs, ctx: &CoupledCtx<'_>) -> CoupledOutcome
         received_from: Default::default(),
         latency_from_ns: Default::default(),
         solver: None,
+        wait: Default::default(),
     };
     let mut write_errors = Vec::new();
     for rep in [report("plant", metrics), report("agent-1", BTreeMap::new())] {
