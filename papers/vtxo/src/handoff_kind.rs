@@ -157,3 +157,68 @@ impl AlgorithmSetup for HandoffSetup {
         self
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use cohort_runtime::paper::{Paper, configure};
+    use cohort_scenario::{Overrides, parse};
+
+    use super::*;
+    use crate::plant::VtxoPlant;
+    use crate::sim::Sim;
+
+    const PAPERS: &[&dyn Paper] = &[&crate::Vtxo];
+
+    fn configured(text: &str) -> Result<Setup, String> {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies");
+        let s = parse(text, &dir.join("x.toml"), &Overrides::default()).map_err(|e| e.to_string())?;
+        configure(s, PAPERS).map_err(|p| p.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n"))
+    }
+
+    fn sim(s: &Setup) -> Sim {
+        let p = s.plant_as::<VtxoPlantConfig>().unwrap();
+        let plant = VtxoPlant::new(p, s.scenario.dt_s, s.scenario.seed);
+        let agents = (1..=2).map(|id| s.algorithm.build(s, id)).collect();
+        Sim::from_parts(plant, agents, s.scenario.dt_s, s.scenario.seed)
+    }
+
+    fn rows(s: &mut Sim, n: u64) -> Vec<u64> {
+        let mut out = Vec::new();
+        s.run_with(n, &mut |_, _, agents| {
+            for a in agents {
+                let mut r = Vec::new();
+                a.row(&mut r);
+                out.extend(r.iter().map(|x| x.to_bits()));
+            }
+        });
+        out
+    }
+
+    /// The shipped scenario resolves its weights path and configures to itself; agents restored
+    /// from a checkpoint taken inside s2 (with fresh predictors from the setup) fly on bit for bit.
+    #[test]
+    fn the_weights_resolve_and_a_checkpoint_inside_the_transient_round_trips() {
+        let text =
+            std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies/vtxo-handoff.toml"))
+                .unwrap()
+                .replace("stabilisation_s = 30.0", "stabilisation_s = 1.0");
+        let s = configured(&text).unwrap();
+        let a = s.algorithm_as::<HandoffSetup>().unwrap();
+        assert!(a.config.handoff.transient_weights.as_ref().unwrap().is_absolute() && a.dnn.is_some());
+        let again = configured(&s.to_toml().unwrap()).unwrap();
+        assert_eq!(again.algorithm_as::<HandoffSetup>().unwrap().config, a.config);
+        let (mut x, mut y) = (sim(&s), sim(&s));
+        x.run(150);
+        y.run(150);
+        // Into fresh agents (in s1, no prediction yet) the state of step 150 (in s2 since step 100).
+        let saved: Vec<Vec<u8>> = y.agents.iter().map(|g| g.save_state()).collect();
+        y.agents = (1..=2).map(|id| s.algorithm.build(&s, id)).collect();
+        for (g, b) in y.agents.iter_mut().zip(&saved) {
+            g.restore_state(b).unwrap();
+        }
+        assert_eq!(rows(&mut x, 50), rows(&mut y, 50));
+        assert!(y.agents[1].restore_state(&saved[1][..saved[1].len() / 2]).is_err());
+    }
+}
