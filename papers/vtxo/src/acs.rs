@@ -39,10 +39,19 @@ impl Acs {
             None => self.mekf = Some(Mekf::new(self.variant, self.model.clone(), &q_meas, &r.gyro_rad_s)),
             Some(f) => f.update(&q_meas, &r.gyro_rad_s),
         }
-        let f = self.mekf.as_ref().expect("set just above");
+        self.command()
+    }
+
+    /// The current law's torque on the current estimate (after [`Acs::on_readings`]), held from
+    /// now on: a supervisor that switches the law after the filter update calls it again.
+    pub fn command(&mut self) -> V3 {
         let j = nalgebra::Matrix3::from_diagonal(&V3::from(self.model.inertia_kg_m2));
-        self.torque_cmd_n_m =
-            attitude_control::torque(&self.law, &f.q_hat(), &f.omega_hat_rad_s(), &self.q_target_body_eci, &j);
+        self.torque_cmd_n_m = match &self.mekf {
+            Some(f) => {
+                attitude_control::torque(&self.law, &f.q_hat(), &f.omega_hat_rad_s(), &self.q_target_body_eci, &j)
+            }
+            None => V3::zeros(),
+        };
         self.torque_cmd_n_m
     }
 

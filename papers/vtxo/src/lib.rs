@@ -32,6 +32,10 @@ pub mod config_plant;
 pub mod ecrv;
 pub mod figures;
 pub mod follower;
+pub mod handoff;
+pub mod handoff_analysis;
+pub mod handoff_config;
+pub mod handoff_kind;
 pub mod kinds;
 pub mod layout;
 pub mod leader;
@@ -92,7 +96,7 @@ impl Paper for Vtxo {
         &[&kinds::VtxoPlantKind]
     }
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
-        &[&kinds::VtxoFormationKind, &mission_kind::VtxoMissionKind]
+        &[&kinds::VtxoFormationKind, &mission_kind::VtxoMissionKind, &handoff_kind::VtxoHandoffKind]
     }
 }
 
@@ -167,6 +171,13 @@ impl PaperHost for Vtxo {
         verdict::lines(input)
     }
     fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
+        if run.setup.plant_as::<VtxoPlantConfig>().is_some()
+            && run.setup.algorithm_as::<handoff_kind::HandoffSetup>().is_some()
+        {
+            let mut m = analysis::analyse(run.dirs)?;
+            m.extend(handoff_analysis::analyse(run.dirs)?);
+            return Ok(m);
+        }
         // The join needs both of this paper's sides.
         if run.setup.plant_as::<VtxoPlantConfig>().is_none()
             || run.setup.algorithm_as::<VtxoAlgorithmConfig>().is_none()

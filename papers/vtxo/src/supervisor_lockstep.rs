@@ -22,7 +22,7 @@ use crate::mission_config::VtxoMissionConfig;
 use crate::supervisor::{Automaton, S2, S4};
 use crate::supervisor_exec::{Inputs, Supervisor};
 use crate::supervisor_share::{LeaderShare, MasterShare};
-use crate::transient_gains::{MeasuredState, TransientGains, TransientPredictor, u2_ticks};
+use crate::transient_gains::{FixedTransient, MeasuredState, TransientGains, TransientPredictor, u2_ticks};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SupervisorAgent {
@@ -38,6 +38,8 @@ pub struct SupervisorAgent {
     /// The other's latest share.
     pub master_share: Option<Vec<f64>>,
     pub leader_t_hat_s: f64,
+    /// This spacecraft's prediction (k1, k2, T) at its latest entry to s2.
+    pub entry_gains: TransientGains,
 }
 
 impl SupervisorAgent {
@@ -54,17 +56,17 @@ impl SupervisorAgent {
             t_hat_s: 0.0,
             master_share: None,
             leader_t_hat_s: 0.0,
+            entry_gains: TransientGains { k1: 0.0, k2: 0.0, t_s: 0.0 },
         }
     }
 
-    fn predict(&self, r: Option<&Readings>) -> TransientGains {
-        let x = r.map_or(MeasuredState { q_body_eci: [0.0, 0.0, 0.0, 1.0], omega_body_rad_s: [0.0; 3] }, |r| {
+    /// What a spacecraft measured at t_k from its readings (q̃, ω̃); the identity at rest without.
+    fn measured(r: Option<&Readings>) -> MeasuredState {
+        r.map_or(MeasuredState { q_body_eci: [0.0, 0.0, 0.0, 1.0], omega_body_rad_s: [0.0; 3] }, |r| {
             let q = r.star_q_body_eci;
             let g = r.gyro_rad_s;
             MeasuredState { q_body_eci: [q[0], q[1], q[2], q[3]], omega_body_rad_s: [g[0], g[1], g[2]] }
-        });
-        let (k1, k2, t_s) = self.gains;
-        crate::transient_gains::FixedTransient(TransientGains { k1, k2, t_s }).predict(&x, self.p.w)
+        })
     }
 
     fn inputs(&self) -> Inputs {
@@ -79,17 +81,74 @@ impl SupervisorAgent {
     }
 
     /// The master's transitions at this instant (at most one per location, a bounded chain).
-    fn master_fire(&mut self, r: Option<&Readings>) {
+    fn master_fire(&mut self, x: &MeasuredState, pred: &dyn TransientPredictor) {
         let a = Automaton::vtxo(self.p.last_object);
         for _ in 0..a.states.len() {
             let i = self.inputs();
             let Some((0, k)) = self.sup.next(&a, &i) else { break };
             self.sup.fire(&a, k);
             if self.sup.state == S2 {
-                self.t_hat_s = self.predict(r).t_s;
+                self.entry_gains = pred.predict(x, self.p.w);
+                self.t_hat_s = self.entry_gains.t_s;
                 self.u2 = u2_ticks(self.t_hat_s, self.t_hat_s, self.p.t_min_s, self.p.t_max_s, self.p.tick_s);
             }
         }
+    }
+}
+
+impl SupervisorAgent {
+    /// The supervisor's part of step k's share (what [`Algorithm::share`] does, reusable by an
+    /// agent that also flies): the master fires every transition whose guard holds at t_k, the
+    /// leader adopts the master's share of step k − 1; each predicts (k1, k2, T) with `pred` from
+    /// `x` (its state at t_k) at its own entry to s2 ([`SupervisorAgent::entry_gains`]). Appends
+    /// the supervisor's share values to `out`.
+    pub fn tick(&mut self, x: &MeasuredState, pred: &dyn TransientPredictor, out: &mut Vec<f64>) {
+        if self.master {
+            self.master_fire(x, pred);
+            let formation = self.inputs().formation;
+            MasterShare { sup: self.sup.clone(), u2_ticks: self.u2, formation, t_hat_follower_s: self.t_hat_s }
+                .write(out);
+            return;
+        }
+        let was = self.sup.state;
+        if let Some(m) = self.master_share.as_deref().and_then(MasterShare::read) {
+            self.sup = m.sup;
+            self.u2 = m.u2_ticks;
+        }
+        // T̂_L from the entry to s2 until its end; nothing outside s2.
+        let g = match (was == S2, self.sup.state == S2) {
+            (false, true) => {
+                self.entry_gains = pred.predict(x, self.p.w);
+                self.entry_gains
+            }
+            (true, true) => self.entry_gains,
+            _ => TransientGains { k1: 0.0, k2: 0.0, t_s: 0.0 },
+        };
+        self.t_hat_s = g.t_s;
+        LeaderShare { ack_state: self.sup.state, ack_id: self.sup.id, t_hat_s: self.t_hat_s, k1: g.k1, k2: g.k2 }
+            .write(out);
+    }
+
+    /// The other spacecraft's supervisor share of this step (`values` from its supervisor offset).
+    pub fn receive(&mut self, neighbours: &[Neighbour<'_>]) {
+        let other = if self.master { 1 } else { 2 };
+        if let Some(n) = neighbours.iter().find(|n| n.id == other) {
+            if self.master {
+                if let Some(l) = LeaderShare::read(n.values).filter(|l| l.t_hat_s > 0.0 && self.sup.state == S2) {
+                    self.leader_t_hat_s = l.t_hat_s;
+                    self.u2 = u2_ticks(l.t_hat_s, self.t_hat_s, self.p.t_min_s, self.p.t_max_s, self.p.tick_s);
+                }
+            } else {
+                self.master_share = Some(n.values.to_vec());
+            }
+        }
+    }
+
+    /// Let a step of `dt_s` pass (whole ticks) in the current location.
+    pub fn advance(&mut self, dt_s: f64) {
+        let a = Automaton::vtxo(self.p.last_object);
+        let ticks = (dt_s / self.p.tick_s).round().max(0.0) as u64;
+        self.sup.advance(&a, ticks);
     }
 }
 
@@ -107,45 +166,14 @@ impl Algorithm for SupervisorAgent {
         out.command.clear();
         out.values.clear();
         out.command.extend([0.0; COMMAND_LEN]);
-        let r = Readings::parse(input.readings);
-        if self.master {
-            self.master_fire(r.as_ref());
-            let formation = self.inputs().formation;
-            MasterShare { sup: self.sup.clone(), u2_ticks: self.u2, formation, t_hat_follower_s: self.t_hat_s }
-                .write(&mut out.values);
-            return;
-        }
-        let was = self.sup.state;
-        if let Some(m) = self.master_share.as_deref().and_then(MasterShare::read) {
-            self.sup = m.sup;
-            self.u2 = m.u2_ticks;
-        }
-        // T̂_L from the entry to s2 until its end; nothing outside s2.
-        let g = match (was == S2, self.sup.state == S2) {
-            (false, true) => self.predict(r.as_ref()),
-            (true, true) => TransientGains { k1: self.gains.0, k2: self.gains.1, t_s: self.t_hat_s },
-            _ => TransientGains { k1: 0.0, k2: 0.0, t_s: 0.0 },
-        };
-        self.t_hat_s = g.t_s;
-        LeaderShare { ack_state: self.sup.state, ack_id: self.sup.id, t_hat_s: self.t_hat_s, k1: g.k1, k2: g.k2 }
-            .write(&mut out.values);
+        let x = Self::measured(Readings::parse(input.readings).as_ref());
+        let (k1, k2, t_s) = self.gains;
+        self.tick(&x, &FixedTransient(TransientGains { k1, k2, t_s }), &mut out.values);
     }
 
     fn step(&mut self, dt_s: f64, neighbours: &[Neighbour<'_>]) {
-        let other = if self.master { 1 } else { 2 };
-        if let Some(n) = neighbours.iter().find(|n| n.id == other) {
-            if self.master {
-                if let Some(l) = LeaderShare::read(n.values).filter(|l| l.t_hat_s > 0.0 && self.sup.state == S2) {
-                    self.leader_t_hat_s = l.t_hat_s;
-                    self.u2 = u2_ticks(l.t_hat_s, self.t_hat_s, self.p.t_min_s, self.p.t_max_s, self.p.tick_s);
-                }
-            } else {
-                self.master_share = Some(n.values.to_vec());
-            }
-        }
-        let a = Automaton::vtxo(self.p.last_object);
-        let ticks = (dt_s / self.p.tick_s).round().max(0.0) as u64;
-        self.sup.advance(&a, ticks);
+        self.receive(neighbours);
+        self.advance(dt_s);
     }
 
     fn row(&self, out: &mut Vec<f64>) {
@@ -159,7 +187,6 @@ impl Algorithm for SupervisorAgent {
 mod tests {
     use super::*;
     use crate::mission::run;
-    use crate::transient_gains::FixedTransient;
 
     /// A short mission in 1 s ticks: u3 = [50 s, 7 s, 25 s, 30 s], window 10 s, u1 = 100 s,
     /// formation 3 s after an orbit switch, T = 5 s.

@@ -27,7 +27,7 @@ pub struct MeasuredState {
 }
 
 /// What the transient predictor answers.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TransientGains {
     pub k1: f64,
     pub k2: f64,

@@ -1,0 +1,175 @@
+//! Seed 002's hand-off scenario (`topologies/vtxo-handoff.toml`: s1 stabilisation → s2 transient →
+//! s3 science with the full dynamics) through the orchestrator (build the binaries first:
+//! `scripts/test` does): the plant and both agents as three processes, bit-identical to the
+//! in-process reference; the attitude law switching exactly at the supervisor's transitions (every
+//! step of both agents: one law, the one the location prescribes, and the torque that law gives on
+//! the logged estimate); the transitions at the steps the automaton gives with u2 = max(T̂_L, T̂_F)
+//! from the transient DNN at each spacecraft's estimate; the summary; and bad weights files.
+
+use std::path::Path;
+use std::process::Output;
+use std::sync::Mutex;
+
+use cohort::{describe_output, orchestrator_command, scratch_dir, summary, telemetry_bits, telemetry_table};
+use cohort_paper_vtxo::attitude_control::{AttitudeLaw, torque};
+use cohort_paper_vtxo::quaternion::{Quat, V3};
+use cohort_paper_vtxo::supervisor::{S1, S2, S3};
+use cohort_paper_vtxo::transient_dnn::TransientDnn;
+use cohort_paper_vtxo::transient_gains::u2_ticks;
+use cohort_report::Table;
+use nalgebra::Matrix3;
+
+static HEAVY: Mutex<()> = Mutex::new(());
+
+const FILE: &str = "topologies/vtxo-handoff.toml";
+/// The scenario's u1 = 30 s at dt = 10 ms, w, the u2 clamp and Table 4's SMC gains.
+const U1_TICKS: usize = 3000;
+const DT_S: f64 = 0.01;
+const W: f64 = 5.0;
+const SMC: AttitudeLaw = AttitudeLaw::Smc { z: 2.9947, k: 0.0193, epsilon: 0.2601 };
+/// J̄ (Table E.1), the agents' nominal inertia.
+const J_BAR: [f64; 3] = [0.1383, 0.1577, 0.1039];
+
+fn orchestrator(args: &[&str], out: &Path) -> Output {
+    orchestrator_command().args(args).arg("--out").arg(out).output().expect("running the orchestrator")
+}
+
+fn metric(s: &serde_json::Value, key: &str) -> f64 {
+    s["metrics"][key].as_f64().unwrap_or_else(|| panic!("summary.json has no metric {key}: {}", s["metrics"]))
+}
+
+fn v3(t: &Table, prefix: &str, unit: &str, r: usize) -> V3 {
+    let c = |ax: &str| t.col(&format!("{prefix}_{ax}_{unit}"))[r];
+    V3::new(c("x"), c("y"), c("z"))
+}
+
+fn q_hat(t: &Table, r: usize) -> Quat {
+    let c = |n: &str| t.col(&format!("q_hat_{n}"))[r];
+    Quat::new(c("q1"), c("q2"), c("q3"), c("q4"))
+}
+
+/// Every step of one agent: exactly one law flag is on, the one the location prescribes, and the
+/// commanded torque is that law's on the row's estimate (s1: the gravity-gradient feed-forward,
+/// which at apogee is below 1e-8 N·m; s2: (57) with the row's k1, k2; s3: the SMC).
+fn check_laws(a: &Table, who: &str) {
+    let j = Matrix3::from_diagonal(&V3::from(J_BAR));
+    let qf = Quat::new(0.0, 0.0, 0.0, 1.0);
+    let state = a.col("sup_state");
+    for (r, st) in state.iter().enumerate() {
+        let s = *st as usize;
+        let flags = ["law_stabilisation_on", "law_transient_on", "law_science_on"].map(|n| a.col(n)[r]);
+        let want = match s {
+            S2 => [0.0, 1.0, 0.0],
+            S3 => [0.0, 0.0, 1.0],
+            _ => [1.0, 0.0, 0.0],
+        };
+        assert_eq!(flags, want, "{who} step {}: state s{s}, flags {flags:?}", a.steps()[r]);
+        let tau = v3(a, "tau_cmd", "n_m", r);
+        let (q, w) = (q_hat(a, r), v3(a, "omega_hat", "rad_s", r));
+        let lyap = AttitudeLaw::Lyapunov { k1: a.col("transient_k1_n_m")[r], k2: a.col("transient_k2_n_m_s")[r] };
+        match s {
+            S2 => assert_eq!(tau, torque(&lyap, &q, &w, &qf, &j), "{who} step {}", a.steps()[r]),
+            S3 => assert_eq!(tau, torque(&SMC, &q, &w, &qf, &j), "{who} step {}", a.steps()[r]),
+            _ => assert!(tau.norm() < 1e-8, "{who} step {}: τ = {tau}", a.steps()[r]),
+        }
+    }
+}
+
+/// The first row index in location `s`.
+fn entry(a: &Table, s: usize) -> usize {
+    a.col("sup_state").iter().position(|x| *x as usize == s).unwrap_or_else(|| panic!("never in s{s}"))
+}
+
+#[test]
+fn handoff_multi_process_is_bit_identical_to_the_reference_and_switches_laws_at_the_transitions() {
+    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = scratch_dir("vtxo-handoff");
+    let (mp, rf) = (dir.join("mp"), dir.join("ref"));
+    let o = orchestrator(&["launch", FILE, "--no-plots"], &mp);
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let o = orchestrator(&["launch", FILE, "--no-plots", "--reference"], &rf);
+    assert!(o.status.success(), "--reference: {}", describe_output(&o));
+    let (a, b) = (summary(&mp), summary(&rf));
+    assert_eq!((a["mode"].as_str(), b["mode"].as_str()), (Some("multi-process"), Some("reference")));
+    let (x, y) = (telemetry_bits(&mp), telemetry_bits(&rf));
+    assert_eq!(x.len(), y.len());
+    if let Some((p, q)) = x.iter().zip(&y).find(|(p, q)| p != q) {
+        panic!("telemetry differs (file, row, column, bits): multi-process {p:?}, reference {q:?}");
+    }
+    assert_eq!(a["metrics"], b["metrics"]);
+    assert_eq!(a["labels"]["transient_predictor"], "dnn");
+
+    let (lead, fol) = (telemetry_table(&mp, "agent-1"), telemetry_table(&mp, "agent-2"));
+    assert_eq!(lead.rows(), 13_200, "every step written");
+    check_laws(&lead, "leader");
+    check_laws(&fol, "follower");
+
+    // The master: s1 until t1 = u1, then s2 for u2 = max(T̂_L, T̂_F) rounded up to a tick, then s3
+    // to the end of the run.
+    let f2 = entry(&fol, S2);
+    assert_eq!(fol.steps()[f2], U1_TICKS as u64);
+    assert!(fol.col("sup_state")[..f2].iter().all(|s| *s as usize == S1));
+    let l2 = entry(&lead, S2);
+    // Each spacecraft's (k1, k2, T) is the DNN's at its own estimate at its entry (q_f = identity).
+    let dnn = TransientDnn::load(&cohort::repo_root().join("papers/vtxo/weights/transient.safetensors")).unwrap();
+    let mut t_hat = [0.0; 2];
+    for (i, (t, r)) in [(&lead, l2), (&fol, f2)].into_iter().enumerate() {
+        let p = dnn.predict(&q_hat(t, r), &v3(t, "omega_hat", "rad_s", r), W);
+        let got = ["transient_k1_n_m", "transient_k2_n_m_s", "transient_t_hat_entry_s"].map(|c| t.col(c)[r]);
+        assert_eq!(got.map(f64::to_bits), [p.k1, p.k2, p.duration_s].map(f64::to_bits), "agent {}", i + 1);
+        t_hat[i] = p.duration_s;
+    }
+    let u2 = u2_ticks(t_hat[0], t_hat[1], 7.2, 72.0, DT_S) as usize;
+    let f3 = entry(&fol, S3);
+    assert_eq!(fol.steps()[f3], (U1_TICKS + u2) as u64, "s3 at u1 + u2 = {U1_TICKS} + {u2} ticks");
+    assert!(fol.col("sup_state")[f2..f3].iter().all(|s| *s as usize == S2));
+    assert!(fol.col("sup_state")[f3..].iter().all(|s| *s as usize == S3), "the run ends in s3");
+    assert_eq!(fol.col("sup_u2_s")[f3], u2 as f64 * DT_S);
+    // The leader adopts the master's location one step later, at every step.
+    let (ls, fs) = (lead.col("sup_state"), fol.col("sup_state"));
+    assert_eq!(ls[0] as usize, S1);
+    for k in 1..ls.len() {
+        assert_eq!(ls[k], fs[k - 1], "leader at step {k}");
+    }
+
+    // The summary: entry times, gains, the error at the end of the transient against 0.2°.
+    assert_eq!(metric(&a, "follower_handoff_s2_entry_s"), 30.0);
+    assert_eq!(metric(&a, "leader_handoff_s2_entry_s"), lead.t[l2]);
+    assert_eq!(lead.steps()[l2], U1_TICKS as u64 + 1);
+    assert_eq!(metric(&a, "follower_handoff_s3_entry_s"), fol.t[f3]);
+    assert_eq!(metric(&a, "follower_handoff_u2_s"), u2 as f64 * DT_S);
+    for role in ["leader", "follower"] {
+        assert_eq!(metric(&a, &format!("{role}_handoff_law_mismatch_rows")), 0.0);
+        assert_eq!(metric(&a, &format!("{role}_handoff_final_state")), S3 as f64);
+        let e = metric(&a, &format!("{role}_handoff_error_window_transient_deg"));
+        assert!(e.is_finite() && e >= 0.0, "{role}: {e}");
+        assert!(metric(&a, &format!("{role}_handoff_error_end_transient_deg")) >= 0.0);
+        assert_eq!(metric(&a, &format!("{role}_handoff_transient_within_bound")), f64::from(u8::from(e < 0.2)));
+        for k in ["k1_n_m", "k2_n_m_s"] {
+            let g = metric(&a, &format!("{role}_handoff_transient_{k}"));
+            assert!((0.01..=0.5).contains(&g), "{role} {k} = {g}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A missing and a malformed transient weights file are refused by validation (exit 2), naming
+/// the key path and the file.
+#[test]
+fn bad_transient_weights_are_refused_naming_the_key_and_the_file() {
+    for (file, weights, why) in [
+        ("invalid-vtxo-handoff-weights-missing.toml", "no-such-transient.safetensors", "cannot read"),
+        ("invalid-vtxo-handoff-weights-malformed.toml", "transient-sa.csv", "not a safetensors file"),
+    ] {
+        let o = orchestrator_command().args(["check", &format!("topologies/{file}")]).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{file}: {}", describe_output(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.lines().any(|l| l.contains(file)
+                && l.contains("algorithm.handoff.transient_weights")
+                && l.contains(weights)
+                && l.contains(why)),
+            "{file}: {err}"
+        );
+    }
+}
