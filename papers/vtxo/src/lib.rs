@@ -8,8 +8,8 @@
 //! `topologies/vtxo*.toml`.
 //!
 //! What is here (the flight layer, the Sec. 8 supervisor, [`supervisor`] and [`mission`], and the
-//! Sec. 3.2.1 transient gain search with its DNN, [`transient_sa`] and [`transient_dnn`]; the
-//! science DNN is not):
+//! Sec. 3.2.1 transient gain search with its DNN, [`transient_sa`] and [`transient_dnn`], and the
+//! Sec. 3.2.2 science Pareto search with its DNN, [`science_moga`] and [`science_dnn`]):
 //! - the truth: [`plant::VtxoPlant`] (orbits, attitude, actuators, disturbances, sensors);
 //! - the agents: [`leader::Leader`] and [`follower::Follower`] (MEKF, attitude laws, relative
 //!   navigation and the relative-position laws), exchanging [`share`] values every step;
@@ -52,6 +52,13 @@ pub mod plant_row;
 pub mod quaternion;
 pub mod relative_control;
 pub mod relative_nav;
+pub mod science_data;
+pub mod science_dnn;
+pub mod science_moga;
+pub mod science_sim;
+pub mod science_stats;
+pub mod science_train;
+pub mod science_trainer;
 pub mod sec7;
 pub mod sensors;
 pub mod share;
@@ -157,7 +164,9 @@ impl PaperHost for Vtxo {
         }
     }
     fn trainers(&self) -> Vec<clap::Command> {
-        transient_trainer::commands()
+        let mut c = transient_trainer::commands();
+        c.extend(science_trainer::commands());
+        c
     }
     fn trainer_env(&self, _name: &str) -> Vec<(&'static str, &'static str)> {
         // candle threads its CPU matrix products by this; one thread is the fastest on these
@@ -165,6 +174,9 @@ impl PaperHost for Vtxo {
         vec![("RAYON_NUM_THREADS", "1")]
     }
     fn run_trainer(&self, name: &str, matches: &clap::ArgMatches) -> Result<String, CommandError> {
+        if science_trainer::owns(name) {
+            return science_trainer::run(name, matches);
+        }
         transient_trainer::run(name, matches)
     }
     fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
