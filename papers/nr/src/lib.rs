@@ -44,7 +44,14 @@ pub mod relative;
 pub mod scp;
 pub mod sim;
 pub mod sn_dnn;
+pub mod swarm_agent;
+pub mod swarm_config;
+pub mod swarm_kinds;
+pub mod swarm_messages;
 pub mod swarm_obs;
+pub mod swarm_pd;
+pub mod swarm_plant;
+pub mod swarm_setup;
 pub mod tracking;
 pub mod train;
 pub mod trainer;
@@ -65,10 +72,10 @@ impl Paper for Nr {
         "nr"
     }
     fn plants(&self) -> &'static [&'static dyn PlantKind] {
-        &[&kinds::IsoEncounterKind]
+        &[&kinds::IsoEncounterKind, &swarm_kinds::SwarmKind]
     }
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
-        &[&kinds::NeuralRendezvousKind]
+        &[&kinds::NeuralRendezvousKind, &swarm_kinds::NrSwarmKind]
     }
 }
 
