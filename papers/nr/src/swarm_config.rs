@@ -193,10 +193,11 @@ impl SwarmAlgorithmConfig {
     /// one interval, and a rebuild falls on a step only if its period is a whole number of them.
     pub fn validate_dt(&self, dt_s: f64) -> Vec<Problem> {
         let mut p = Vec::new();
-        if !(dt_s > 0.0) {
+        if !dt_s.is_finite() || dt_s <= 0.0 {
             return p;
         }
-        for (path, v) in [("algorithm.horizon_s", self.horizon_s), ("algorithm.rebuild_every_s", self.rebuild_every_s)] {
+        for (path, v) in [("algorithm.horizon_s", self.horizon_s), ("algorithm.rebuild_every_s", self.rebuild_every_s)]
+        {
             let n = (v / dt_s).round();
             if v.is_finite() && v > 0.0 && (n < 1.0 || (n * dt_s - v).abs() > 1e-9 * v) {
                 p.push(Problem::new(

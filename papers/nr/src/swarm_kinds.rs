@@ -199,3 +199,56 @@ impl AlgorithmSetup for SwarmSetup {
         self
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::{Path, PathBuf};
+
+    use cohort_runtime::paper::{Paper, configure};
+    use cohort_scenario::{Overrides, parse};
+
+    use super::*;
+
+    const PAPERS: &[&dyn Paper] = &[&crate::Nr];
+
+    fn topologies() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies")
+    }
+
+    fn configured(text: &str) -> Result<Setup, String> {
+        let s = parse(text, &topologies().join("x.toml"), &Overrides::default()).map_err(|e| e.to_string())?;
+        configure(s, PAPERS).map_err(|p| p.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n"))
+    }
+
+    fn file(name: &str) -> String {
+        std::fs::read_to_string(topologies().join(name)).unwrap()
+    }
+
+    #[test]
+    fn the_shipped_swarms_configure_and_resolve_their_problem_seed() {
+        for (name, n) in [("swarm-8.toml", 8), ("swarm-20.toml", 20), ("swarm-20-disturbed.toml", 20)] {
+            let s = configured(&file(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(s.n_agents(), n);
+            assert_eq!(s.plant_as::<SwarmConfig>().unwrap().problem_seed, Some(s.scenario.seed));
+            let a = s.algorithm_as::<SwarmSetup>().unwrap();
+            assert_eq!((a.a_max_mps2, a.params(0.1).horizon_steps, a.params(0.1).rebuild_steps), (2.0, 20, 5));
+            let again = configured(&s.to_toml().unwrap()).unwrap();
+            assert_eq!(again.to_toml().unwrap(), s.to_toml().unwrap());
+        }
+    }
+
+    #[test]
+    fn every_bad_key_is_reported_with_its_path() {
+        let base = file("swarm-8.toml");
+        let e = configured(&base.replace("neighbours = [1, 2, 3, 4, 5, 6, 7]", "neighbours = [1, 2]")).unwrap_err();
+        assert!(e.contains("agents[7].neighbours") && e.contains("every other agent"), "{e}");
+        let e = configured(&base.replace("rebuild_every_s = 0.5", "rebuild_every_s = 0.55")).unwrap_err();
+        assert!(e.contains("algorithm.rebuild_every_s"), "{e}");
+        let e = configured(&base.replace("policy = \"pd\"", "policy = \"deep-set\"")).unwrap_err();
+        assert!(e.contains("algorithm"), "{e}");
+        let e = configured(&base.replace("substeps = 10", "substeps = 0\nradius = 2")).unwrap_err();
+        assert!(e.contains("plant"), "{e}");
+        let e = configured(&base.replace("kind = \"swarm\"", "kind = \"iso-encounter\"")).unwrap_err();
+        assert!(e.contains("algorithm.kind"), "{e}");
+    }
+}

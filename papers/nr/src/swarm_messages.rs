@@ -85,10 +85,7 @@ impl SwarmShare {
     /// without disturbance).
     pub fn propagated(&self, dt_s: f64) -> (V3, V3) {
         let (p, v, u) = (self.p_m, self.v_mps, self.u_mps2);
-        (
-            [0, 1, 2].map(|a| p[a] + v[a] * dt_s + 0.5 * u[a] * dt_s * dt_s),
-            [0, 1, 2].map(|a| v[a] + u[a] * dt_s),
-        )
+        ([0, 1, 2].map(|a| p[a] + v[a] * dt_s + 0.5 * u[a] * dt_s * dt_s), [0, 1, 2].map(|a| v[a] + u[a] * dt_s))
     }
 }
 

@@ -27,7 +27,8 @@ mod tests {
     #[test]
     fn it_saturates_far_away_damps_near_the_goal_and_ignores_neighbours() {
         let pd = PdPolicy { omega_per_s: 1.0, a_max_mps2: 2.0 };
-        let mut obs = SwarmObservation { goal_offset_m: [3.0, -0.5, 0.1], v_mps: [0.0, 0.0, 0.2], ..Default::default() };
+        let mut obs =
+            SwarmObservation { goal_offset_m: [3.0, -0.5, 0.1], v_mps: [0.0, 0.0, 0.2], ..Default::default() };
         let a = pd.accel_mps2(&obs);
         assert_eq!(a, [2.0, -0.5, 0.1 - 0.4]);
         obs.n_neighbours = 1;

@@ -292,8 +292,7 @@ impl SwarmPlant {
             header.extend(SWARM_VEHICLE_COLUMNS.iter().map(|c| format!("a{}_{c}", i + 1)));
             let at_t = self.goal_dist_at_t.as_ref().map_or(f64::NAN, |d| d[i]);
             let (p, g) = (self.p[i], self.goal[i]);
-            let values =
-                [p[0], p[1], p[2], g[0], g[1], g[2], now[i], at_t, self.effort[i], self.clipped[i] as f64];
+            let values = [p[0], p[1], p[2], g[0], g[1], g[2], now[i], at_t, self.effort[i], self.clipped[i] as f64];
             row.extend(values.iter().map(|v| format!("{v:?}")));
         }
         header.extend(SWARM_COLUMNS.map(String::from));

@@ -54,6 +54,9 @@ fn diff(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
+/// Points of the swarm, vehicle i at index i − 1.
+pub type Points = Vec<[f64; 3]>;
+
 /// Why no problem could be drawn.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DrawError {
@@ -67,11 +70,9 @@ pub enum DrawError {
 }
 
 /// Starts and goals of `n` vehicles for `seed` (see the module docs), vehicle i at index i − 1.
-pub fn draw(n: usize, seed: u64) -> Result<(Vec<[f64; 3]>, Vec<[f64; 3]>), DrawError> {
+pub fn draw(n: usize, seed: u64) -> Result<(Points, Points), DrawError> {
     draw_in(n, seed, &CUBOID_M)
 }
-
-type Points = Vec<[f64; 3]>;
 
 fn draw_in(n: usize, seed: u64, cuboid: &[(f64, f64); 3]) -> Result<(Points, Points), DrawError> {
     if n == 0 {
