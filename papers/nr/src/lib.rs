@@ -44,7 +44,16 @@ pub mod relative;
 pub mod scp;
 pub mod sim;
 pub mod sn_dnn;
+pub mod swarm_agent;
+pub mod swarm_analysis;
+pub mod swarm_config;
+pub mod swarm_figures;
+pub mod swarm_kinds;
+pub mod swarm_messages;
 pub mod swarm_obs;
+pub mod swarm_pd;
+pub mod swarm_plant;
+pub mod swarm_setup;
 pub mod tracking;
 pub mod train;
 pub mod trainer;
@@ -65,10 +74,10 @@ impl Paper for Nr {
         "nr"
     }
     fn plants(&self) -> &'static [&'static dyn PlantKind] {
-        &[&kinds::IsoEncounterKind]
+        &[&kinds::IsoEncounterKind, &swarm_kinds::SwarmKind]
     }
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
-        &[&kinds::NeuralRendezvousKind]
+        &[&kinds::NeuralRendezvousKind, &swarm_kinds::NrSwarmKind]
     }
 }
 
@@ -90,13 +99,16 @@ enum NrCmd {
 
 impl PaperHost for Nr {
     fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
-        analysis::analyse(run.setup, run.dirs)
+        let mut m = analysis::analyse(run.setup, run.dirs)?;
+        m.extend(swarm_analysis::analyse(run.setup, run.dirs)?);
+        Ok(m)
     }
     fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
         verdict::lines(input)
     }
     fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
-        figures::NrFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>)
+        let swarm = || swarm_figures::SwarmFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>);
+        figures::NrFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>).or_else(swarm)
     }
     fn trainers(&self) -> Vec<clap::Command> {
         vec![trainer::command()]
