@@ -45,6 +45,8 @@ pub mod scp;
 pub mod sim;
 pub mod sn_dnn;
 pub mod swarm_obs;
+pub mod swarm_problem;
+pub mod swarm_scp;
 pub mod tracking;
 pub mod train;
 pub mod trainer;
