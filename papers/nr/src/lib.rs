@@ -47,13 +47,20 @@ pub mod sn_dnn;
 pub mod swarm_agent;
 pub mod swarm_analysis;
 pub mod swarm_config;
+pub mod swarm_data;
+pub mod swarm_eval;
 pub mod swarm_figures;
 pub mod swarm_kinds;
 pub mod swarm_messages;
 pub mod swarm_obs;
 pub mod swarm_pd;
 pub mod swarm_plant;
+pub mod swarm_policy;
+pub mod swarm_problem;
+pub mod swarm_scp;
 pub mod swarm_setup;
+pub mod swarm_train;
+pub mod swarm_trainer;
 pub mod tracking;
 pub mod train;
 pub mod trainer;
@@ -111,7 +118,7 @@ impl PaperHost for Nr {
         figures::NrFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>).or_else(swarm)
     }
     fn trainers(&self) -> Vec<clap::Command> {
-        vec![trainer::command()]
+        vec![trainer::command(), swarm_trainer::command()]
     }
     fn trainer_env(&self, _name: &str) -> Vec<(&'static str, &'static str)> {
         // candle threads its CPU matrix products by this; one thread is the fastest on these
@@ -119,10 +126,11 @@ impl PaperHost for Nr {
         vec![("RAYON_NUM_THREADS", "1")]
     }
     fn run_trainer(&self, name: &str, matches: &clap::ArgMatches) -> Result<String, CommandError> {
-        if name != trainer::NAME {
-            return Err(CommandError::invalid(format!("nr has no trainer {name:?}")));
+        match name {
+            trainer::NAME => trainer::run(matches),
+            swarm_trainer::NAME => swarm_trainer::run(matches),
+            _ => Err(CommandError::invalid(format!("nr has no trainer {name:?}"))),
         }
-        trainer::run(matches)
     }
     fn command(&self) -> Option<clap::Command> {
         Some(<NrCli as clap::CommandFactory>::command())

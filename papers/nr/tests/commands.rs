@@ -112,3 +112,37 @@ fn bad_arguments_are_refused_with_exit_code_2_naming_the_flag() {
     assert!(!dir.join("x").exists(), "a refused command wrote its output");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_swarm_trainer_writes_the_same_weights_twice_and_refuses_bad_arguments() {
+    let dir = scratch_dir("nr-swarm-train");
+    let read = |p: &Path| std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let mut files = Vec::new();
+    for sub in ["a", "b"] {
+        let w = dir.join(sub).join("swarm.safetensors");
+        let o = orchestrator(&[
+            "train",
+            "nr-swarm",
+            "--seed",
+            "3",
+            "--cases",
+            "2",
+            "--epochs",
+            "1",
+            "--out",
+            &w.display().to_string(),
+        ]);
+        assert!(o.status.success(), "{}", describe_output(&o));
+        let report = String::from_utf8(read(&w.with_file_name("swarm-report.md"))).unwrap();
+        assert!(report.contains("--seed 3") && report.contains("--cases 2 --epochs 1"), "{report}");
+        files.push(read(&w));
+    }
+    assert!(files[0] == files[1], "the swarm weights differ between two identical trainings");
+    let out = dir.join("x").display().to_string();
+    for (args, flag) in [(["--cases", "1"], "--cases 1"), (["--epochs", "0"], "--epochs 0")] {
+        let o = orchestrator(&["train", "nr-swarm", args[0], args[1], "--out", &out]);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", describe_output(&o));
+        assert!(String::from_utf8_lossy(&o.stderr).contains(flag), "{args:?}: {}", describe_output(&o));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,151 @@
+//! The swarm reconfiguration problem of Sec. 7.2 of "Neural-Rendezvous" (arXiv:2208.04883), as
+//! the global solution ([`crate::swarm_scp`]), the training data ([`crate::swarm_data`]) and the
+//! in-process evaluation ([`crate::swarm_eval`]) see it: the model facts and a seeded draw of
+//! starts and targets.
+//!
+//! **Model** (the paper's radius, cuboid, separations, axes and rates are lost; these are ours,
+//! shared with the swarm plant):
+//! - each vehicle is a double integrator in 3-D, ṗ = v, v̇ = a, with the acceleration held over
+//!   each control step (exact discretisation: p⁺ = p + vΔt + ½aΔt², v⁺ = v + aΔt) and bounded
+//!   per axis, |aᵢ| ≤ [`A_MAX_MPS2`] = 2 m/s²;
+//! - horizon T = [`T_S`] = 8 s at Δt = [`DT_S`] = 0.1 s ([`STEPS`] = 80 steps), from rest at the
+//!   start to rest at the target;
+//! - starts and targets in the cuboid [−2, 2] × [−2, 2] × [0.5, 2] m ([`CUBOID_M`]);
+//! - collision between vehicles i and j iff ‖E⁻¹(pᵢ − pⱼ)‖ < 1 with E = diag(0.12, 0.12, 0.30) m
+//!   ([`ELLIPSOID_M`], the Crazyswarm tall ellipsoid for the downwash); ‖E⁻¹Δp‖ is the
+//!   "ellipsoid distance" ([`ellipsoid_distance`]);
+//! - communication radius R_comm = [`R_COMM_M`] = 1 m (what a vehicle observes:
+//!   [`crate::swarm_obs::SwarmObservation::local`]).
+//!
+//! **Draw** ([`SwarmCase::draw`]): the paper's two conditions with our values: (i) each start is
+//! at least [`MIN_TRAVEL_M`] = 1 m (Euclidean) from its own target; (ii) all 2N points (starts
+//! and targets) are pairwise at least [`MIN_SEPARATION`] = 1.25 apart in the ellipsoid distance.
+//! Points are drawn uniformly in the cuboid, one after the other, each redrawn until it meets
+//! both conditions against the points drawn before it. Seeded (rand_chacha, one stream per
+//! `(seed, label)`); the integrator will unify it with the plant's sampler, which follows the
+//! same rules.
+
+use rand::Rng;
+
+/// Bound on each acceleration component, m/s².
+pub const A_MAX_MPS2: f64 = 2.0;
+/// Horizon of the reconfiguration, s.
+pub const T_S: f64 = 8.0;
+/// Control step, s.
+pub const DT_S: f64 = 0.1;
+/// Control steps over the horizon.
+pub const STEPS: usize = 80;
+/// The cuboid [lo, hi] per axis, m.
+pub const CUBOID_M: [[f64; 2]; 3] = [[-2.0, 2.0], [-2.0, 2.0], [0.5, 2.0]];
+/// Semi-axes of the collision ellipsoid (x, y, z), m.
+pub const ELLIPSOID_M: [f64; 3] = [0.12, 0.12, 0.30];
+/// Communication radius, m.
+pub const R_COMM_M: f64 = 1.0;
+/// Least start-to-own-target distance, m.
+pub const MIN_TRAVEL_M: f64 = 1.0;
+/// Least ellipsoid distance between any two drawn points.
+pub const MIN_SEPARATION: f64 = 1.25;
+
+/// Redraws of one point before the draw gives up.
+const MAX_TRIES: usize = 100_000;
+
+/// ‖E⁻¹(a − b)‖: below 1 is a collision.
+pub fn ellipsoid_distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|k| ((a[k] - b[k]) / ELLIPSOID_M[k]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// One reconfiguration: vehicle i flies from `starts_m[i]` to `goals_m[i]`, at rest at both.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SwarmCase {
+    pub starts_m: Vec<[f64; 3]>,
+    pub goals_m: Vec<[f64; 3]>,
+}
+
+/// A draw that cannot be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("swarm draw of {n} vehicles: {reason}")]
+pub struct DrawError {
+    pub n: usize,
+    pub reason: String,
+}
+
+impl SwarmCase {
+    /// Vehicles.
+    pub fn n(&self) -> usize {
+        self.starts_m.len()
+    }
+
+    /// Case `label` of `seed` with `n` vehicles (see the module docs); the same arguments give the
+    /// same case.
+    pub fn draw(seed: u64, label: &str, n: usize) -> Result<Self, DrawError> {
+        if n == 0 {
+            return Err(DrawError { n, reason: "at least one vehicle".into() });
+        }
+        let mut rng = cohort_runtime::rng::setup_rng(seed, &format!("nr.swarm.case[{label}]"));
+        let mut points: Vec<[f64; 3]> = Vec::with_capacity(2 * n);
+        let (mut starts_m, mut goals_m) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        for _ in 0..n {
+            let s = draw_point(&mut rng, &points, None)
+                .ok_or_else(|| DrawError { n, reason: format!("no room for start {}", starts_m.len()) })?;
+            points.push(s);
+            let g = draw_point(&mut rng, &points, Some(s))
+                .ok_or_else(|| DrawError { n, reason: format!("no room for target {}", goals_m.len()) })?;
+            points.push(g);
+            starts_m.push(s);
+            goals_m.push(g);
+        }
+        Ok(Self { starts_m, goals_m })
+    }
+}
+
+/// A uniform point of the cuboid at least [`MIN_SEPARATION`] from every one of `taken` and, if
+/// `travel_from` is given, at least [`MIN_TRAVEL_M`] from it.
+fn draw_point(rng: &mut impl Rng, taken: &[[f64; 3]], travel_from: Option<[f64; 3]>) -> Option<[f64; 3]> {
+    for _ in 0..MAX_TRIES {
+        let p: [f64; 3] = std::array::from_fn(|k| rng.random_range(CUBOID_M[k][0]..CUBOID_M[k][1]));
+        let far = taken.iter().all(|q| ellipsoid_distance(p, *q) >= MIN_SEPARATION);
+        let travels = travel_from.is_none_or(|s| {
+            let d: f64 = (0..3).map(|k| (p[k] - s[k]).powi(2)).sum::<f64>().sqrt();
+            d >= MIN_TRAVEL_M
+        });
+        if far && travels {
+            return Some(p);
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_draw_meets_both_conditions_and_repeats_per_seed() {
+        for n in [1, 8, 20] {
+            let c = SwarmCase::draw(3, "t", n).unwrap();
+            assert_eq!(c, SwarmCase::draw(3, "t", n).unwrap());
+            assert_ne!(c, SwarmCase::draw(4, "t", n).unwrap());
+            let all: Vec<[f64; 3]> = c.starts_m.iter().chain(&c.goals_m).copied().collect();
+            for (a, p) in all.iter().enumerate() {
+                assert!((0..3).all(|k| p[k] >= CUBOID_M[k][0] && p[k] <= CUBOID_M[k][1]), "{p:?}");
+                for q in &all[a + 1..] {
+                    assert!(ellipsoid_distance(*p, *q) >= MIN_SEPARATION);
+                }
+            }
+            for (s, g) in c.starts_m.iter().zip(&c.goals_m) {
+                assert!((0..3).map(|k| (s[k] - g[k]).powi(2)).sum::<f64>() >= MIN_TRAVEL_M * MIN_TRAVEL_M);
+            }
+        }
+        assert!(SwarmCase::draw(1, "t", 0).is_err());
+    }
+
+    #[test]
+    fn the_ellipsoid_distance_is_one_on_the_semi_axes() {
+        let o = [0.0, 0.0, 1.0];
+        for (k, e) in ELLIPSOID_M.iter().enumerate() {
+            let mut p = o;
+            p[k] += e;
+            assert!((ellipsoid_distance(o, p) - 1.0).abs() < 1e-12);
+        }
+    }
+}
