@@ -221,11 +221,16 @@ pub const YIELD_STALL: Duration = Duration::from_millis(1);
 /// After a stalled yield, the next waits block without spinning: at least this many, at most
 /// [`BACKOFF_MAX`], growing by [`BACKOFF_GROWTH`] per stall and halving per clean spin
 /// ([`Contention`]).
-const BACKOFF_MIN: u32 = 16;
+///
+/// Every stall on the way to the maximum costs the whole lockstep run about a scheduler slice (the
+/// yielding process waits behind the hog's slice, where a blocked one would have been woken
+/// first), and each process learns on its own: the bench's loaded row counted ≈ 7 stalls per
+/// process with 16 × 4ⁿ. Starting at 64 and growing 8× reaches the maximum in three.
+const BACKOFF_MIN: u32 = 64;
 const BACKOFF_MAX: u32 = 4096;
 /// Growth of the back-off per stalled spin; a clean spin halves it, so spinning goes on being
-/// tried often only while fewer than one spin in three stalls (4^(1−f)·2^(−f) < 1 ⇔ f < 1/3).
-const BACKOFF_GROWTH: u32 = 4;
+/// tried often only while fewer than one spin in four stalls (8^f·2^(−(1−f)) < 1 ⇔ f < 1/4).
+const BACKOFF_GROWTH: u32 = 8;
 /// Weight of the newest wait in the running typical wait.
 const ADAPTIVE_EWMA: f64 = 0.1;
 /// Spin for up to this many typical waits.
@@ -287,7 +292,7 @@ struct Waiter<'a, T: Transport + ?Sized> {
 /// (tens of µs). So spinning is worth trying again only when stalls are rare: each stalled spin
 /// multiplies the number of waits that block before the next try by [`BACKOFF_GROWTH`] (from
 /// [`BACKOFF_MIN`] up to [`BACKOFF_MAX`]), each clean one only halves it. Under sustained
-/// contention, where even one spin in three stalls, the gap grows to its maximum and the process
+/// contention, where even one spin in four stalls, the gap grows to its maximum and the process
 /// waits as `event` would, trying a spin once in [`BACKOFF_MAX`] waits; on an idle machine a lone
 /// stall (another user's burst) is forgotten after a few clean spins.
 #[derive(Debug, Default, Clone, Copy)]
