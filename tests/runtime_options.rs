@@ -107,8 +107,18 @@ fn bench_only_a_prefix_no_case_has_exits_2() {
 fn bench_quick_writes_its_results() {
     let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
     let dir = scratch_dir("bench");
-    let o = orchestrator(&["bench", "--quick", "--out", dir.to_str().unwrap()]);
+    // The bench's own scratch files go under TMPDIR: it must leave nothing there.
+    let tmp = scratch_dir("bench-tmpdir");
+    std::fs::create_dir_all(&tmp).unwrap();
+    let o = orchestrator_command()
+        .args(["bench", "--quick", "--out", dir.to_str().unwrap()])
+        .env("TMPDIR", &tmp)
+        .output()
+        .expect("running the orchestrator");
     assert!(o.status.success(), "{}\n{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let _ = std::fs::remove_dir_all(&tmp);
+    assert!(left.iter().all(|n| !n.to_string_lossy().starts_with("cohort-bench")), "the bench left {left:?} in TMPDIR");
     let md = std::fs::read_to_string(dir.join("results.md")).unwrap();
     for section in ["## fig1", "waiting strategy", "iceoryx2 vs UDP", "paced at 10 Hz"] {
         assert!(md.contains(section), "results.md lacks {section:?}:\n{md}");

@@ -410,6 +410,15 @@ fn lab_rtts(l: &Lab) -> Result<Vec<Rtt>, String> {
     Ok(vec![plain, delayed?])
 }
 
+/// A directory removed with everything in it when dropped.
+struct RemoveOnDrop(PathBuf);
+
+impl Drop for RemoveOnDrop {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
 /// Two threads that burn a core each until dropped: a machine busy with other work (the
 /// "loaded" rows). As threads of the bench itself they end with it, whatever happens.
 struct Hogs {
@@ -556,6 +565,9 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     let repo = std::env::current_dir().map_err(|e| e.to_string())?;
     let scratch = std::env::temp_dir().join(format!("cohort-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&scratch);
+    // Declared before the lab, so dropped after it (the lab writes under the scratch directory
+    // until it is torn down), whichever way this function returns.
+    let _scratch_guard = RemoveOnDrop(scratch.clone());
     let (lab, veth_rtt) = start_lab();
     let lab_dir = scratch.join("lab");
     let mut cases = cases(quick, &repo, lab.as_ref().map(|_| lab_dir.as_path()))?;
@@ -592,7 +604,6 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             }
             drop(hogs);
             if let Some(e) = outcome.error {
-                let _ = std::fs::remove_dir_all(&scratch);
                 return Err(BenchError::Failed(format!("{} (repetition {}): {e}", c.key, rep + 1)));
             }
             let smp = sample(&c.scenario, &dir, &summary, outcome.wall_s);
@@ -609,7 +620,6 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             let _ = std::fs::remove_dir_all(&dir);
         }
     }
-    let _ = std::fs::remove_dir_all(&scratch);
     let aggregates: Vec<Aggregate> = cases
         .iter()
         .map(|c| {
