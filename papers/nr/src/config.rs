@@ -96,13 +96,15 @@ impl Default for IsoEncounterConfig {
     }
 }
 
-fn positive(problems: &mut Vec<Problem>, path: &str, v: f64) {
+/// Reports `v` at `path` unless it is a positive number.
+pub(crate) fn positive(problems: &mut Vec<Problem>, path: &str, v: f64) {
     if !(v.is_finite() && v > 0.0) {
         problems.push(Problem::new(path, Some(v.to_string()), "must be a positive number"));
     }
 }
 
-fn non_negative(problems: &mut Vec<Problem>, path: &str, v: f64) {
+/// Reports `v` at `path` unless it is a number ≥ 0.
+pub(crate) fn non_negative(problems: &mut Vec<Problem>, path: &str, v: f64) {
     if !(v.is_finite() && v >= 0.0) {
         problems.push(Problem::new(path, Some(v.to_string()), "must be a number ≥ 0"));
     }

@@ -197,7 +197,7 @@ impl AlgorithmSetup for NrSetup {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use cohort_runtime::paper::{Paper, configure};
     use cohort_scenario::{Overrides, parse};
 
@@ -205,17 +205,18 @@ mod tests {
 
     const PAPERS: &[&dyn Paper] = &[&crate::Nr];
 
-    fn topologies() -> PathBuf {
+    pub(crate) fn topologies() -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies")
     }
 
     /// The text configured as a file of the topologies directory (so its weights path resolves).
-    fn configured(text: &str) -> Result<Setup, String> {
+    pub(crate) fn configured(text: &str) -> Result<Setup, String> {
         let s = parse(text, &topologies().join("x.toml"), &Overrides::default()).map_err(|e| e.to_string())?;
         configure(s, PAPERS).map_err(|p| p.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n"))
     }
 
-    fn file(name: &str) -> String {
+    /// A shipped scenario's text.
+    pub(crate) fn file(name: &str) -> String {
         std::fs::read_to_string(topologies().join(name)).unwrap()
     }
 

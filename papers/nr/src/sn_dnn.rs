@@ -205,79 +205,110 @@ impl SnDnn {
 
     /// The weights file's bytes (deterministic: one metadata key).
     pub fn to_bytes(&self) -> Vec<u8> {
-        use safetensors::tensor::TensorView;
-        let f64_bytes = |v: &[f64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
-        let mut owned: Vec<(String, Vec<usize>, Vec<u8>)> = Vec::new();
-        for (l, layer) in self.layers.iter().enumerate() {
-            owned.push((format!("layers.{l}.weight"), vec![layer.n_out, layer.n_in], f64_bytes(&layer.w)));
-            owned.push((format!("layers.{l}.bias"), vec![layer.n_out], f64_bytes(&layer.b)));
-        }
-        owned.push(("input_scale".into(), vec![self.n_in()], f64_bytes(&self.input_scale)));
-        owned.push(("output_scale".into(), vec![self.n_out()], f64_bytes(&self.output_scale)));
-        let views: Vec<(String, TensorView<'_>)> = owned
-            .iter()
-            .map(|(n, shape, data)| {
-                (n.clone(), TensorView::new(Dtype::F64, shape.clone(), data).expect("sizes match by construction"))
-            })
-            .collect();
-        let mut meta = self.metadata.clone();
-        if let Some(o) = meta.as_object_mut() {
-            o.insert("format".into(), FORMAT.into());
-            o.insert("c_sn".into(), self.c_sn.into());
-        }
-        let meta: std::collections::HashMap<String, String> =
-            [(METADATA_KEY.to_string(), meta.to_string())].into_iter().collect();
-        safetensors::serialize(views, Some(meta)).expect("well-formed tensors serialise")
+        let mut tensors = Vec::new();
+        push_tensors(self, "", &mut tensors);
+        serialise(&tensors, METADATA_KEY, FORMAT, &self.metadata, self.c_sn)
     }
 
     /// Read and check a weights file.
     pub fn load(path: &Path) -> Result<Self, WeightsError> {
-        let bytes =
-            std::fs::read(path).map_err(|e| WeightsError { file: path.into(), reason: format!("cannot read: {e}") })?;
-        Self::from_bytes(&bytes, path)
+        Self::from_bytes(&read_file(path)?, path)
     }
 
     /// Check and load a weights file's bytes; `file` only names it in errors.
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
         let fail = |reason: String| WeightsError { file: file.into(), reason };
-        let (_, header) =
-            SafeTensors::read_metadata(bytes).map_err(|e| fail(format!("not a safetensors file ({e})")))?;
-        let st = SafeTensors::deserialize(bytes).map_err(|e| fail(format!("not a safetensors file ({e})")))?;
-        let text = header
-            .metadata()
-            .as_ref()
-            .and_then(|m| m.get(METADATA_KEY))
-            .ok_or_else(|| fail(format!("no {METADATA_KEY:?} metadata: not an SN-DNN weights file")))?;
-        let metadata: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| fail(format!("metadata is not JSON ({e})")))?;
-        if metadata.get("format").and_then(|f| f.as_str()) != Some(FORMAT) {
-            return Err(fail(format!("metadata format is {:?}, expected {FORMAT:?}", metadata.get("format"))));
-        }
-        let c_sn =
-            metadata.get("c_sn").and_then(|c| c.as_f64()).ok_or_else(|| fail("metadata has no number c_sn".into()))?;
-        let tensor = |name: &str, dims: usize| -> Result<(Vec<usize>, Vec<f64>), WeightsError> {
-            let t = st.tensor(name).map_err(|_| fail(format!("tensor {name:?} is missing")))?;
-            if t.dtype() != Dtype::F64 || t.shape().len() != dims {
-                return Err(fail(format!(
-                    "tensor {name:?} is {:?} {:?}, expected F64 of rank {dims}",
-                    t.dtype(),
-                    t.shape()
-                )));
-            }
-            let v = t.data().chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect();
-            Ok((t.shape().to_vec(), v))
-        };
-        let mut layers = Vec::new();
-        while st.names().iter().any(|n| **n == format!("layers.{}.weight", layers.len())) {
-            let l = layers.len();
-            let (shape, w) = tensor(&format!("layers.{l}.weight"), 2)?;
-            let (_, b) = tensor(&format!("layers.{l}.bias"), 1)?;
-            layers.push(Layer { n_in: shape[1], n_out: shape[0], w, b });
-        }
-        let (_, input_scale) = tensor("input_scale", 1)?;
-        let (_, output_scale) = tensor("output_scale", 1)?;
-        Self::new(layers, input_scale, output_scale, c_sn, metadata).map_err(fail)
+        let (st, metadata, c_sn) = open(bytes, METADATA_KEY, FORMAT, "an SN-DNN").map_err(fail)?;
+        let net = read_net(&st, "", c_sn).map_err(fail)?;
+        Ok(Self { metadata, ..net })
     }
+}
+
+/// One tensor of a weights file: name, shape, little-endian F64 bytes.
+pub type OwnedTensor = (String, Vec<usize>, Vec<u8>);
+
+/// The bytes of a weights file.
+pub fn read_file(path: &Path) -> Result<Vec<u8>, WeightsError> {
+    std::fs::read(path).map_err(|e| WeightsError { file: path.into(), reason: format!("cannot read: {e}") })
+}
+
+/// The tensors of `net` in the layout above, each name prefixed by `prefix` (`""`, or `"phi."`
+/// for one of several networks in a file), appended to `out`.
+pub fn push_tensors(net: &SnDnn, prefix: &str, out: &mut Vec<OwnedTensor>) {
+    let f64_bytes = |v: &[f64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    for (l, layer) in net.layers.iter().enumerate() {
+        out.push((format!("{prefix}layers.{l}.weight"), vec![layer.n_out, layer.n_in], f64_bytes(&layer.w)));
+        out.push((format!("{prefix}layers.{l}.bias"), vec![layer.n_out], f64_bytes(&layer.b)));
+    }
+    out.push((format!("{prefix}input_scale"), vec![net.n_in()], f64_bytes(&net.input_scale)));
+    out.push((format!("{prefix}output_scale"), vec![net.n_out()], f64_bytes(&net.output_scale)));
+}
+
+/// A weights file of `tensors` (F64) and one metadata entry `key`: `metadata` with `format` and
+/// `c_sn` set.
+pub fn serialise(tensors: &[OwnedTensor], key: &str, format: &str, metadata: &serde_json::Value, c_sn: f64) -> Vec<u8> {
+    use safetensors::tensor::TensorView;
+    let views: Vec<(String, TensorView<'_>)> = tensors
+        .iter()
+        .map(|(n, shape, data)| {
+            (n.clone(), TensorView::new(Dtype::F64, shape.clone(), data).expect("sizes match by construction"))
+        })
+        .collect();
+    let mut meta = metadata.clone();
+    if let Some(o) = meta.as_object_mut() {
+        o.insert("format".into(), format.into());
+        o.insert("c_sn".into(), c_sn.into());
+    }
+    let meta: std::collections::HashMap<String, String> = [(key.to_string(), meta.to_string())].into_iter().collect();
+    safetensors::serialize(views, Some(meta)).expect("well-formed tensors serialise")
+}
+
+/// A weights file's tensors, its metadata entry `key` (a JSON object whose `format` must be
+/// `format`) and that metadata's `c_sn`; `what` names the kind of file in the error.
+pub fn open<'a>(
+    bytes: &'a [u8],
+    key: &str,
+    format: &str,
+    what: &str,
+) -> Result<(SafeTensors<'a>, serde_json::Value, f64), String> {
+    let (_, header) = SafeTensors::read_metadata(bytes).map_err(|e| format!("not a safetensors file ({e})"))?;
+    let st = SafeTensors::deserialize(bytes).map_err(|e| format!("not a safetensors file ({e})"))?;
+    let text = header
+        .metadata()
+        .as_ref()
+        .and_then(|m| m.get(key))
+        .ok_or_else(|| format!("no {key:?} metadata: not {what} weights file"))?;
+    let metadata: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("metadata is not JSON ({e})"))?;
+    if metadata.get("format").and_then(|f| f.as_str()) != Some(format) {
+        return Err(format!("metadata format is {:?}, expected {format:?}", metadata.get("format")));
+    }
+    let c_sn =
+        metadata.get("c_sn").and_then(|c| c.as_f64()).ok_or_else(|| "metadata has no number c_sn".to_string())?;
+    Ok((st, metadata, c_sn))
+}
+
+/// The network whose tensors are named with `prefix` (see [`push_tensors`]), checked by
+/// [`SnDnn::new`]; its metadata is empty.
+pub fn read_net(st: &SafeTensors<'_>, prefix: &str, c_sn: f64) -> Result<SnDnn, String> {
+    let tensor = |name: &str, dims: usize| -> Result<(Vec<usize>, Vec<f64>), String> {
+        let t = st.tensor(name).map_err(|_| format!("tensor {name:?} is missing"))?;
+        if t.dtype() != Dtype::F64 || t.shape().len() != dims {
+            return Err(format!("tensor {name:?} is {:?} {:?}, expected F64 of rank {dims}", t.dtype(), t.shape()));
+        }
+        let v = t.data().chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect();
+        Ok((t.shape().to_vec(), v))
+    };
+    let mut layers = Vec::new();
+    while st.names().iter().any(|n| **n == format!("{prefix}layers.{}.weight", layers.len())) {
+        let l = layers.len();
+        let (shape, w) = tensor(&format!("{prefix}layers.{l}.weight"), 2)?;
+        let (_, b) = tensor(&format!("{prefix}layers.{l}.bias"), 1)?;
+        layers.push(Layer { n_in: shape[1], n_out: shape[0], w, b });
+    }
+    let (_, input_scale) = tensor(&format!("{prefix}input_scale"), 1)?;
+    let (_, output_scale) = tensor(&format!("{prefix}output_scale"), 1)?;
+    let named = |e: String| if prefix.is_empty() { e } else { format!("{}: {e}", prefix.trim_end_matches('.')) };
+    SnDnn::new(layers, input_scale, output_scale, c_sn, serde_json::json!({})).map_err(named)
 }
 
 #[cfg(test)]

@@ -6,6 +6,7 @@
 use cohort_scenario::Problem;
 use serde::{Deserialize, Serialize};
 
+use crate::config::{non_negative, positive};
 use crate::swarm_setup::{A_MAX_MPS2, R_COMM_M, T_RECONFIG_S};
 
 fn d_a_max() -> f64 {
@@ -71,18 +72,6 @@ pub struct SwarmConfig {
 impl Default for SwarmConfig {
     fn default() -> Self {
         toml::from_str("").expect("every key has a default")
-    }
-}
-
-fn positive(problems: &mut Vec<Problem>, path: &str, v: f64) {
-    if !(v.is_finite() && v > 0.0) {
-        problems.push(Problem::new(path, Some(v.to_string()), "must be a positive number"));
-    }
-}
-
-fn non_negative(problems: &mut Vec<Problem>, path: &str, v: f64) {
-    if !(v.is_finite() && v >= 0.0) {
-        problems.push(Problem::new(path, Some(v.to_string()), "must be a number ≥ 0"));
     }
 }
 

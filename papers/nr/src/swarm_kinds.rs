@@ -202,27 +202,8 @@ impl AlgorithmSetup for SwarmSetup {
 
 #[cfg(test)]
 mod tests {
-    use std::path::{Path, PathBuf};
-
-    use cohort_runtime::paper::{Paper, configure};
-    use cohort_scenario::{Overrides, parse};
-
     use super::*;
-
-    const PAPERS: &[&dyn Paper] = &[&crate::Nr];
-
-    fn topologies() -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies")
-    }
-
-    fn configured(text: &str) -> Result<Setup, String> {
-        let s = parse(text, &topologies().join("x.toml"), &Overrides::default()).map_err(|e| e.to_string())?;
-        configure(s, PAPERS).map_err(|p| p.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n"))
-    }
-
-    fn file(name: &str) -> String {
-        std::fs::read_to_string(topologies().join(name)).unwrap()
-    }
+    use crate::kinds::tests::{configured, file};
 
     #[test]
     fn the_shipped_swarms_configure_and_resolve_their_problem_seed() {

@@ -22,13 +22,9 @@
 //! ([`SnDnn::new`]), and the chain between them (φ takes 6, ρ takes 6 + φ's outputs and gives
 //! 3); any failure is an error naming the file and the reason.
 
-use std::collections::HashMap;
 use std::path::Path;
 
-use safetensors::tensor::TensorView;
-use safetensors::{Dtype, SafeTensors};
-
-use crate::sn_dnn::{Layer, SnDnn, WeightsError};
+use crate::sn_dnn::{SnDnn, WeightsError, open, push_tensors, read_file, read_net, serialise};
 use crate::swarm_obs::{Neighbour, SwarmObservation, SwarmPolicy};
 use crate::swarm_problem::A_MAX_MPS2;
 
@@ -109,51 +105,23 @@ impl DeepSetPolicy {
 
     /// The weights file's bytes (deterministic: one metadata key).
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut owned: Vec<(String, Vec<usize>, Vec<u8>)> = Vec::new();
-        net_tensors("phi", &self.phi, &mut owned);
-        net_tensors("rho", &self.rho, &mut owned);
-        let views: Vec<(String, TensorView<'_>)> = owned
-            .iter()
-            .map(|(n, shape, data)| {
-                (n.clone(), TensorView::new(Dtype::F64, shape.clone(), data).expect("sizes match by construction"))
-            })
-            .collect();
-        let mut meta = self.metadata.clone();
-        if let Some(o) = meta.as_object_mut() {
-            o.insert("format".into(), FORMAT.into());
-            o.insert("c_sn".into(), self.phi.c_sn().into());
-        }
-        let meta: HashMap<String, String> = [(METADATA_KEY.to_string(), meta.to_string())].into_iter().collect();
-        safetensors::serialize(views, Some(meta)).expect("well-formed tensors serialise")
+        let mut tensors = Vec::new();
+        push_tensors(&self.phi, "phi.", &mut tensors);
+        push_tensors(&self.rho, "rho.", &mut tensors);
+        serialise(&tensors, METADATA_KEY, FORMAT, &self.metadata, self.phi.c_sn())
     }
 
     /// Read and check a weights file.
     pub fn load(path: &Path) -> Result<Self, WeightsError> {
-        let bytes =
-            std::fs::read(path).map_err(|e| WeightsError { file: path.into(), reason: format!("cannot read: {e}") })?;
-        Self::from_bytes(&bytes, path)
+        Self::from_bytes(&read_file(path)?, path)
     }
 
     /// Check and load a weights file's bytes; `file` only names it in errors.
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
         let fail = |reason: String| WeightsError { file: file.into(), reason };
-        let (_, header) =
-            SafeTensors::read_metadata(bytes).map_err(|e| fail(format!("not a safetensors file ({e})")))?;
-        let st = SafeTensors::deserialize(bytes).map_err(|e| fail(format!("not a safetensors file ({e})")))?;
-        let text = header
-            .metadata()
-            .as_ref()
-            .and_then(|m| m.get(METADATA_KEY))
-            .ok_or_else(|| fail(format!("no {METADATA_KEY:?} metadata: not a swarm-policy weights file")))?;
-        let metadata: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| fail(format!("metadata is not JSON ({e})")))?;
-        if metadata.get("format").and_then(|f| f.as_str()) != Some(FORMAT) {
-            return Err(fail(format!("metadata format is {:?}, expected {FORMAT:?}", metadata.get("format"))));
-        }
-        let c_sn =
-            metadata.get("c_sn").and_then(|c| c.as_f64()).ok_or_else(|| fail("metadata has no number c_sn".into()))?;
-        let phi = read_net(&st, "phi", c_sn).map_err(&fail)?;
-        let rho = read_net(&st, "rho", c_sn).map_err(&fail)?;
+        let (st, metadata, c_sn) = open(bytes, METADATA_KEY, FORMAT, "a swarm-policy").map_err(fail)?;
+        let phi = read_net(&st, "phi.", c_sn).map_err(fail)?;
+        let rho = read_net(&st, "rho.", c_sn).map_err(fail)?;
         Self::new(phi, rho, metadata).map_err(fail)
     }
 
@@ -179,42 +147,6 @@ impl SwarmPolicy for DeepSetPolicy {
     }
 }
 
-fn f64_bytes(v: &[f64]) -> Vec<u8> {
-    v.iter().flat_map(|x| x.to_le_bytes()).collect()
-}
-
-/// One network's tensors under `prefix.`.
-fn net_tensors(prefix: &str, net: &SnDnn, out: &mut Vec<(String, Vec<usize>, Vec<u8>)>) {
-    for (l, layer) in net.layers().iter().enumerate() {
-        out.push((format!("{prefix}.layers.{l}.weight"), vec![layer.n_out, layer.n_in], f64_bytes(&layer.w)));
-        out.push((format!("{prefix}.layers.{l}.bias"), vec![layer.n_out], f64_bytes(&layer.b)));
-    }
-    out.push((format!("{prefix}.input_scale"), vec![net.n_in()], f64_bytes(net.input_scale())));
-    out.push((format!("{prefix}.output_scale"), vec![net.n_out()], f64_bytes(net.output_scale())));
-}
-
-/// One network from the tensors under `prefix.`, checked by [`SnDnn::new`].
-fn read_net(st: &SafeTensors<'_>, prefix: &str, c_sn: f64) -> Result<SnDnn, String> {
-    let tensor = |name: &str, dims: usize| -> Result<(Vec<usize>, Vec<f64>), String> {
-        let t = st.tensor(name).map_err(|_| format!("tensor {name:?} is missing"))?;
-        if t.dtype() != Dtype::F64 || t.shape().len() != dims {
-            return Err(format!("tensor {name:?} is {:?} {:?}, expected F64 of rank {dims}", t.dtype(), t.shape()));
-        }
-        let v = t.data().chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect();
-        Ok((t.shape().to_vec(), v))
-    };
-    let mut layers = Vec::new();
-    while st.names().iter().any(|n| **n == format!("{prefix}.layers.{}.weight", layers.len())) {
-        let l = layers.len();
-        let (shape, w) = tensor(&format!("{prefix}.layers.{l}.weight"), 2)?;
-        let (_, b) = tensor(&format!("{prefix}.layers.{l}.bias"), 1)?;
-        layers.push(Layer { n_in: shape[1], n_out: shape[0], w, b });
-    }
-    let (_, input_scale) = tensor(&format!("{prefix}.input_scale"), 1)?;
-    let (_, output_scale) = tensor(&format!("{prefix}.output_scale"), 1)?;
-    SnDnn::new(layers, input_scale, output_scale, c_sn, serde_json::json!({})).map_err(|e| format!("{prefix}: {e}"))
-}
-
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -223,6 +155,8 @@ pub(crate) mod tests {
     use candle_core::{Device, Tensor};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+    use safetensors::SafeTensors;
+    use safetensors::tensor::TensorView;
 
     /// A random policy of the reference sizes.
     pub(crate) fn random_policy(seed: u64) -> DeepSetPolicy {

@@ -27,24 +27,19 @@
 
 use rand::Rng;
 
-/// Bound on each acceleration component, m/s².
-pub const A_MAX_MPS2: f64 = 2.0;
-/// Horizon of the reconfiguration, s.
-pub const T_S: f64 = 8.0;
-/// Control step, s.
-pub const DT_S: f64 = 0.1;
+/// The model's facts, one definition for the plant and the global solution
+/// ([`crate::swarm_setup`]); the names the SCP, data and evaluation code use.
+pub use crate::swarm_setup::{
+    A_MAX_MPS2, DT_S, ELLIPSOID_RADII_M as ELLIPSOID_M, MIN_SAMPLE_SEPARATION as MIN_SEPARATION, MIN_TRAVEL_M,
+    R_COMM_M, T_RECONFIG_S as T_S,
+};
 /// Control steps over the horizon.
 pub const STEPS: usize = 80;
-/// The cuboid [lo, hi] per axis, m.
-pub const CUBOID_M: [[f64; 2]; 3] = [[-2.0, 2.0], [-2.0, 2.0], [0.5, 2.0]];
-/// Semi-axes of the collision ellipsoid (x, y, z), m.
-pub const ELLIPSOID_M: [f64; 3] = [0.12, 0.12, 0.30];
-/// Communication radius, m.
-pub const R_COMM_M: f64 = 1.0;
-/// Least start-to-own-target distance, m.
-pub const MIN_TRAVEL_M: f64 = 1.0;
-/// Least ellipsoid distance between any two drawn points.
-pub const MIN_SEPARATION: f64 = 1.25;
+/// The cuboid [lo, hi] per axis, m (the plant's [`crate::swarm_setup::CUBOID_M`] as arrays).
+pub const CUBOID_M: [[f64; 2]; 3] = {
+    let c = crate::swarm_setup::CUBOID_M;
+    [[c[0].0, c[0].1], [c[1].0, c[1].1], [c[2].0, c[2].1]]
+};
 
 /// Redraws of one point before the draw gives up.
 const MAX_TRIES: usize = 100_000;

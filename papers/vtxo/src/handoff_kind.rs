@@ -23,7 +23,7 @@ use crate::config_algorithm::{Phase, VtxoAlgorithmConfig};
 use crate::config_plant::VtxoPlantConfig;
 use crate::handoff::{ConfiguredScience, Flight, HandoffAgent, SUPERVISOR_OFFSET, SciencePredictor};
 use crate::handoff_config::{ScienceGainsSource, VtxoHandoffConfig};
-use crate::kinds::PLANT_KIND;
+use crate::kinds::check_pair_kind;
 use crate::mission_kind::MISSION_KIND;
 use crate::supervisor::S1;
 use crate::supervisor_exec::Supervisor;
@@ -54,23 +54,12 @@ impl AlgorithmKind for VtxoHandoffKind {
         c: &mut Checker,
     ) -> Option<Arc<dyn AlgorithmSetup>> {
         let a = section_as::<VtxoHandoffConfig>(&ctx.scenario.algorithm.body, "algorithm", c);
-        if ctx.scenario.plant.kind != PLANT_KIND {
-            c.fail("algorithm.kind", format!("{HANDOFF_KIND:?}"), format!("needs plant.kind = {PLANT_KIND:?}"));
-        }
-        for (k, ag) in ctx.scenario.agents.iter().enumerate() {
-            let other = if ag.id == 1 { 2 } else { 1 };
-            if !ag.neighbours.contains(&other) {
-                c.fail(
-                    format!("agents[{k}].neighbours"),
-                    format!("{:?}", ag.neighbours),
-                    format!(
-                        "agent {} must list agent {other}: the flight shares and the supervisor's state \
-                         (follower, the master) and acknowledgement (leader) pass between them",
-                        ag.id
-                    ),
-                );
-            }
-        }
+        check_pair_kind(
+            ctx.scenario,
+            HANDOFF_KIND,
+            "the flight shares and the supervisor's state (follower, the master) and acknowledgement (leader) pass between them",
+            c,
+        );
         let mut a = a?;
         c.problems.extend(a.validate("algorithm", ctx.scenario.scenario.dt_s));
         if let Some(p) = plant.and_then(|p| p.as_any().downcast_ref::<VtxoPlantConfig>()) {

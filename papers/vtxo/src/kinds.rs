@@ -74,6 +74,24 @@ impl PlantSetup for VtxoPlantConfig {
 pub struct VtxoFormationKind;
 
 /// Each of the two agents must read the other's shares.
+/// The checks every pair-of-spacecraft algorithm kind makes: the plant is `vtxo`, and each agent
+/// lists the other, because `what` passes between them.
+pub(crate) fn check_pair_kind(s: &Scenario, kind: &str, what: &str, c: &mut Checker) {
+    if s.plant.kind != PLANT_KIND {
+        c.fail("algorithm.kind", format!("{kind:?}"), format!("needs plant.kind = {PLANT_KIND:?}"));
+    }
+    for (k, ag) in s.agents.iter().enumerate() {
+        let other = if ag.id == 1 { 2 } else { 1 };
+        if !ag.neighbours.contains(&other) {
+            c.fail(
+                format!("agents[{k}].neighbours"),
+                format!("{:?}", ag.neighbours),
+                format!("agent {} must list agent {other}: {what}", ag.id),
+            );
+        }
+    }
+}
+
 fn check_links(s: &Scenario, c: &mut Checker) {
     for (k, a) in s.agents.iter().enumerate() {
         let other = match a.id {

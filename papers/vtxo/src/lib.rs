@@ -78,6 +78,7 @@ pub mod transient_stats;
 pub mod transient_train;
 pub mod transient_trainer;
 pub mod verdict;
+pub mod weights_file;
 
 use std::path::{Path, PathBuf};
 

@@ -31,7 +31,7 @@ use cohort_runtime::paper::{
 use cohort_runtime::record::{CsvWriter, ErrorKind, ProcessError, ProcessReport, RunDirs};
 use cohort_scenario::{Checker, Scenario};
 
-use crate::kinds::PLANT_KIND;
+use crate::kinds::check_pair_kind;
 use crate::mission::{Mission, MissionParams};
 use crate::mission_config::{PredictorKind, VtxoMissionConfig};
 use crate::supervisor::{Automaton, S1, S2, S3};
@@ -56,23 +56,12 @@ impl AlgorithmKind for VtxoMissionKind {
         c: &mut Checker,
     ) -> Option<Arc<dyn AlgorithmSetup>> {
         let a = section_as::<VtxoMissionConfig>(&ctx.scenario.algorithm.body, "algorithm", c);
-        if ctx.scenario.plant.kind != PLANT_KIND {
-            c.fail("algorithm.kind", format!("{MISSION_KIND:?}"), format!("needs plant.kind = {PLANT_KIND:?}"));
-        }
-        for (k, ag) in ctx.scenario.agents.iter().enumerate() {
-            let other = if ag.id == 1 { 2 } else { 1 };
-            if !ag.neighbours.contains(&other) {
-                c.fail(
-                    format!("agents[{k}].neighbours"),
-                    format!("{:?}", ag.neighbours),
-                    format!(
-                        "agent {} must list agent {other}: the supervisor's state (follower, the master) and the \
-                         acknowledgement (leader) pass between them",
-                        ag.id
-                    ),
-                );
-            }
-        }
+        check_pair_kind(
+            ctx.scenario,
+            MISSION_KIND,
+            "the supervisor's state (follower, the master) and the acknowledgement (leader) pass between them",
+            c,
+        );
         let a = a?;
         let dt = ctx.scenario.scenario.dt_s;
         let problems = a.validate("algorithm", dt);

@@ -28,12 +28,11 @@
 
 use std::path::{Path, PathBuf};
 
-use safetensors::{Dtype, SafeTensors};
-
 use crate::attitude_control::AttitudeLaw;
 use crate::quaternion::{Quat, V3};
 use crate::science_sim::{K_MAX, K_MIN, ScienceLaw};
 use crate::transient_gains::MeasuredState;
+use crate::weights_file;
 
 /// Inputs of every network.
 pub const N_IN: usize = 8;
@@ -161,47 +160,24 @@ impl ScienceDnn {
 
     /// The weights file's bytes (F32, deterministic).
     pub fn to_bytes(&self) -> Vec<u8> {
-        use safetensors::tensor::TensorView;
-        let mut owned: Vec<(String, Vec<usize>, Vec<u8>)> = Vec::new();
-        for net in [&self.pd, &self.smc] {
-            for (n, s, v) in net.tensors() {
-                let bytes = v.iter().flat_map(|x| (*x as f32).to_le_bytes()).collect();
-                owned.push((format!("{}.{n}", net.law.name()), s, bytes));
-            }
-        }
-        let views: Vec<(String, TensorView<'_>)> = owned
-            .iter()
-            .map(|(n, s, d)| (n.clone(), TensorView::new(Dtype::F32, s.clone(), d).expect("sizes match")))
+        let tensors: Vec<(String, Vec<usize>, &[f64])> = [&self.pd, &self.smc]
+            .into_iter()
+            .flat_map(|net| net.tensors().into_iter().map(|(n, s, v)| (format!("{}.{n}", net.law.name()), s, v)))
             .collect();
-        safetensors::serialize(views, None).expect("well-formed tensors serialise")
+        weights_file::serialise_f32(&tensors)
     }
 
     /// Read and check a weights file.
     pub fn load(path: &Path) -> Result<Self, WeightsError> {
-        let bytes =
-            std::fs::read(path).map_err(|e| WeightsError { file: path.into(), reason: format!("cannot read: {e}") })?;
+        let bytes = weights_file::read(path).map_err(|reason| WeightsError { file: path.into(), reason })?;
         Self::from_bytes(&bytes, path)
     }
 
     /// Check and load a weights file's bytes; `file` only names it in errors.
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
         let fail = |reason: String| WeightsError { file: file.into(), reason };
-        let st = SafeTensors::deserialize(bytes).map_err(|e| fail(format!("not a safetensors file ({e})")))?;
-        let get = |name: &str, shape: &[usize]| -> Result<Vec<f64>, WeightsError> {
-            let t = st.tensor(name).map_err(|_| fail(format!("no tensor {name:?}")))?;
-            if t.dtype() != Dtype::F32 {
-                return Err(fail(format!("tensor {name:?} is {:?}, expected F32", t.dtype())));
-            }
-            if t.shape() != shape {
-                return Err(fail(format!("tensor {name:?} has shape {:?}, expected {shape:?}", t.shape())));
-            }
-            let v: Vec<f64> =
-                t.data().chunks_exact(4).map(|c| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]]))).collect();
-            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-                return Err(fail(format!("tensor {name:?} value {i} is not finite")));
-            }
-            Ok(v)
-        };
+        let st = weights_file::open(bytes).map_err(fail)?;
+        let get = |name: &str, shape: &[usize]| weights_file::f32_tensor(&st, name, shape).map_err(fail);
         let net = |law: ScienceLaw| -> Result<Net, WeightsError> {
             let p = law.name();
             let shapes = layer_shapes(law);
@@ -240,6 +216,7 @@ impl ScienceGainPredictor for ScienceDnn {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use safetensors::Dtype;
 
     pub(crate) fn tiny_net(law: ScienceLaw, k: f64) -> Net {
         let f = |n: usize, s: f64| (0..n).map(|i| ((i as f64 + 1.0) * s * k).sin()).collect::<Vec<_>>();

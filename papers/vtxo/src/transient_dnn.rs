@@ -21,10 +21,9 @@
 
 use std::path::{Path, PathBuf};
 
-use safetensors::{Dtype, SafeTensors};
-
 use crate::quaternion::{Quat, V3};
 use crate::transient_sim::{K_MAX, K_MIN, T_MAX_S, T_MIN_S};
+use crate::weights_file;
 
 /// Inputs and outputs.
 pub const N_IN: usize = 8;
@@ -137,45 +136,22 @@ impl TransientDnn {
 
     /// The weights file's bytes (F32, deterministic).
     pub fn to_bytes(&self) -> Vec<u8> {
-        use safetensors::tensor::TensorView;
-        let owned: Vec<(&str, Vec<usize>, Vec<u8>)> = self
-            .tensors()
-            .into_iter()
-            .map(|(n, s, v)| (n, s, v.iter().flat_map(|x| (*x as f32).to_le_bytes()).collect()))
-            .collect();
-        let views: Vec<(String, TensorView<'_>)> = owned
-            .iter()
-            .map(|(n, s, d)| (n.to_string(), TensorView::new(Dtype::F32, s.clone(), d).expect("sizes match")))
-            .collect();
-        safetensors::serialize(views, None).expect("well-formed tensors serialise")
+        let tensors: Vec<(String, Vec<usize>, &[f64])> =
+            self.tensors().into_iter().map(|(n, s, v)| (n.to_string(), s, v)).collect();
+        weights_file::serialise_f32(&tensors)
     }
 
     /// Read and check a weights file.
     pub fn load(path: &Path) -> Result<Self, WeightsError> {
-        let bytes =
-            std::fs::read(path).map_err(|e| WeightsError { file: path.into(), reason: format!("cannot read: {e}") })?;
+        let bytes = weights_file::read(path).map_err(|reason| WeightsError { file: path.into(), reason })?;
         Self::from_bytes(&bytes, path)
     }
 
     /// Check and load a weights file's bytes; `file` only names it in errors.
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
         let fail = |reason: String| WeightsError { file: file.into(), reason };
-        let st = SafeTensors::deserialize(bytes).map_err(|e| fail(format!("not a safetensors file ({e})")))?;
-        let get = |name: &str, shape: &[usize]| -> Result<Vec<f64>, WeightsError> {
-            let t = st.tensor(name).map_err(|_| fail(format!("no tensor {name:?}")))?;
-            if t.dtype() != Dtype::F32 {
-                return Err(fail(format!("tensor {name:?} is {:?}, expected F32", t.dtype())));
-            }
-            if t.shape() != shape {
-                return Err(fail(format!("tensor {name:?} has shape {:?}, expected {shape:?}", t.shape())));
-            }
-            let v: Vec<f64> =
-                t.data().chunks_exact(4).map(|c| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]]))).collect();
-            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-                return Err(fail(format!("tensor {name:?} value {i} is not finite")));
-            }
-            Ok(v)
-        };
+        let st = weights_file::open(bytes).map_err(fail)?;
+        let get = |name: &str, shape: &[usize]| weights_file::f32_tensor(&st, name, shape).map_err(fail);
         let b1 = st.tensor("b1").map_err(|_| fail("no tensor \"b1\"".into()))?;
         let hidden = match b1.shape() {
             [N_OUT, h] if (1..=MAX_HIDDEN).contains(h) => *h,
@@ -222,6 +198,7 @@ impl crate::transient_gains::TransientPredictor for TransientDnn {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use safetensors::Dtype;
 
     fn tiny() -> TransientDnn {
         let h = 3;
