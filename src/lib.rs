@@ -21,6 +21,16 @@ pub fn bin_path(name: &str) -> PathBuf {
     profile_dir.join(format!("{name}{}", std::env::consts::EXE_SUFFIX))
 }
 
+/// The lock every test that launches a run holds while it runs. A run already puts several
+/// processes on the machine's cores; two at once in one test harness would slow both past their
+/// timeouts on a loaded 2-core machine. Tests of one harness share it (the test files of a
+/// package are modules of one harness, which saves linking one per file). A test that panicked
+/// holding it does not poison the others.
+pub fn heavy() -> std::sync::MutexGuard<'static, ()> {
+    static HEAVY: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
+}
+
 /// A fresh, empty scratch directory under the system temp dir, unique per call.
 pub fn scratch_dir(tag: &str) -> PathBuf {
     use std::sync::atomic::{AtomicU32, Ordering};

@@ -1,19 +1,12 @@
 //! Logging (issue 17, item 5): `RUST_LOG`, `-v` and `-q` choose the orchestrator's and the
 //! children's log lines; every child log line carries its run time, level and process name; a
 //! bad `RUST_LOG` is named and ignored, never a panic. Short consensus-ring runs (1 s of sim time,
-//! 100 steps), serialised by [`HEAVY`].
+//! 100 steps), serialised by [`cohort::heavy`].
 
 use std::path::Path;
 use std::process::Output;
-use std::sync::Mutex;
 
-use cohort::{describe_output, orchestrator_command, repo_root, scratch_dir};
-
-static HEAVY: Mutex<()> = Mutex::new(());
-
-fn heavy() -> std::sync::MutexGuard<'static, ()> {
-    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
-}
+use cohort::{describe_output, heavy, orchestrator_command, repo_root, scratch_dir};
 
 /// `orchestrator [FLAGS] launch consensus-ring --duration 1` into `out`, with `RUST_LOG` set to
 /// `rust_log` (or removed).

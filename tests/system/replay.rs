@@ -2,21 +2,14 @@
 //! scenario (short): recording changes no telemetry (multi-process and reference), replaying agent
 //! 3 gives every share bit for bit, a share tampered in the file is named (step, field) with exit
 //! 1, and bad input (an agent out of range, no recording, a damaged file, no run directory) is
-//! exit 2 naming what is wrong. Heavy tests are serialised by [`HEAVY`].
+//! exit 2 naming what is wrong. Heavy tests are serialised by [`cohort::heavy`].
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
-use std::sync::Mutex;
 
-use cohort::{describe_output, launch_scenario, orchestrator_command, repo_root, scratch_dir, telemetry_bits};
+use cohort::{describe_output, heavy, launch_scenario, orchestrator_command, repo_root, scratch_dir, telemetry_bits};
 use cohort_wire::layout;
 use cohort_wire::msg::Share;
-
-static HEAVY: Mutex<()> = Mutex::new(());
-
-fn heavy() -> std::sync::MutexGuard<'static, ()> {
-    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
-}
 
 /// 2 s of sim time: 200 steps.
 const STEPS: u64 = 200;

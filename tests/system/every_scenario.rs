@@ -9,7 +9,7 @@
 
 use std::path::Path;
 
-use cohort::{describe_output, launch_scenario, repo_root, scratch_dir, summary};
+use cohort::{describe_output, heavy, launch_scenario, repo_root, scratch_dir, summary};
 use cohort_scenario::{Expect, Overrides};
 
 /// The longest stretch of simulated time a scenario is run for here, s (or this many steps).
@@ -61,6 +61,7 @@ fn launch_one(name: &str, out: &Path) -> Option<String> {
 
 #[test]
 fn every_runnable_scenario_completes_shortened_to_ten_seconds() {
+    let _g = heavy();
     let names = runnable_scenarios();
     assert!(names.len() >= 20, "expected the shipped scenarios in topologies/, found {names:?}");
     let root = scratch_dir("every-scenario");

@@ -19,15 +19,12 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use cohort::{bin_path, describe_output, processes_mentioning, repo_root, scratch_dir, summary, telemetry_bits};
+use cohort::{bin_path, describe_output, heavy, processes_mentioning, repo_root, scratch_dir, summary, telemetry_bits};
 use serde_json::Value;
 
 use cohort_supervisor::linkemu;
-
-static HEAVY: Mutex<()> = Mutex::new(());
 
 /// fig1, shortened: 1.5 s of simulated time, 150 lockstep steps.
 const DURATION: &str = "1.5";
@@ -277,7 +274,7 @@ fn latency_p50_ns(s: &Value, agent: &str) -> f64 {
 
 #[test]
 fn fig1_across_three_hosts_is_bit_identical_survives_kills_and_host_loss_and_netem() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let t0 = Instant::now();
     let net = Net::make();
     let mut daemons = Daemons::start(&net);
@@ -388,7 +385,7 @@ fn fig1_across_three_hosts_is_bit_identical_survives_kills_and_host_loss_and_net
 
 #[test]
 fn fig1_over_zenoh_on_one_host_is_bit_identical_to_the_reference() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("zenoh-one-host");
     let (zenoh, reference) = (dir.join("zenoh"), dir.join("reference"));
     let o = launch_here(&zenoh, &["--transport", "zenoh"]);
@@ -447,7 +444,7 @@ fn an_unreachable_daemon_or_one_of_another_build_is_refused_before_anything_star
 
 #[test]
 fn fig1_across_three_loopback_daemons_is_bit_identical_to_the_reference() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     // The fallback of machines without `ip netns`, tested on every machine: three daemons on
     // loopback ports of this one.
     let net = Net { tag: String::new(), namespaces: false, pumped: None };
@@ -491,7 +488,7 @@ fn ring20_over_zenoh() -> String {
 
 #[test]
 fn twenty_agents_over_zenoh_start_every_time() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("zenoh-ring20");
     let file = dir.join("ring20.toml");
     std::fs::write(&file, ring20_over_zenoh()).unwrap();

@@ -4,14 +4,12 @@
 //! behind, and a fault run is as deterministic as a clean one. Heavy: serialised.
 
 use std::path::Path;
-use std::sync::Mutex;
 
 use cohort::{
-    describe_output, iceoryx2_leftovers, launch_scenario, processes_mentioning, scratch_dir, summary, telemetry_bits,
+    describe_output, heavy, iceoryx2_leftovers, launch_scenario, processes_mentioning, scratch_dir, summary,
+    telemetry_bits,
 };
 use serde_json::Value;
-
-static HEAVY: Mutex<()> = Mutex::new(());
 
 fn assert_clean(run: &Path) {
     let s = summary(run);
@@ -41,7 +39,7 @@ fn process<'a>(s: &'a Value, name: &str) -> &'a Value {
 
 #[test]
 fn fig1_survives_the_kill_of_servicer_3_and_the_other_five_keep_converging() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("fault-kill");
     let run = dir.join("run");
     let o = launch_scenario(Path::new("topologies/fig1.toml"), &run, &["--fault", "kill:agent=3@t=120"]);
@@ -93,7 +91,7 @@ fn freeze_restart_drop_corrupt(run: &Path) -> Value {
 
 #[test]
 fn fig1_freeze_restart_drop_and_corrupt_complete_count_exactly_and_repeat_bit_for_bit() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("fault-mix");
     let (a, b) = (dir.join("a"), dir.join("b"));
     let s = freeze_restart_drop_corrupt(&a);
@@ -166,7 +164,7 @@ fn fig1_freeze_restart_drop_and_corrupt_complete_count_exactly_and_repeat_bit_fo
 
 #[test]
 fn a_damaged_checkpoint_is_refused_and_the_agent_stays_off_the_roster() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("fault-badckpt");
     let run = dir.join("run");
     // Agent 2 of the consensus ring is restarted at 10 s; its latest checkpoint (step 500, 5 s)
@@ -230,7 +228,7 @@ fn bad_fault_arguments_are_refused_before_anything_runs() {
 
 #[test]
 fn in_real_time_a_frozen_agent_costs_deadline_misses_until_it_is_declared_dead() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("fault-realtime");
     let run = dir.join("run");
     // Ring at 100 Hz in real time; agent 2 frozen at 2 s for 3 s, step timeout 1 s: the plant
@@ -277,7 +275,7 @@ fn rows_journalled(run: &Path, id: u32) -> u64 {
 /// journal batch (plus the detection delay) short of the step the plant saw it die at.
 #[test]
 fn an_agent_killed_by_surprise_keeps_its_parquet_telemetry_up_to_a_step_close_to_the_kill() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("fault-sigkill");
     let run = dir.join("run");
     // In real time (100 steps/s), so that the kill lands mid-run whatever the machine's speed.

@@ -4,12 +4,9 @@
 
 use std::path::Path;
 use std::process::Output;
-use std::sync::Mutex;
 use std::time::Instant;
 
-use cohort::{launch_scenario, orchestrator_command, scratch_dir};
-
-static HEAVY: Mutex<()> = Mutex::new(());
+use cohort::{heavy, launch_scenario, orchestrator_command, scratch_dir};
 
 fn orchestrator(args: &[&str]) -> Output {
     orchestrator_command().args(args).output().expect("running the orchestrator")
@@ -37,7 +34,7 @@ fn telemetry(dir: &Path) -> Vec<(String, Vec<u8>)> {
 
 #[test]
 fn waiting_strategies_and_transports_never_change_the_telemetry() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("options");
     let base = dir.join("reference");
     launch(&base, &["--reference"]);
@@ -60,7 +57,7 @@ fn waiting_strategies_and_transports_never_change_the_telemetry() {
 
 #[test]
 fn a_link_delay_is_deterministic_and_really_changes_the_model() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("linkdelay");
     let (mp, rf, none) = (dir.join("mp"), dir.join("ref"), dir.join("none"));
     launch(&mp, &["--link-delay", "1"]);
@@ -78,7 +75,7 @@ fn a_link_delay_is_deterministic_and_really_changes_the_model() {
 
 #[test]
 fn realtime_pacing_follows_the_wall_clock() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("realtime");
     let started = Instant::now();
     // 1 s of sim time at 4× real time: at least 0.25 s of wall time.
@@ -105,7 +102,7 @@ fn bench_only_a_prefix_no_case_has_exits_2() {
 
 #[test]
 fn bench_quick_writes_its_results() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("bench");
     // The bench's own scratch files go under TMPDIR: it must leave nothing there.
     let tmp = scratch_dir("bench-tmpdir");

@@ -108,7 +108,7 @@ fn expectation(name: &str) -> String {
     match NO_EXPECT_LINE.iter().find(|(n, _)| *n == name) {
         Some((_, want)) => want.to_string(),
         None => panic!(
-            "{}: the first line must be `# expect: <key path>` (or add the file to NO_EXPECT_LINE in tests/check.rs)",
+            "{}: the first line must be `# expect: <key path>` (or add the file to NO_EXPECT_LINE in tests/system/check.rs)",
             rel(name)
         ),
     }

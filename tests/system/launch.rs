@@ -1,25 +1,18 @@
 //! Launches of real processes: determinism across transports, concurrent runs, and clean exits
 //! when an agent is SIGKILLed or the orchestrator gets Ctrl-C.
 //!
-//! Heavy tests are serialised by [`HEAVY`] (each launch already puts 7 processes on 2 cores) and
+//! Heavy tests are serialised by [`cohort::heavy`] (each launch already puts 7 processes on 2 cores) and
 //! every wait is generous: these must not be flaky on a loaded machine. Run with
 //! `cargo test --workspace --release`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use cohort::{
-    bin_path, describe_output, iceoryx2_leftovers, launch_scenario, orchestrator_command, processes_mentioning,
+    bin_path, describe_output, heavy, iceoryx2_leftovers, launch_scenario, orchestrator_command, processes_mentioning,
     repo_root, scratch_dir, summary, telemetry_bits,
 };
-
-static HEAVY: Mutex<()> = Mutex::new(());
-
-fn heavy() -> std::sync::MutexGuard<'static, ()> {
-    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
-}
 
 fn orchestrator() -> Command {
     orchestrator_command()

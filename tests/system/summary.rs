@@ -6,12 +6,9 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::Mutex;
 
-use cohort::{describe_output, orchestrator_command, read_json, scratch_dir, summary};
+use cohort::{describe_output, heavy, orchestrator_command, read_json, scratch_dir, summary};
 use serde_json::Value;
-
-static HEAVY: Mutex<()> = Mutex::new(());
 
 /// The bound on a short fig1 run's summary.json. What it holds scales with the processes (7
 /// end reports of ≈ 1.4 kB pretty-printed: counters by reason, fault counters, received-from
@@ -45,7 +42,7 @@ fn agent_table(text: &str) -> (Vec<String>, Vec<Vec<String>>) {
 
 #[test]
 fn a_short_fig1_run_has_a_small_summary_its_histograms_a_verdict_and_json_on_stdout() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("summary-fig1");
     let run = dir.join("run");
     let o = orchestrator_command()
@@ -174,7 +171,7 @@ fn status_and_timing(run: &Path, format: &str, steps: usize) {
 /// them as they read Parquet.
 #[test]
 fn a_csv_fig1_run_writes_its_timing_as_csv_and_the_summary_reads_it() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("summary-fig1-csv");
     let run = dir.join("run");
     let o = orchestrator_command()
@@ -191,7 +188,7 @@ fn a_csv_fig1_run_writes_its_timing_as_csv_and_the_summary_reads_it() {
 
 #[test]
 fn dai_and_nr_main_scenarios_get_a_verdict_with_pass_or_fail() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("summary-verdict");
     // Both whole runs are short: dai 5 s of sim in-process, nr one day in 144 steps.
     for file in ["topologies/dai.toml", "topologies/nr-iso.toml"] {

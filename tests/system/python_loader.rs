@@ -19,6 +19,8 @@ fn python_with_pyarrow() -> Result<(), String> {
 
 /// Run the Python unit tests in `dir` (from the repository root); returns their stderr.
 fn unittest(dir: &str, tests: usize) -> Option<String> {
+    // The Python tests launch runs of their own.
+    let _g = cohort::heavy();
     if let Err(why) = python_with_pyarrow() {
         eprintln!("SKIPPED the Python tests in {dir}: {why} (python3 -m pip install ./python)");
         return None;

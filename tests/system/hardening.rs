@@ -5,24 +5,17 @@
 //! JSON behind, a run with `run.authenticate` gives the same telemetry, a second user can run
 //! after root, and waiting survives two CPU hogs.
 //!
-//! Heavy tests are serialised by [`HEAVY`]; every wait is generous.
+//! Heavy tests are serialised by [`cohort::heavy`]; every wait is generous.
 
 use std::io::Read;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use cohort::{
-    describe_output, iceoryx2_leftovers, orchestrator_command, repo_root, scratch_dir, summary, telemetry_bits,
+    describe_output, heavy, iceoryx2_leftovers, orchestrator_command, repo_root, scratch_dir, summary, telemetry_bits,
 };
-
-static HEAVY: Mutex<()> = Mutex::new(());
-
-fn heavy() -> std::sync::MutexGuard<'static, ()> {
-    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
-}
 
 fn ring() -> String {
     repo_root().join("topologies/consensus-ring.toml").display().to_string()

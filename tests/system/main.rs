@@ -1,0 +1,21 @@
+//! Cohort's system tests: each module launches real processes (plant, agents, orchestrator,
+//! host daemons) from the release binaries `scripts/test` builds, and checks what a user would:
+//! scenario validation, launches, faults, replays, multi-host runs, logs and summaries.
+//!
+//! One test harness for all of them (a harness per file cost a link of the whole binary per
+//! file); the tests that launch runs share [`cohort::heavy`], so two never run at once.
+//! `cargo test --release --test system faults::` runs one module.
+
+mod build_id;
+mod check;
+mod cli;
+mod every_scenario;
+mod faults;
+mod hardening;
+mod launch;
+mod logging;
+mod multihost;
+mod python_loader;
+mod replay;
+mod runtime_options;
+mod summary;
