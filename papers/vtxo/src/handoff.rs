@@ -8,8 +8,10 @@
 //! - s2 transient: the Lyapunov law (57) with (k₁, k₂) this spacecraft's transient predictor (the
 //!   DNN) answered at its own entry to s2, from its MEKF estimate (δq = q̂ ⊗ q_f⁻¹, ω̂) and w; u2 =
 //!   max(T̂_L, T̂_F) is the supervisor's rule (`u2_ticks`), as in the mission;
-//! - s3 science: PD (54) or SMC (58)–(60), the law a [`SciencePredictor`] answers at the entry to s3
-//!   (today the configured gains, [`ConfiguredScience`]; a science DNN plugs in there);
+//! - s3 science: PD (54) or SMC (58)–(60) with the gains k̂ its [`SciencePredictor`] answered at its
+//!   own entry to s3, from its MEKF estimate (δq, ω̂) and w: the science DNN of Sec. 3.2.2
+//!   ([`crate::handoff_science::DnnScience`]; what it is given and where that departs from the print
+//!   is in [`crate::handoff_science`]) or the configured gains ([`ConfiguredScience`]);
 //! - every other location (s1 stabilisation here; s0, s4, s5, s6 if a longer run reached them):
 //!   the stabilisation law of Sec. 2.11, a feed-forward that cancels the gravity-gradient torque
 //!   (23) predicted from q̂ and this spacecraft's own orbit estimate r̂ (the leader's r̂_L; the
@@ -19,7 +21,8 @@
 //! Step k: the flight agent filters the readings and writes its shares; then the supervisor ticks
 //! (fires or adopts, predicts at an entry), and the law the location prescribes computes the
 //! torque from the estimate of t_k, replacing the flight agent's: one law acts per step, whichever
-//! the location, and the telemetry says which (`law_*_on`).
+//! the location, and the telemetry says which (`law_*_on`), with the transient's (k₁, k₂, T̂) and
+//! the science law's k̂, Ê, ê chosen at the latest entries (`transient_*`, `science_*`).
 //!
 //! Shares: the flight share (padded to [`SUPERVISOR_OFFSET`] values), then the supervisor share
 //! ([`crate::supervisor_share`]). The supervisor's clocks count steps (its tick is `dt_s`).
@@ -34,6 +37,8 @@ use crate::acs::Acs;
 use crate::attitude::gravity_gradient;
 use crate::attitude_control::AttitudeLaw;
 use crate::follower::Follower;
+use crate::handoff_science::{self, ScienceChoice};
+pub use crate::handoff_science::{ConfiguredScience, SciencePredictor};
 use crate::leader::Leader;
 use crate::quaternion::{self, V3};
 use crate::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
@@ -61,22 +66,6 @@ impl ActingLaw {
             S3 => ActingLaw::Science,
             _ => ActingLaw::Stabilisation,
         }
-    }
-}
-
-/// (state at the entry to s3) → the science law and gains: the seam for a science-gain predictor
-/// (Sec. 3.2.2's DNN answers k̂ from the state and w).
-pub trait SciencePredictor: Send + Sync {
-    fn science_law(&self, x: &MeasuredState) -> AttitudeLaw;
-}
-
-/// The configured law and gains, whatever the state.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ConfiguredScience(pub AttitudeLaw);
-
-impl SciencePredictor for ConfiguredScience {
-    fn science_law(&self, _x: &MeasuredState) -> AttitudeLaw {
-        self.0
     }
 }
 
@@ -123,8 +112,8 @@ pub struct HandoffState {
     pub flight: Flight,
     pub sup: SupervisorAgent,
     pub acting: ActingLaw,
-    /// The science law chosen at the latest entry to s3.
-    pub science: Option<AttitudeLaw>,
+    /// The science law (and its predicted Ê, ê) chosen at the latest entry to s3.
+    pub science: Option<ScienceChoice>,
     pub mu_m3ps2: f64,
 }
 
@@ -183,9 +172,9 @@ impl HandoffAgent {
                 acs.command()
             }
             ActingLaw::Science => {
-                let l = self.state.science.expect("chosen at the entry to s3, just above");
+                let c = self.state.science.expect("chosen at the entry to s3, just above");
                 let acs = self.state.flight.acs();
-                acs.set_law(l);
+                acs.set_law(c.law);
                 acs.command()
             }
         };
@@ -205,6 +194,7 @@ impl Algorithm for HandoffAgent {
             c.push(n.into());
         }
         c.extend(["transient_k1_n_m", "transient_k2_n_m_s", "transient_t_hat_entry_s"].map(String::from));
+        c.extend(handoff_science::columns(self.science.kind()));
         c
     }
 
@@ -241,6 +231,7 @@ impl Algorithm for HandoffAgent {
         out.extend([on(ActingLaw::Stabilisation), on(ActingLaw::Transient), on(ActingLaw::Science)]);
         let g = self.state.sup.entry_gains;
         out.extend([g.k1, g.k2, g.t_s]);
+        handoff_science::row(self.science.kind(), self.state.science.as_ref(), out);
     }
 
     fn save_state(&self) -> Vec<u8> {

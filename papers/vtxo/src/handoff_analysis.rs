@@ -11,13 +11,23 @@
 //!   (`handoff_error_bound_deg` = 0.2°; `handoff_transient_within_bound` 1/0, on the window mean);
 //! - `handoff_error_end_deg`: the error at the last row;
 //! - `handoff_law_mismatch_rows`: rows where the law that acted is not exactly the one the
-//!   location prescribes (0 in a correct run) and `handoff_final_state`.
+//!   location prescribes (0 in a correct run) and `handoff_final_state`;
+//! - s3, from its entry while the location stays s3 (Sec. 3.1's science phase, against what the
+//!   science DNN expected): `handoff_science_<gain>` (k̂ at its entry, e.g. `…_z_1_s2`) and the
+//!   predicted `handoff_science_{energy_hat_j, error_hat_deg}` (NaN with configured gains);
+//!   flown: `handoff_science_s` (its length), `handoff_science_error_mean_deg` (e of (72): the
+//!   mean true principal-angle error over the rows of s3) and `…_error_max_deg`,
+//!   `handoff_science_energy_j` (E of (71): Σᵢ∫|τᵢωᵢ|dt of the plant's applied wheel torque and
+//!   true rate, each row held for its step), `handoff_science_rate_rms_deg_s` (RMS of ‖ω‖) and
+//!   `handoff_science_rate_end_{x,y,z}_deg_s` (ω at s3's last row: ω_f of Table 3 when s3 lasts
+//!   the phase).
 //!
 //! With `run.telemetry_every_steps` > 1 the entry times are those of the first row after the entry.
 
 use std::collections::BTreeMap;
 
 use cohort_report::Table;
+use cohort_report::table::read_table_with;
 use cohort_runtime::record::RunDirs;
 
 use crate::analysis::ROLES;
@@ -29,6 +39,7 @@ pub const ERROR_BOUND_DEG: f64 = 0.2;
 /// D of (73), s.
 pub const WINDOW_S: f64 = 4.0;
 const LAWS: [&str; 3] = ["law_stabilisation_on", "law_transient_on", "law_science_on"];
+const XYZ: [&str; 3] = ["x", "y", "z"];
 
 fn read(dirs: &RunDirs, file: &str, cols: &[String]) -> Result<Table, String> {
     Table::read_columns(&dirs.telemetry().join(file), cols).map_err(|e| e.to_string())
@@ -43,17 +54,74 @@ fn law_index(state: usize) -> usize {
     }
 }
 
+/// An agent's table: `cols` (each required) and every `science_*` column it has.
+fn read_agent(dirs: &RunDirs, file: &str, cols: &[String]) -> Result<Table, String> {
+    let path = dirs.telemetry().join(file);
+    let t = read_table_with(&path, &|n| n.starts_with("science_") || cols.iter().any(|c| c == n))
+        .map_err(|e| e.to_string())?;
+    match cols.iter().find(|c| t.get(c).is_none()) {
+        Some(c) => Err(format!("{}: no column {c:?}", path.display())),
+        None => Ok(t),
+    }
+}
+
+/// The s3 metrics of `role` (module docs): its agent rows `r3..` while in s3, the plant rows
+/// `p3..` of the same steps.
+fn science_metrics(role: &str, a: &Table, r3: usize, plant: &Table, p3: usize, m: &mut BTreeMap<String, f64>) {
+    let key = |k: &str| format!("{role}_handoff_science_{k}");
+    for c in a.columns.iter().filter(|c| c.name.starts_with("science_")) {
+        m.insert(format!("{role}_handoff_{}", c.name), c.values[r3]);
+    }
+    let state = a.col("sup_state");
+    let n = (r3..a.rows())
+        .take_while(|&r| state[r] as usize == S3)
+        .zip(p3..plant.rows())
+        .take_while(|&(r, p)| a.steps()[r] == plant.steps()[p])
+        .count();
+    if n == 0 {
+        return;
+    }
+    let rows = p3..p3 + n;
+    let err = &plant.col(&format!("{role}_attitude_error_deg"))[rows.clone()];
+    let col3 = |name: &str, unit: &str| XYZ.map(|ax| plant.col(&format!("{role}_{name}_{ax}_{unit}")));
+    let (w, tau) = (col3("omega_body", "rad_s"), col3("tau_in_body", "n_m"));
+    let mut energy_j = 0.0;
+    let mut rate2 = 0.0;
+    for p in rows.clone() {
+        // Each row's torque and rate held for the step that ends at the next row.
+        let dt_s = if p + 1 < plant.rows() { plant.t[p + 1] - plant.t[p] } else { plant.t[p] - plant.t[p - 1] };
+        energy_j += (0..3).map(|i| (tau[i][p] * w[i][p]).abs()).sum::<f64>() * dt_s;
+        rate2 += (0..3).map(|i| w[i][p] * w[i][p]).sum::<f64>();
+    }
+    let last = p3 + n - 1;
+    let span_s = if last + 1 < plant.rows() { plant.t[last + 1] } else { 2.0 * plant.t[last] - plant.t[last - 1] };
+    m.insert(key("s"), span_s - plant.t[p3]);
+    m.insert(key("error_mean_deg"), err.iter().sum::<f64>() / n as f64);
+    m.insert(key("error_max_deg"), err.iter().copied().fold(0.0, f64::max));
+    m.insert(key("energy_j"), energy_j);
+    m.insert(key("rate_rms_deg_s"), (rate2 / n as f64).sqrt().to_degrees());
+    for (i, ax) in XYZ.iter().enumerate() {
+        m.insert(key(&format!("rate_end_{ax}_deg_s")), w[i][last].to_degrees());
+    }
+}
+
 /// The summary metrics (see the module docs).
 pub fn analyse(dirs: &RunDirs) -> Result<BTreeMap<String, f64>, String> {
     let err_cols: Vec<String> = ROLES.iter().map(|r| format!("{r}_attitude_error_deg")).collect();
-    let plant = read(dirs, "plant.csv", &err_cols)?;
+    let mut plant_cols = err_cols.clone();
+    for role in ROLES {
+        for (name, unit) in [("omega_body", "rad_s"), ("tau_in_body", "n_m")] {
+            plant_cols.extend(XYZ.map(|ax| format!("{role}_{name}_{ax}_{unit}")));
+        }
+    }
+    let plant = read(dirs, "plant.csv", &plant_cols)?;
     let mut m = BTreeMap::new();
     m.insert("handoff_error_bound_deg".into(), ERROR_BOUND_DEG);
     for (i, role) in ROLES.iter().enumerate() {
         let mut cols: Vec<String> = ["sup_state", "sup_u2_s"].iter().map(|s| s.to_string()).collect();
         cols.extend(LAWS.iter().map(|s| s.to_string()));
         cols.extend(["transient_k1_n_m", "transient_k2_n_m_s", "transient_t_hat_entry_s"].map(String::from));
-        let a = read(dirs, &format!("agent-{}.csv", i + 1), &cols)?;
+        let a = read_agent(dirs, &format!("agent-{}.csv", i + 1), &cols)?;
         let state = a.col("sup_state");
         let first = |s: usize| state.iter().position(|x| *x as usize == s);
         let mut mismatches = 0.0;
@@ -86,6 +154,7 @@ pub fn analyse(dirs: &RunDirs) -> Result<BTreeMap<String, f64>, String> {
                 let e = w.iter().sum::<f64>() / w.len() as f64;
                 m.insert(format!("{role}_handoff_error_window_transient_deg"), e);
                 m.insert(format!("{role}_handoff_transient_within_bound"), f64::from(u8::from(e < ERROR_BOUND_DEG)));
+                science_metrics(role, &a, r3, &plant, pr, &mut m);
             }
         }
     }

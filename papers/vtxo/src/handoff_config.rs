@@ -15,14 +15,21 @@
 //! stabilisation_s = 30.0        # u1: s1's duration (the print's 22.45 h, scaled to a short run)
 //! object_id = 1                 # the Id of Table 6 being observed (1..=last object)
 //! transient_weights = "../papers/vtxo/weights/transient.safetensors"  # the transient DNN
-//! science_gains = "configured"  # the science law's gains: flight.attitude's (the seam for a DNN)
+//! science_gains = "dnn"         # the science law's gains at the entry to s3: "dnn" (the science
+//! science_weights = "../papers/vtxo/weights/science.safetensors"  # DNN of these weights, at w =
+//! science_w_deg_per_j = 100.0   # science_w_deg_per_j) or "configured" (flight.attitude's gains)
 //! ```
 //!
 //! Departures, and why: u1 is `handoff.stabilisation_s` instead of orbit period − 10 h − 3 min
 //! (80 820 s in the print; a short run is the point of this scenario), so the supervisor's
 //! `timers.orbit_period_s` is not read; the run starts in s1 (the mission's s0 → s4 → s2 prefix is
 //! the discrete-event scenario's business). `transient_weights` is relative to the scenario file;
-//! without it the supervisor's fixed (k1, k2, T) answer.
+//! without it the supervisor's fixed (k1, k2, T) answer. `science_weights`, also relative to the
+//! scenario file, is required by `science_gains = "dnn"`; when named it is loaded and checked
+//! whatever `science_gains` says (so switching the source with `--set` never skips the check).
+//! The science DNN's w is a scenario constant (the print's w of Table 4 is outside our data's
+//! range; see [`crate::handoff_science`]): 100 deg/J by default, about the SMC data's median (96);
+//! the PD data's median is 457.
 
 use std::path::PathBuf;
 
@@ -48,6 +55,18 @@ pub enum ScienceGainsSource {
     /// `flight.attitude.science` with its configured gains (Table 4 by default).
     #[default]
     Configured,
+    /// `flight.attitude.science` with the gains the science DNN (`science_weights`) answers at
+    /// the agent's own estimate.
+    Dnn,
+}
+
+impl ScienceGainsSource {
+    pub fn name(self) -> &'static str {
+        match self {
+            ScienceGainsSource::Configured => "configured",
+            ScienceGainsSource::Dnn => "dnn",
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -60,7 +79,14 @@ pub struct HandoffConfig {
     /// The transient DNN's weights (resolved against the scenario file while configuring).
     pub transient_weights: Option<PathBuf>,
     pub science_gains: ScienceGainsSource,
+    /// The science DNN's weights (resolved against the scenario file while configuring).
+    pub science_weights: Option<PathBuf>,
+    /// w of the science DNN's input, deg/J (e/E of the Pareto data).
+    pub science_w_deg_per_j: f64,
 }
+
+/// The default w of the science DNN, deg/J (about the median e/E of the SMC Pareto data).
+pub const SCIENCE_W_DEG_PER_J: f64 = 100.0;
 
 impl Default for HandoffConfig {
     fn default() -> Self {
@@ -69,6 +95,8 @@ impl Default for HandoffConfig {
             object_id: 1,
             transient_weights: None,
             science_gains: ScienceGainsSource::Configured,
+            science_weights: None,
+            science_w_deg_per_j: SCIENCE_W_DEG_PER_J,
         }
     }
 }
@@ -104,6 +132,14 @@ impl VtxoHandoffConfig {
                 &format!("must be a science object of supervisor.timers.u3_h: 1..={last}"),
             );
         }
+        c.positive(&p("handoff.science_w_deg_per_j"), h.science_w_deg_per_j);
+        if h.science_gains == ScienceGainsSource::Dnn && h.science_weights.is_none() {
+            c.fail(
+                &p("handoff.science_weights"),
+                None,
+                "is required by handoff.science_gains = \"dnn\" (the science DNN's weights file)",
+            );
+        }
         out.extend(c.problems);
         out
     }
@@ -125,6 +161,8 @@ mod tests {
         c.handoff.object_id = 9;
         c.flight.mass_kg = -1.0;
         c.supervisor.transient.k1 = 2.0;
+        c.handoff.science_w_deg_per_j = 0.0;
+        c.handoff.science_gains = ScienceGainsSource::Dnn;
         let paths: Vec<String> = c.validate("algorithm", 0.01).into_iter().map(|p| p.path).collect();
         assert_eq!(
             paths,
@@ -133,9 +171,18 @@ mod tests {
                 "algorithm.supervisor.transient.k1",
                 "algorithm.handoff.stabilisation_s",
                 "algorithm.handoff.object_id",
+                "algorithm.handoff.science_w_deg_per_j",
+                "algorithm.handoff.science_weights",
             ]
         );
         assert!(toml::from_str::<VtxoHandoffConfig>("[handoff]\nstabilisation = 1.0").is_err());
-        assert!(toml::from_str::<VtxoHandoffConfig>("[handoff]\nscience_gains = \"dnn\"").is_err());
+        assert!(toml::from_str::<VtxoHandoffConfig>("[handoff]\nscience_gains = \"neural\"").is_err());
+        let dnn: VtxoHandoffConfig =
+            toml::from_str("[handoff]\nscience_gains = \"dnn\"\nscience_weights = \"s.safetensors\"").unwrap();
+        assert!(dnn.validate("algorithm", 0.01).is_empty());
+        let mut nan = dnn.clone();
+        nan.handoff.science_w_deg_per_j = f64::NAN;
+        let paths: Vec<String> = nan.validate("algorithm", 0.01).into_iter().map(|p| p.path).collect();
+        assert_eq!(paths, ["algorithm.handoff.science_w_deg_per_j"]);
     }
 }

@@ -7,8 +7,10 @@
 //! (targets, [`crate::config::check_pair`], reported under `algorithm.flight.…`), the links (each
 //! agent lists the other), and loads the transient DNN named by `algorithm.handoff.transient_weights`
 //! (relative to the scenario file; the resolved scenario the processes read carries it absolute):
-//! a missing or malformed file is a problem at that key path naming the file. The loaded network
-//! is shared by both agents of a process.
+//! a missing or malformed file is a problem at that key path naming the file. The science DNN
+//! named by `algorithm.handoff.science_weights` is resolved, loaded and refused in the same way
+//! (a file of another model, e.g. the transient DNN's, is refused too: it has no science
+//! network). The loaded networks are shared by both agents of a process.
 
 use std::any::Any;
 use std::collections::BTreeMap;
@@ -23,8 +25,10 @@ use crate::config_algorithm::{Phase, VtxoAlgorithmConfig};
 use crate::config_plant::VtxoPlantConfig;
 use crate::handoff::{ConfiguredScience, Flight, HandoffAgent, SUPERVISOR_OFFSET, SciencePredictor};
 use crate::handoff_config::{ScienceGainsSource, VtxoHandoffConfig};
+use crate::handoff_science::DnnScience;
 use crate::kinds::check_pair_kind;
 use crate::mission_kind::MISSION_KIND;
+use crate::science_dnn::ScienceDnn;
 use crate::supervisor::S1;
 use crate::supervisor_exec::Supervisor;
 use crate::supervisor_lockstep::SupervisorAgent;
@@ -34,13 +38,16 @@ use crate::transient_gains::{FixedTransient, TransientGains, TransientPredictor}
 
 pub const HANDOFF_KIND: &str = "vtxo-handoff";
 const WEIGHTS_KEY: &str = "algorithm.handoff.transient_weights";
+const SCIENCE_WEIGHTS_KEY: &str = "algorithm.handoff.science_weights";
 
 pub struct VtxoHandoffKind;
 
-/// The configured section and its loaded transient DNN (None: the fixed predictor).
+/// The configured section and its loaded networks (transient None: the fixed predictor; science
+/// None: only with `science_gains = "configured"`).
 pub struct HandoffSetup {
     pub config: VtxoHandoffConfig,
     pub dnn: Option<Arc<TransientDnn>>,
+    pub science_dnn: Option<Arc<ScienceDnn>>,
 }
 
 impl AlgorithmKind for VtxoHandoffKind {
@@ -77,7 +84,16 @@ impl AlgorithmKind for VtxoHandoffKind {
             }
             a.handoff.transient_weights = Some(path);
         }
-        Some(Arc::new(HandoffSetup { config: a, dnn }))
+        let mut science_dnn = None;
+        if let Some(w) = &a.handoff.science_weights {
+            let path = PathBuf::from(ctx.scenario.resolve_path(&w.to_string_lossy()));
+            match ScienceDnn::load(&path) {
+                Ok(d) => science_dnn = Some(Arc::new(d)),
+                Err(e) => c.fail(SCIENCE_WEIGHTS_KEY, format!("{:?}", path.display().to_string()), e.to_string()),
+            }
+            a.handoff.science_weights = Some(path);
+        }
+        Some(Arc::new(HandoffSetup { config: a, dnn, science_dnn }))
     }
 }
 
@@ -93,11 +109,16 @@ impl HandoffSetup {
     }
 
     fn science(&self) -> Arc<dyn SciencePredictor> {
-        match self.config.handoff.science_gains {
-            ScienceGainsSource::Configured => {
-                let f = VtxoAlgorithmConfig { phase: Phase::Science, ..self.config.flight.clone() };
-                Arc::new(ConfiguredScience(f.attitude_law()))
-            }
+        let f = VtxoAlgorithmConfig { phase: Phase::Science, ..self.config.flight.clone() };
+        let configured = ConfiguredScience(f.attitude_law());
+        match (self.config.handoff.science_gains, &self.science_dnn) {
+            (ScienceGainsSource::Dnn, Some(d)) => Arc::new(DnnScience {
+                dnn: d.clone(),
+                law: configured.kind(),
+                w_deg_per_j: self.config.handoff.science_w_deg_per_j,
+            }),
+            // Validation refuses "dnn" without loaded weights.
+            _ => Arc::new(configured),
         }
     }
 
@@ -139,7 +160,7 @@ impl AlgorithmSetup for HandoffSetup {
         m.insert("supervisor".into(), format!("lockstep ({MISSION_KIND} automaton)"));
         let t = if self.dnn.is_some() { "dnn" } else { "fixed" };
         m.insert("transient_predictor".into(), t.into());
-        m.insert("science_gains".into(), "configured".into());
+        m.insert("science_gains".into(), self.config.handoff.science_gains.name().into());
         m
     }
     fn as_any(&self) -> &dyn Any {
@@ -185,29 +206,68 @@ mod tests {
         out
     }
 
-    /// The shipped scenario resolves its weights path and configures to itself; agents restored
-    /// from a checkpoint taken inside s2 (with fresh predictors from the setup) fly on bit for bit.
+    /// Into fresh agents of the setup (in s1, nothing predicted yet) `y`'s current state.
+    fn restore_into_fresh(s: &Setup, y: &mut Sim) -> Vec<Vec<u8>> {
+        let saved: Vec<Vec<u8>> = y.agents.iter().map(|g| g.save_state()).collect();
+        y.agents = (1..=2).map(|id| s.algorithm.build(s, id)).collect();
+        for (g, b) in y.agents.iter_mut().zip(&saved) {
+            g.restore_state(b).unwrap();
+        }
+        saved
+    }
+
+    /// The shipped scenario resolves both weights paths and configures to itself; agents restored
+    /// from a checkpoint taken inside s2, and one taken inside s3 (the science DNN's gains are
+    /// state, not asked again), with fresh predictors from the setup, fly on bit for bit.
     #[test]
-    fn the_weights_resolve_and_a_checkpoint_inside_the_transient_round_trips() {
+    fn the_weights_resolve_and_checkpoints_inside_the_transient_and_the_science_phase_round_trip() {
+        // s1 1 s and u2 = 7.2 s: s2 from step 100, s3 from step 820.
         let text =
             std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies/vtxo-handoff.toml"))
                 .unwrap()
-                .replace("stabilisation_s = 30.0", "stabilisation_s = 1.0");
+                .replace("stabilisation_s = 30.0", "stabilisation_s = 1.0")
+                .replace("t_max_s = 72.0", "t_max_s = 7.2\nt_s = 7.2");
         let s = configured(&text).unwrap();
         let a = s.algorithm_as::<HandoffSetup>().unwrap();
         assert!(a.config.handoff.transient_weights.as_ref().unwrap().is_absolute() && a.dnn.is_some());
+        assert!(a.config.handoff.science_weights.as_ref().unwrap().is_absolute() && a.science_dnn.is_some());
+        assert_eq!(a.labels()["science_gains"], "dnn");
         let again = configured(&s.to_toml().unwrap()).unwrap();
         assert_eq!(again.algorithm_as::<HandoffSetup>().unwrap().config, a.config);
         let (mut x, mut y) = (sim(&s), sim(&s));
         x.run(150);
         y.run(150);
-        // Into fresh agents (in s1, no prediction yet) the state of step 150 (in s2 since step 100).
-        let saved: Vec<Vec<u8>> = y.agents.iter().map(|g| g.save_state()).collect();
-        y.agents = (1..=2).map(|id| s.algorithm.build(&s, id)).collect();
-        for (g, b) in y.agents.iter_mut().zip(&saved) {
-            g.restore_state(b).unwrap();
-        }
+        let saved = restore_into_fresh(&s, &mut y);
         assert_eq!(rows(&mut x, 50), rows(&mut y, 50));
         assert!(y.agents[1].restore_state(&saved[1][..saved[1].len() / 2]).is_err());
+        let (mut x, mut y) = (sim(&s), sim(&s));
+        x.run(900);
+        y.run(900);
+        let mut r = Vec::new();
+        y.agents[1].row(&mut r);
+        assert!(r[r.len() - 5].is_finite(), "the science gains are chosen by step 900: {:?}", &r[r.len() - 5..]);
+        restore_into_fresh(&s, &mut y);
+        assert_eq!(rows(&mut x, 50), rows(&mut y, 50));
+    }
+
+    /// `science_gains = "dnn"` without weights, and weights of another model, are refused at
+    /// `algorithm.handoff.science_weights`; configured gains with named weights still check them.
+    #[test]
+    fn science_weights_are_required_by_the_dnn_source_and_checked_whenever_named() {
+        let text =
+            std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies/vtxo-handoff.toml"))
+                .unwrap();
+        let without = text.replace("science_weights = \"../papers/vtxo/weights/science.safetensors\"\n", "");
+        let e = configured(&without).expect_err("dnn without weights");
+        assert!(e.contains(SCIENCE_WEIGHTS_KEY) && e.contains("required"), "{e}");
+        let configured_src = without.replace("science_gains = \"dnn\"", "science_gains = \"configured\"");
+        let s = configured(&configured_src).expect("configured gains need no weights");
+        assert!(s.algorithm_as::<HandoffSetup>().unwrap().science_dnn.is_none());
+        let wrong = text
+            .replace("science_gains = \"dnn\"", "science_gains = \"configured\"")
+            .replace("weights/science.safetensors", "weights/transient.safetensors");
+        let e = configured(&wrong).expect_err("transient weights as science weights");
+        assert!(e.contains(SCIENCE_WEIGHTS_KEY) && e.contains("transient.safetensors"), "{e}");
+        assert!(e.contains("holds no science DNN"), "{e}");
     }
 }

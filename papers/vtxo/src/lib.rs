@@ -36,6 +36,7 @@ pub mod handoff;
 pub mod handoff_analysis;
 pub mod handoff_config;
 pub mod handoff_kind;
+pub mod handoff_science;
 pub mod kinds;
 pub mod layout;
 pub mod leader;

@@ -177,6 +177,13 @@ impl ScienceDnn {
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
         let fail = |reason: String| WeightsError { file: file.into(), reason };
         let st = weights_file::open(bytes).map_err(fail)?;
+        let mut names: Vec<&str> = st.names();
+        if !names.iter().any(|n| n.starts_with("pd.") || n.starts_with("smc.")) {
+            names.sort_unstable();
+            return Err(fail(format!(
+                "holds no science DNN (no pd.* or smc.* tensor; it has {names:?}): another model's file?"
+            )));
+        }
         let get = |name: &str, shape: &[usize]| weights_file::f32_tensor(&st, name, shape).map_err(fail);
         let net = |law: ScienceLaw| -> Result<Net, WeightsError> {
             let p = law.name();
@@ -293,6 +300,11 @@ mod tests {
         assert!(e.to_string().contains("/nonexistent/science.safetensors") && e.reason.contains("cannot read"), "{e}");
         let e = ScienceDnn::from_bytes(b"garbage", Path::new("bad.safetensors")).expect_err("garbage");
         assert!(e.to_string().contains("bad.safetensors") && e.reason.contains("not a safetensors"), "{e}");
+        // The transient DNN's committed file is another model's.
+        let t = Path::new(env!("CARGO_MANIFEST_DIR")).join("weights/transient.safetensors");
+        let e = ScienceDnn::load(&t).expect_err("transient weights");
+        assert!(e.to_string().contains("transient.safetensors") && e.reason.contains("holds no science DNN"), "{e}");
+        assert!(e.reason.contains("\"w1\""), "{e}");
         // Every tensor of the file, then one changed at a time.
         let d = tiny();
         let mut owned: Vec<(String, Vec<usize>, Vec<u8>)> = Vec::new();
