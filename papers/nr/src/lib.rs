@@ -51,6 +51,7 @@ pub mod swarm_campaign;
 pub mod swarm_campaign_cmd;
 pub mod swarm_campaign_report;
 pub mod swarm_config;
+pub mod swarm_dagger;
 pub mod swarm_data;
 pub mod swarm_eval;
 pub mod swarm_figures;

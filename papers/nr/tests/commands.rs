@@ -143,7 +143,11 @@ fn the_swarm_trainer_writes_the_same_weights_twice_and_refuses_bad_arguments() {
     }
     assert!(files[0] == files[1], "the swarm weights differ between two identical trainings");
     let out = dir.join("x").display().to_string();
-    for (args, flag) in [(["--cases", "1"], "--cases 1"), (["--epochs", "0"], "--epochs 0")] {
+    for (args, flag) in [
+        (["--cases", "1"], "--cases 1"),
+        (["--epochs", "0"], "--epochs 0"),
+        (["--dagger-epochs", "0"], "--dagger-epochs 0"),
+    ] {
         let o = orchestrator(&["train", "nr-swarm", args[0], args[1], "--out", &out]);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", describe_output(&o));
         assert!(String::from_utf8_lossy(&o.stderr).contains(flag), "{args:?}: {}", describe_output(&o));
