@@ -13,7 +13,8 @@
 //! In the registry ([`Nr`]): the plant kind `iso-encounter` and the algorithm kind
 //! `neural-rendezvous` ([`kinds`]); the run analysis ([`analysis`]) and figures ([`figures`]);
 //! the trainer `orchestrator train nr-iso` ([`trainer`]); the command `orchestrator nr campaign`
-//! ([`campaign_cmd`], [`campaign_report`]). Scenarios: `topologies/nr-iso*.toml`.
+//! ([`campaign_cmd`], [`campaign_report`]); the swarm's `orchestrator nr swarm-campaign`
+//! ([`swarm_campaign_cmd`], [`swarm_campaign`], [`swarm_campaign_report`]). Scenarios: `topologies/nr-iso*.toml`.
 
 // Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
 #![allow(clippy::needless_range_loop)]
@@ -46,7 +47,11 @@ pub mod sim;
 pub mod sn_dnn;
 pub mod swarm_agent;
 pub mod swarm_analysis;
+pub mod swarm_campaign;
+pub mod swarm_campaign_cmd;
+pub mod swarm_campaign_report;
 pub mod swarm_config;
+pub mod swarm_dagger;
 pub mod swarm_data;
 pub mod swarm_eval;
 pub mod swarm_figures;
@@ -102,6 +107,10 @@ enum NrCmd {
     /// error against b_e(t_f)), the control-interval sweep (Fig. 11) and the γ sweep (Fig. 9,
     /// one training per γ): campaign.md, CSV files and plots in --out. Run from the repository root.
     Campaign(campaign_cmd::CampaignArgs),
+    /// The swarm (Sec. 7.2): cases at N = 8, N = 20 and N = 20 disturbed, each flown by NR over
+    /// the deep set, the deep set alone (in-process reference runs) and the global SCP:
+    /// cases.csv, summary.md (verdicts) and figures in --out. Run from the repository root.
+    SwarmCampaign(swarm_campaign_cmd::SwarmCampaignArgs),
 }
 
 impl PaperHost for Nr {
@@ -139,6 +148,7 @@ impl PaperHost for Nr {
         let cli = NrCli::from_arg_matches(matches).map_err(|e| CommandError::invalid(e.to_string()))?;
         match cli.command {
             NrCmd::Campaign(a) => campaign_cmd::run(&a, launcher),
+            NrCmd::SwarmCampaign(a) => swarm_campaign_cmd::run(&a, launcher),
         }
     }
 }

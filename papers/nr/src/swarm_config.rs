@@ -3,6 +3,8 @@
 //! lost, see [`crate::swarm_setup`] and the crate README's "Swarm" section) and their validation
 //! with full key paths. Both sections reject unknown keys.
 
+use std::path::PathBuf;
+
 use cohort_scenario::Problem;
 use serde::{Deserialize, Serialize};
 
@@ -116,18 +118,21 @@ impl SwarmMethod {
     }
 }
 
-/// Which [`crate::swarm_obs::SwarmPolicy`] (`algorithm.policy`). Only the goal-seeking PD
-/// baseline for now.
+/// Which [`crate::swarm_obs::SwarmPolicy`] (`algorithm.policy`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SwarmPolicyKind {
+    /// The goal-seeking PD baseline (no avoidance), [`crate::swarm_pd`].
     Pd,
+    /// The learned deep set of [`crate::swarm_policy`], read from `algorithm.weights`.
+    DeepSet,
 }
 
 impl SwarmPolicyKind {
     pub fn name(self) -> &'static str {
         match self {
             SwarmPolicyKind::Pd => "pd",
+            SwarmPolicyKind::DeepSet => "deep-set",
         }
     }
 }
@@ -138,6 +143,11 @@ impl SwarmPolicyKind {
 pub struct SwarmAlgorithmConfig {
     pub method: SwarmMethod,
     pub policy: SwarmPolicyKind,
+    /// The deep-set policy's weights file (safetensors, `swarm_policy`); required by
+    /// `policy = "deep-set"`, refused with `pd`. A relative path is resolved against the scenario
+    /// file while configuring (the resolved scenario carries it absolute).
+    #[serde(default)]
+    pub weights: Option<PathBuf>,
     /// Communication radius R_comm, m: shares of vehicles farther away are not read.
     #[serde(default = "d_r_comm")]
     pub r_comm_m: f64,
@@ -162,6 +172,17 @@ impl SwarmAlgorithmConfig {
     /// Every problem, with its key path (those that need the control interval: `validate_dt`).
     pub fn validate(&self) -> Vec<Problem> {
         let mut p = Vec::new();
+        match (self.policy, &self.weights) {
+            (SwarmPolicyKind::DeepSet, None) => {
+                p.push(Problem::new("algorithm.weights", None, "policy \"deep-set\" needs its weights file"))
+            }
+            (SwarmPolicyKind::Pd, Some(w)) => p.push(Problem::new(
+                "algorithm.weights",
+                Some(format!("{:?}", w.display().to_string())),
+                "policy \"pd\" has no weights: give it only with policy = \"deep-set\"",
+            )),
+            _ => {}
+        }
         positive(&mut p, "algorithm.r_comm_m", self.r_comm_m);
         positive(&mut p, "algorithm.pd_omega_per_s", self.pd_omega_per_s);
         positive(&mut p, "algorithm.lambda_per_s", self.lambda_per_s);
@@ -223,7 +244,19 @@ mod tests {
         let b = SwarmAlgorithmConfig { rebuild_every_s: 3.0, horizon_s: 0.25, ..a };
         assert!(b.validate().iter().any(|p| p.to_string().contains("algorithm.rebuild_every_s")));
         assert!(b.validate_dt(0.1).iter().any(|p| p.to_string().contains("algorithm.horizon_s")));
-        assert!(toml::from_str::<SwarmAlgorithmConfig>("method = \"nr\"\npolicy = \"deep-set\"").is_err());
+        // deep-set needs its weights; pd refuses them.
+        let d: SwarmAlgorithmConfig = toml::from_str("method = \"nr\"\npolicy = \"deep-set\"").unwrap();
+        let e: Vec<String> = d.validate().iter().map(|p| p.to_string()).collect();
+        assert!(e.len() == 1 && e[0].contains("algorithm.weights") && e[0].contains("needs"), "{e:?}");
+        let w = SwarmAlgorithmConfig { weights: Some("w.safetensors".into()), ..d.clone() };
+        assert!(w.validate().is_empty());
+        let e: Vec<String> = SwarmAlgorithmConfig { policy: SwarmPolicyKind::Pd, ..w }
+            .validate()
+            .iter()
+            .map(|p| p.to_string())
+            .collect();
+        assert!(e.len() == 1 && e[0].contains("algorithm.weights") && e[0].contains("w.safetensors"), "{e:?}");
+        assert!(toml::from_str::<SwarmAlgorithmConfig>("method = \"nr\"\npolicy = \"glas\"").is_err());
         assert!(toml::from_str::<SwarmConfig>("radius = 1.0").is_err());
     }
 }

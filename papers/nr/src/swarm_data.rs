@@ -30,7 +30,7 @@ use serde::Serialize;
 
 use crate::swarm_obs::SwarmObservation;
 use crate::swarm_problem::{A_MAX_MPS2, R_COMM_M, STEPS, SwarmCase};
-use crate::swarm_scp::{self, SwarmScpSettings};
+use crate::swarm_scp::{self, SwarmPlan, SwarmScpSettings};
 
 /// How the data set is drawn.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -94,27 +94,61 @@ pub struct CaseOutcome {
     pub min_distance_fine: f64,
 }
 
+/// A case's global solution as the expert that labels states: the target for vehicle i at node
+/// k from (p, v) (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Expert {
+    pub case: usize,
+    pub problem: SwarmCase,
+    pub plan: SwarmPlan,
+}
+
+impl Expert {
+    /// (p*, v*, u*) of vehicle `i` at node `k` (after T: at rest at the target).
+    pub fn nominal(&self, i: usize, k: usize) -> ([f64; 3], [f64; 3], [f64; 3]) {
+        let kk = k.min(STEPS);
+        let u = if k < STEPS { self.plan.a_mps2[i][k] } else { [0.0; 3] };
+        (self.plan.p_m[i][kk], self.plan.v_mps[i][kk], u)
+    }
+
+    /// u*ᵢ(k) + K_p (p*ᵢ(k) − p) + K_d (v*ᵢ(k) − v), clipped to ±a_max.
+    pub fn target(&self, o: &SwarmDataOptions, i: usize, k: usize, p: [f64; 3], v: [f64; 3]) -> [f64; 3] {
+        let (p_star, v_star, u_star) = self.nominal(i, k);
+        std::array::from_fn(|a| {
+            (u_star[a] + o.k_p_per_s2 * (p_star[a] - p[a]) + o.k_d_per_s * (v_star[a] - v[a]))
+                .clamp(-A_MAX_MPS2, A_MAX_MPS2)
+        })
+    }
+}
+
 /// The samples of one case (none if its global solution is unusable).
 pub fn case_samples(o: &SwarmDataOptions, c: usize) -> (CaseOutcome, Vec<SwarmSample>) {
+    let (out, samples, _) = case_data(o, c);
+    (out, samples)
+}
+
+/// One case's outcome, samples and expert.
+pub type CaseData = (CaseOutcome, Vec<SwarmSample>, Option<Expert>);
+
+/// The samples of one case and its expert (none if its global solution is unusable).
+pub fn case_data(o: &SwarmDataOptions, c: usize) -> CaseData {
     let n = o.n_of(c);
     let mut out =
         CaseOutcome { case: c, n, safe: None, iterations: 0, solve_s: 0.0, effort_l1: 0.0, min_distance_fine: 0.0 };
-    let Ok(case) = SwarmCase::draw(o.seed, &format!("train{c}"), n) else { return (out, Vec::new()) };
-    let Ok(plan) = swarm_scp::solve(&case, &o.scp) else { return (out, Vec::new()) };
+    let Ok(case) = SwarmCase::draw(o.seed, &format!("train{c}"), n) else { return (out, Vec::new(), None) };
+    let Ok(plan) = swarm_scp::solve(&case, &o.scp) else { return (out, Vec::new(), None) };
     out.safe = Some(plan.is_safe());
     (out.iterations, out.solve_s, out.effort_l1, out.min_distance_fine) =
         (plan.iterations, plan.solve_s, plan.effort_l1, plan.min_distance_fine);
     if !plan.is_safe() {
-        return (out, Vec::new());
+        return (out, Vec::new(), None);
     }
+    let expert = Expert { case: c, problem: case, plan };
+    let case = &expert.problem;
     let mut rng = cohort_runtime::rng::setup_rng(o.seed, &format!("nr.swarm.data[{c}]"));
     let mut samples = Vec::with_capacity((STEPS + o.hold_steps) * n);
     for k in 0..STEPS + o.hold_steps {
-        let nominal = |i: usize| {
-            let kk = k.min(STEPS);
-            let u = if k < STEPS { plan.a_mps2[i][k] } else { [0.0; 3] };
-            (plan.p_m[i][kk], plan.v_mps[i][kk], u)
-        };
+        let nominal = |i: usize| expert.nominal(i, k);
         let s: f64 = rng.random_range(0.0..1.0);
         let mut draw =
             |sigma: f64| -> [f64; 3] { std::array::from_fn(|_| s * sigma * rng.sample::<f64, _>(StandardNormal)) };
@@ -126,24 +160,28 @@ pub fn case_samples(o: &SwarmDataOptions, c: usize) -> (CaseOutcome, Vec<SwarmSa
             })
             .collect();
         for i in 0..n {
-            let (p_star, v_star, u_star) = nominal(i);
             let (p, v) = state[i];
             let others: Vec<_> = (0..n).filter(|&j| j != i).map(|j| state[j]).collect();
             let obs = SwarmObservation::local(p, v, case.goals_m[i], &others, R_COMM_M);
-            let target_mps2 = std::array::from_fn(|a| {
-                (u_star[a] + o.k_p_per_s2 * (p_star[a] - p[a]) + o.k_d_per_s * (v_star[a] - v[a]))
-                    .clamp(-A_MAX_MPS2, A_MAX_MPS2)
-            });
-            samples.push(SwarmSample { case: c, obs, target_mps2 });
+            samples.push(SwarmSample { case: c, obs, target_mps2: expert.target(o, i, k, p, v) });
         }
     }
-    (out, samples)
+    (out, samples, Some(expert))
 }
 
 /// Every case's outcome and samples, in case order, computed on `threads` threads.
 pub fn generate(o: &SwarmDataOptions, threads: usize) -> (Vec<CaseOutcome>, Vec<SwarmSample>) {
+    let (outcomes, samples, _) = generate_with_experts(o, threads);
+    (outcomes, samples)
+}
+
+/// [`generate`], and the experts of the usable cases (case order).
+pub fn generate_with_experts(
+    o: &SwarmDataOptions,
+    threads: usize,
+) -> (Vec<CaseOutcome>, Vec<SwarmSample>, Vec<Expert>) {
     let next = AtomicUsize::new(0);
-    let mut parts: Vec<Vec<(CaseOutcome, Vec<SwarmSample>)>> = Vec::new();
+    let mut parts: Vec<Vec<CaseData>> = Vec::new();
     std::thread::scope(|sc| {
         let handles: Vec<_> = (0..threads.max(1))
             .map(|_| {
@@ -154,7 +192,7 @@ pub fn generate(o: &SwarmDataOptions, threads: usize) -> (Vec<CaseOutcome>, Vec<
                         if c >= o.cases {
                             break;
                         }
-                        out.push(case_samples(o, c));
+                        out.push(case_data(o, c));
                     }
                     out
                 })
@@ -162,10 +200,16 @@ pub fn generate(o: &SwarmDataOptions, threads: usize) -> (Vec<CaseOutcome>, Vec<
             .collect();
         parts = handles.into_iter().map(|h| h.join().expect("a data thread panicked")).collect();
     });
-    let mut all: Vec<(CaseOutcome, Vec<SwarmSample>)> = parts.into_iter().flatten().collect();
-    all.sort_by_key(|(oc, _)| oc.case);
-    let outcomes = all.iter().map(|(oc, _)| oc.clone()).collect();
-    (outcomes, all.into_iter().flat_map(|(_, s)| s).collect())
+    let mut all: Vec<CaseData> = parts.into_iter().flatten().collect();
+    all.sort_by_key(|(oc, _, _)| oc.case);
+    let outcomes = all.iter().map(|(oc, _, _)| oc.clone()).collect();
+    let mut samples = Vec::new();
+    let mut experts = Vec::new();
+    for (_, s, e) in all {
+        samples.extend(s);
+        experts.extend(e);
+    }
+    (outcomes, samples, experts)
 }
 
 #[cfg(test)]

@@ -10,10 +10,15 @@
 //!   neighbour (all-to-all): who is within R_comm changes as the vehicles move, so each vehicle
 //!   subscribes to all and drops the shares from beyond R_comm itself;
 //! - the roll-out horizon and the rebuild period are whole numbers of control intervals;
-//! - a_max comes from the plant section (the policy clips to the plant's limit).
+//! - a_max comes from the plant section (the policy clips to the plant's limit);
+//! - `algorithm.weights` (policy `deep-set`), relative to the scenario file, is resolved while
+//!   configuring (the resolved scenario carries it absolute), then loaded and checked
+//!   ([`DeepSetPolicy::load`]); a file that does not load is a problem at `algorithm.weights`
+//!   naming the file and the reason. The loaded policy is shared by every agent of the process.
 
 use std::any::Any;
 use std::collections::BTreeMap;
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use cohort_runtime::model::{Algorithm, PlantModel};
@@ -29,6 +34,7 @@ use crate::swarm_messages::{COMMAND_LEN, READINGS_LEN, SHARE_LEN};
 use crate::swarm_obs::SwarmPolicy;
 use crate::swarm_pd::PdPolicy;
 use crate::swarm_plant::{SwarmParams, SwarmPlant};
+use crate::swarm_policy::DeepSetPolicy;
 
 /// The plant kind's name.
 pub const PLANT_KIND: &str = "swarm";
@@ -95,10 +101,12 @@ impl PlantSetup for SwarmConfig {
     }
 }
 
-/// The configured `nr-swarm` section and the plant's acceleration limit.
+/// The configured `nr-swarm` section, the plant's acceleration limit and the loaded deep-set
+/// policy (when the section names one).
 pub struct SwarmSetup {
     pub config: SwarmAlgorithmConfig,
     pub a_max_mps2: f64,
+    pub deep_set: Option<Arc<DeepSetPolicy>>,
 }
 
 impl SwarmSetup {
@@ -117,12 +125,13 @@ impl SwarmSetup {
         }
     }
 
-    /// The policy the configuration names.
+    /// The policy the configuration names (after validation: a deep-set setup holds its policy).
     pub fn policy(&self) -> Arc<dyn SwarmPolicy> {
         match self.config.policy {
             SwarmPolicyKind::Pd => {
                 Arc::new(PdPolicy { omega_per_s: self.config.pd_omega_per_s, a_max_mps2: self.a_max_mps2 })
             }
+            SwarmPolicyKind::DeepSet => self.deep_set.clone().expect("loaded while configuring"),
         }
     }
 }
@@ -165,13 +174,27 @@ impl AlgorithmKind for NrSwarmKind {
                 );
             }
         }
-        let config = a?;
+        let mut config = a?;
         c.problems.extend(config.validate());
         c.problems.extend(config.validate_dt(s.scenario.dt_s));
         let a_max_mps2 = plant
             .and_then(|p| p.as_any().downcast_ref::<SwarmConfig>())
             .map_or(crate::swarm_setup::A_MAX_MPS2, |p| p.a_max_mps2);
-        Some(Arc::new(SwarmSetup { config, a_max_mps2 }))
+        if let Some(w) = &config.weights {
+            config.weights = Some(PathBuf::from(s.resolve_path(&w.to_string_lossy())));
+        }
+        // Only a deep-set section loads (a pd one naming weights is refused by `validate`).
+        let deep_set = match (config.policy, &config.weights) {
+            (SwarmPolicyKind::DeepSet, Some(path)) => match DeepSetPolicy::load(path) {
+                Ok(p) => Some(Arc::new(p)),
+                Err(e) => {
+                    c.fail("algorithm.weights", format!("{:?}", path.display().to_string()), e.reason);
+                    None
+                }
+            },
+            _ => None,
+        };
+        Some(Arc::new(SwarmSetup { config, a_max_mps2, deep_set }))
     }
 }
 
@@ -204,6 +227,7 @@ impl AlgorithmSetup for SwarmSetup {
 mod tests {
     use super::*;
     use crate::kinds::tests::{configured, file};
+    use crate::swarm_config::SwarmMethod;
 
     #[test]
     fn the_shipped_swarms_configure_and_resolve_their_problem_seed() {
@@ -213,6 +237,9 @@ mod tests {
             assert_eq!(s.plant_as::<SwarmConfig>().unwrap().problem_seed, Some(s.scenario.seed));
             let a = s.algorithm_as::<SwarmSetup>().unwrap();
             assert_eq!((a.a_max_mps2, a.params(0.1).horizon_steps, a.params(0.1).rebuild_steps), (2.0, 20, 5));
+            // The paper's configuration: NR over the committed deep set, its path resolved.
+            assert_eq!((a.config.method, a.config.policy), (SwarmMethod::Nr, SwarmPolicyKind::DeepSet));
+            assert!(a.config.weights.as_ref().unwrap().is_absolute() && a.deep_set.is_some());
             let again = configured(&s.to_toml().unwrap()).unwrap();
             assert_eq!(again.to_toml().unwrap(), s.to_toml().unwrap());
         }
@@ -225,8 +252,25 @@ mod tests {
         assert!(e.contains("agents[7].neighbours") && e.contains("every other agent"), "{e}");
         let e = configured(&base.replace("rebuild_every_s = 0.5", "rebuild_every_s = 0.55")).unwrap_err();
         assert!(e.contains("algorithm.rebuild_every_s"), "{e}");
-        let e = configured(&base.replace("policy = \"pd\"", "policy = \"deep-set\"")).unwrap_err();
-        assert!(e.contains("algorithm"), "{e}");
+        let weights = "weights = \"../papers/nr/weights/swarm.safetensors\"\n";
+        // The PD baseline stays selectable (without weights), and refuses them.
+        let pd =
+            configured(&base.replace("policy = \"deep-set\"\n", "policy = \"pd\"\n").replace(weights, "")).unwrap();
+        let a = pd.algorithm_as::<SwarmSetup>().unwrap();
+        assert!(a.config.policy == SwarmPolicyKind::Pd && a.deep_set.is_none() && a.config.weights.is_none());
+        let e = configured(&base.replace("policy = \"deep-set\"\n", "policy = \"pd\"\n")).unwrap_err();
+        assert!(e.contains("algorithm.weights") && e.contains("swarm.safetensors") && e.contains("\"pd\""), "{e}");
+        let e = configured(&base.replace(weights, "")).unwrap_err();
+        assert!(e.contains("algorithm.weights") && e.contains("needs its weights file"), "{e}");
+        // A missing file, and a file that is not a swarm policy (the ISO network), are refused
+        // naming the key, the file and the reason.
+        let e = configured(&base.replace("swarm.safetensors", "none.safetensors")).unwrap_err();
+        assert!(e.contains("algorithm.weights") && e.contains("none.safetensors") && e.contains("cannot read"), "{e}");
+        let e = configured(&base.replace("swarm.safetensors", "sn-dnn.safetensors")).unwrap_err();
+        assert!(
+            e.contains("algorithm.weights") && e.contains("sn-dnn.safetensors") && e.contains("cohort_swarm_policy"),
+            "{e}"
+        );
         let e = configured(&base.replace("substeps = 10", "substeps = 0\nradius = 2")).unwrap_err();
         assert!(e.contains("plant"), "{e}");
         let e = configured(&base.replace("kind = \"swarm\"", "kind = \"iso-encounter\"")).unwrap_err();

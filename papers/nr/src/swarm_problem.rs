@@ -17,13 +17,11 @@
 //! - communication radius R_comm = [`R_COMM_M`] = 1 m (what a vehicle observes:
 //!   [`crate::swarm_obs::SwarmObservation::local`]).
 //!
-//! **Draw** ([`SwarmCase::draw`]): the paper's two conditions with our values: (i) each start is
-//! at least [`MIN_TRAVEL_M`] = 1 m (Euclidean) from its own target; (ii) all 2N points (starts
-//! and targets) are pairwise at least [`MIN_SEPARATION`] = 1.25 apart in the ellipsoid distance.
-//! Points are drawn uniformly in the cuboid, one after the other, each redrawn until it meets
-//! both conditions against the points drawn before it. Seeded (rand_chacha, one stream per
-//! `(seed, label)`); the integrator will unify it with the plant's sampler, which follows the
-//! same rules.
+//! **Draw** ([`SwarmCase::draw`]): the plant's own sampler, [`crate::swarm_setup::draw`] (the
+//! paper's two conditions with our values: each start at least [`MIN_TRAVEL_M`] = 1 m from its
+//! target, all 2N points pairwise at least [`MIN_SEPARATION`] = 1.25 apart in the ellipsoid
+//! distance), for a problem seed drawn from `(seed, label)` ([`problem_seed`]): one sampler serves
+//! the scenarios, the campaign and the training data.
 
 use rand::Rng;
 
@@ -40,9 +38,6 @@ pub const CUBOID_M: [[f64; 2]; 3] = {
     let c = crate::swarm_setup::CUBOID_M;
     [[c[0].0, c[0].1], [c[1].0, c[1].1], [c[2].0, c[2].1]]
 };
-
-/// Redraws of one point before the draw gives up.
-const MAX_TRIES: usize = 100_000;
 
 /// ‖E⁻¹(a − b)‖: below 1 is a collision.
 pub fn ellipsoid_distance(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -70,44 +65,18 @@ impl SwarmCase {
         self.starts_m.len()
     }
 
-    /// Case `label` of `seed` with `n` vehicles (see the module docs); the same arguments give the
-    /// same case.
+    /// Case `label` of `seed` with `n` vehicles: the plant's problem of [`problem_seed`]`(seed,
+    /// label)`; the same arguments give the same case.
     pub fn draw(seed: u64, label: &str, n: usize) -> Result<Self, DrawError> {
-        if n == 0 {
-            return Err(DrawError { n, reason: "at least one vehicle".into() });
-        }
-        let mut rng = cohort_runtime::rng::setup_rng(seed, &format!("nr.swarm.case[{label}]"));
-        let mut points: Vec<[f64; 3]> = Vec::with_capacity(2 * n);
-        let (mut starts_m, mut goals_m) = (Vec::with_capacity(n), Vec::with_capacity(n));
-        for _ in 0..n {
-            let s = draw_point(&mut rng, &points, None)
-                .ok_or_else(|| DrawError { n, reason: format!("no room for start {}", starts_m.len()) })?;
-            points.push(s);
-            let g = draw_point(&mut rng, &points, Some(s))
-                .ok_or_else(|| DrawError { n, reason: format!("no room for target {}", goals_m.len()) })?;
-            points.push(g);
-            starts_m.push(s);
-            goals_m.push(g);
-        }
+        let (starts_m, goals_m) = crate::swarm_setup::draw(n, problem_seed(seed, label))
+            .map_err(|e| DrawError { n, reason: e.to_string() })?;
         Ok(Self { starts_m, goals_m })
     }
 }
 
-/// A uniform point of the cuboid at least [`MIN_SEPARATION`] from every one of `taken` and, if
-/// `travel_from` is given, at least [`MIN_TRAVEL_M`] from it.
-fn draw_point(rng: &mut impl Rng, taken: &[[f64; 3]], travel_from: Option<[f64; 3]>) -> Option<[f64; 3]> {
-    for _ in 0..MAX_TRIES {
-        let p: [f64; 3] = std::array::from_fn(|k| rng.random_range(CUBOID_M[k][0]..CUBOID_M[k][1]));
-        let far = taken.iter().all(|q| ellipsoid_distance(p, *q) >= MIN_SEPARATION);
-        let travels = travel_from.is_none_or(|s| {
-            let d: f64 = (0..3).map(|k| (p[k] - s[k]).powi(2)).sum::<f64>().sqrt();
-            d >= MIN_TRAVEL_M
-        });
-        if far && travels {
-            return Some(p);
-        }
-    }
-    None
+/// The plant's problem seed of case `label` of `seed` (a stream per label).
+pub fn problem_seed(seed: u64, label: &str) -> u64 {
+    cohort_runtime::rng::setup_rng(seed, &format!("nr.swarm.case[{label}]")).random()
 }
 
 #[cfg(test)]

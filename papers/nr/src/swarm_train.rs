@@ -9,6 +9,12 @@
 //! through the PD term, see [`crate::swarm_data`]). AdamW (no weight decay), cosine-decaying rate.
 //! The last [`SwarmTrainOptions::validation_cases`] cases are held out and only reported.
 //!
+//! Then [`SwarmTrainOptions::dagger_rounds`] DAgger rounds ([`crate::swarm_dagger`]): fly the
+//! current policy on every training case, label the visited states by that case's global
+//! solution, add them to the set and train [`SwarmTrainOptions::dagger_epochs`] more epochs on
+//! the union (the same optimiser, a fresh cosine schedule per round). The report adds the policy
+//! alone in closed loop on the held-out cases ([`crate::swarm_eval::closed_loop`]).
+//!
 //! Seeded and deterministic: the data are (see there), the initial weights and the batch order
 //! come from one generator of the seed, candle's CPU kernels are deterministic at a fixed thread
 //! count (the trainer runs with RAYON_NUM_THREADS=1), so the same options write the same bytes.
@@ -22,7 +28,7 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
-use crate::swarm_data::{self, CaseOutcome, SwarmDataOptions, SwarmSample};
+use crate::swarm_data::{self, CaseOutcome, Expert, SwarmDataOptions, SwarmSample};
 use crate::swarm_obs::{MAX_NEIGHBOURS, SwarmPolicy};
 use crate::swarm_policy::{DeepSetPolicy, OWN_IN, PHI_IN, own_input, phi_input, phi_scales, rho_scales};
 use crate::swarm_problem::A_MAX_MPS2;
@@ -45,11 +51,16 @@ pub struct SwarmTrainOptions {
     pub batch: usize,
     pub lr_start: f64,
     pub lr_end: f64,
+    /// DAgger rounds after the first `epochs` ([`crate::swarm_dagger`]).
+    pub dagger_rounds: usize,
+    /// Epochs of each DAgger round.
+    pub dagger_epochs: usize,
 }
 
 impl SwarmTrainOptions {
     /// The reference run: 150 cases (135 trained on, 15 held out), φ 6 → 32 → 32,
-    /// ρ 38 → 64 → 64 → 3, C_sn = 2, 40 epochs of batches of 256.
+    /// ρ 38 → 64 → 64 → 3, C_sn = 2, 40 epochs of batches of 256, no DAgger round (the rounds
+    /// we tried made the closed loop worse; see the crate README).
     pub fn reference(out: PathBuf, seed: u64) -> Self {
         Self {
             out,
@@ -64,6 +75,8 @@ impl SwarmTrainOptions {
             batch: 256,
             lr_start: 3e-3,
             lr_end: 3e-5,
+            dagger_rounds: 0,
+            dagger_epochs: 8,
         }
     }
 }
@@ -75,7 +88,11 @@ pub struct SwarmTrainReport {
     pub seed: u64,
     pub outcomes: Vec<CaseOutcome>,
     pub train_samples: usize,
+    /// Of `train_samples`, the states visited by the policy (DAgger).
+    pub dagger_samples: usize,
     pub validation_samples: usize,
+    /// The policy alone on the held-out cases: (collision-free cases, colliding pairs, cases).
+    pub validation_closed_loop: (usize, usize, usize),
     /// Mean loss of the first and last epochs.
     pub first_loss: f64,
     pub last_loss: f64,
@@ -86,6 +103,8 @@ pub struct SwarmTrainReport {
     pub train_s: f64,
     pub c_sn: f64,
     pub epochs: usize,
+    pub dagger_rounds: usize,
+    pub dagger_epochs: usize,
 }
 
 impl SwarmTrainReport {
@@ -100,16 +119,26 @@ impl SwarmTrainReport {
         format!(
             "# Swarm deep-set policy training (seed {seed})\n\n\
              Reproduce: `{command}` (from the repository root).\n\n\
-             Weights: `{w}`; φ 6→32→32, ρ 38→64→64→3, tanh, C_sn = {c}, {ep} epochs.\n\n\
+             Weights: `{w}`; φ 6→32→32, ρ 38→64→64→3, tanh, C_sn = {c}, {ep} epochs, then {dr} DAgger rounds \
+             of {de} epochs.\n\n\
              Global solutions: {nc} cases (N = 6–8), {ns} collision-free on the fine grid, {nu} not, {nf} failed; \
              mean SCP iterations {it:.2}, mean ∫‖u‖dt {ef:.4} m/s per case, least ellipsoid distance {md:.4}.\n\n\
-             Samples: {nt} training, {nv} validation (held-out cases).\n\n\
+             Samples: {nt} training ({nd} of them states the policy visited, DAgger), {nv} validation (held-out \
+             cases, perturbed states).\n\n\
              Loss (normalised, per sample): first epoch {l0:.4e}, last {l1:.4e}.\n\n\
-             RMS ‖u_ℓ − target‖: training {rt:.4} m/s², validation {rv:.4} m/s².\n",
+             RMS ‖u_ℓ − target‖: training {rt:.4} m/s², validation {rv:.4} m/s².\n\n\
+             The policy alone in closed loop on the {vc} held-out cases (exact observations, T + 2 s): {vf} \
+             collision-free, {vp} colliding pairs in all.\n",
             seed = self.seed,
             w = self.weights.display(),
             c = self.c_sn,
             ep = self.epochs,
+            dr = self.dagger_rounds,
+            de = self.dagger_epochs,
+            nd = self.dagger_samples,
+            vf = self.validation_closed_loop.0,
+            vp = self.validation_closed_loop.1,
+            vc = self.validation_closed_loop.2,
             nc = self.outcomes.len(),
             ns = solved.len(),
             nu = unsafe_,
@@ -207,37 +236,59 @@ impl DeepSetMlp {
     }
 }
 
-/// Train for `o.epochs`; the model and the mean loss per epoch.
-fn fit(o: &SwarmTrainOptions, t: &SwarmTensors, dev: &Device) -> Result<(DeepSetMlp, Vec<f64>), TrainError> {
-    let mut rng = ChaCha8Rng::seed_from_u64(o.seed ^ 0x5357_4152_4d5f_4e4e);
-    let mut net = DeepSetMlp::new(o, &mut rng, dev)?;
-    let mut vars = net.phi.vars();
-    vars.extend(net.rho.vars());
-    let mut opt = AdamW::new(vars, ParamsAdamW { lr: o.lr_start, weight_decay: 0.0, ..Default::default() })?;
-    let n = t.y.dims2()?.0;
-    let mut order: Vec<u32> = (0..n as u32).collect();
-    let nb = n.div_ceil(o.batch);
-    let total = (o.epochs * nb).max(1) as f64;
-    let mut history = Vec::with_capacity(o.epochs);
-    for epoch in 0..o.epochs {
-        order.shuffle(&mut rng);
-        let mut sum = 0.0;
-        for bi in 0..nb {
-            let progress = (epoch * nb + bi) as f64 / total;
-            opt.set_learning_rate(
-                o.lr_end + 0.5 * (o.lr_start - o.lr_end) * (1.0 + (std::f64::consts::PI * progress).cos()),
-            );
-            let idx = &order[bi * o.batch..((bi + 1) * o.batch).min(n)];
-            let b = t.select(idx)?;
-            let (wp, wr) = (net.phi.weights()?, net.rho.weights()?);
-            let err = (net.forward(&wp, &wr, &b)? - &b.y)?;
-            let loss = (err.sqr()?.sum_all()? / idx.len() as f64)?;
-            opt.backward_step(&loss)?;
-            sum += f64::from(loss.to_scalar::<f32>()?) / nb as f64;
-        }
-        history.push(sum);
+/// The model, its optimiser and the generator of the batch order, across the training phases.
+struct Fitter {
+    net: DeepSetMlp,
+    opt: AdamW,
+    rng: ChaCha8Rng,
+}
+
+impl Fitter {
+    fn new(o: &SwarmTrainOptions, dev: &Device) -> Result<Self, TrainError> {
+        let mut rng = ChaCha8Rng::seed_from_u64(o.seed ^ 0x5357_4152_4d5f_4e4e);
+        let net = DeepSetMlp::new(o, &mut rng, dev)?;
+        let mut vars = net.phi.vars();
+        vars.extend(net.rho.vars());
+        let opt = AdamW::new(vars, ParamsAdamW { lr: o.lr_start, weight_decay: 0.0, ..Default::default() })?;
+        Ok(Self { net, opt, rng })
     }
-    Ok((net, history))
+
+    /// Train `epochs` on `t` (a cosine rate from `lr_start` to `lr_end`); the mean loss per epoch.
+    fn phase(&mut self, o: &SwarmTrainOptions, t: &SwarmTensors, epochs: usize) -> Result<Vec<f64>, TrainError> {
+        let n = t.y.dims2()?.0;
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let nb = n.div_ceil(o.batch);
+        let total = (epochs * nb).max(1) as f64;
+        let mut history = Vec::with_capacity(epochs);
+        for epoch in 0..epochs {
+            order.shuffle(&mut self.rng);
+            let mut sum = 0.0;
+            for bi in 0..nb {
+                let progress = (epoch * nb + bi) as f64 / total;
+                self.opt.set_learning_rate(
+                    o.lr_end + 0.5 * (o.lr_start - o.lr_end) * (1.0 + (std::f64::consts::PI * progress).cos()),
+                );
+                let idx = &order[bi * o.batch..((bi + 1) * o.batch).min(n)];
+                let b = t.select(idx)?;
+                let (wp, wr) = (self.net.phi.weights()?, self.net.rho.weights()?);
+                let err = (self.net.forward(&wp, &wr, &b)? - &b.y)?;
+                let loss = (err.sqr()?.sum_all()? / idx.len() as f64)?;
+                self.opt.backward_step(&loss)?;
+                sum += f64::from(loss.to_scalar::<f32>()?) / nb as f64;
+            }
+            history.push(sum);
+        }
+        Ok(history)
+    }
+}
+
+/// The policy alone on each expert's case: (collision-free cases, colliding pairs, cases).
+fn closed_loop_check(p: &DeepSetPolicy, experts: &[Expert]) -> (usize, usize, usize) {
+    let runs: Vec<usize> = experts
+        .iter()
+        .map(|e| crate::swarm_eval::closed_loop(p, &e.problem, crate::swarm_eval::EVAL_STEPS).collisions)
+        .collect();
+    (runs.iter().filter(|c| **c == 0).count(), runs.iter().sum(), runs.len())
 }
 
 /// RMS of ‖u_ℓ − target‖ over `samples` (0 for none).
@@ -265,17 +316,25 @@ pub fn train(o: &SwarmTrainOptions) -> Result<SwarmTrainReport, TrainError> {
         )));
     }
     let started = Instant::now();
-    let (outcomes, samples) = swarm_data::generate(d, o.threads);
+    let (outcomes, samples, experts) = swarm_data::generate_with_experts(d, o.threads);
     let data_s = started.elapsed().as_secs_f64();
     let split = d.cases - o.validation_cases;
-    let (train_set, val_set): (Vec<SwarmSample>, Vec<SwarmSample>) = samples.iter().partition(|s| s.case < split);
+    let (mut train_set, val_set): (Vec<SwarmSample>, Vec<SwarmSample>) = samples.iter().partition(|s| s.case < split);
+    let (train_experts, val_experts): (Vec<Expert>, Vec<Expert>) = experts.into_iter().partition(|e| e.case < split);
     if train_set.is_empty() {
         return Err(TrainError::Data("no training case has a collision-free global solution".into()));
     }
     let started = Instant::now();
     let dev = Device::Cpu;
-    let t = SwarmTensors::of(&train_set, &dev)?;
-    let (mlp, history) = fit(o, &t, &dev)?;
+    let mut fitter = Fitter::new(o, &dev)?;
+    let mut history = fitter.phase(o, &SwarmTensors::of(&train_set, &dev)?, o.epochs)?;
+    let base = train_set.len();
+    for _ in 0..o.dagger_rounds {
+        let now = fitter.net.export(serde_json::json!({})).map_err(TrainError::Options)?;
+        train_set.extend(crate::swarm_dagger::visited_all(d, &train_experts, &now, o.threads));
+        history.extend(fitter.phase(o, &SwarmTensors::of(&train_set, &dev)?, o.dagger_epochs)?);
+    }
+    let mlp = fitter.net;
     let train_s = started.elapsed().as_secs_f64();
     let meta = serde_json::json!({
         "inputs": {"phi": ["dp_x_m", "dp_y_m", "dp_z_m", "dv_x_mps", "dv_y_mps", "dv_z_mps"],
@@ -283,7 +342,8 @@ pub fn train(o: &SwarmTrainOptions) -> Result<SwarmTrainReport, TrainError> {
         "outputs": ["a_x_mps2", "a_y_mps2", "a_z_mps2"],
         "activation": "tanh (every layer of φ and ρ, the outputs included)",
         "training": {
-            "seed": o.seed, "epochs": o.epochs, "batch": o.batch, "phi_hidden": o.phi_hidden,
+            "seed": o.seed, "epochs": o.epochs, "dagger_rounds": o.dagger_rounds, "dagger_epochs": o.dagger_epochs,
+            "batch": o.batch, "phi_hidden": o.phi_hidden,
             "rho_hidden": o.rho_hidden, "lr": [o.lr_start, o.lr_end], "validation_cases": o.validation_cases,
             "data": d,
         },
@@ -300,7 +360,9 @@ pub fn train(o: &SwarmTrainOptions) -> Result<SwarmTrainReport, TrainError> {
         seed: o.seed,
         outcomes,
         train_samples: train_set.len(),
+        dagger_samples: train_set.len() - base,
         validation_samples: val_set.len(),
+        validation_closed_loop: closed_loop_check(&check, &val_experts),
         first_loss: history[0],
         last_loss: *history.last().expect("≥ 1 epoch"),
         rms_train_mps2: rms_error(&check, &train_set),
@@ -309,6 +371,8 @@ pub fn train(o: &SwarmTrainOptions) -> Result<SwarmTrainReport, TrainError> {
         train_s,
         c_sn: o.c_sn,
         epochs: o.epochs,
+        dagger_rounds: o.dagger_rounds,
+        dagger_epochs: o.dagger_epochs,
     })
 }
 
@@ -328,6 +392,8 @@ mod tests {
         o.rho_hidden = vec![8];
         o.epochs = 2;
         o.batch = 64;
+        o.dagger_rounds = 1;
+        o.dagger_epochs = 1;
         o
     }
 
@@ -340,7 +406,9 @@ mod tests {
         assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "the weights files differ");
         let text = |r: &SwarmTrainReport, p: &PathBuf| r.markdown("cmd").replace(&p.display().to_string(), "W");
         assert_eq!(text(&ra, &a), text(&rb, &b));
-        assert_eq!(ra.train_samples, (2 + 3) * (80 + 2));
+        // The perturbed states and, after one DAgger round, as many visited ones.
+        assert_eq!((ra.train_samples, ra.dagger_samples), (2 * (2 + 3) * (80 + 2), (2 + 3) * (80 + 2)));
+        assert_eq!(ra.validation_closed_loop.2, 1);
         assert_eq!(ra.validation_samples, 2 * (80 + 2));
         assert!(ra.rms_train_mps2 > 0.0 && ra.rms_validation_mps2 > 0.0);
         let p = DeepSetPolicy::load(&a).unwrap();

@@ -37,6 +37,12 @@ pub struct SwarmTrainArgs {
     /// Training epochs (reference 40).
     #[arg(long)]
     pub epochs: Option<usize>,
+    /// DAgger rounds after the epochs (reference 0; `swarm_dagger`).
+    #[arg(long)]
+    pub dagger_rounds: Option<usize>,
+    /// Epochs of each DAgger round (reference 8).
+    #[arg(long)]
+    pub dagger_epochs: Option<usize>,
 }
 
 impl SwarmTrainArgs {
@@ -56,6 +62,18 @@ impl SwarmTrainArgs {
             }
             o.epochs = e;
         }
+        if let Some(r) = self.dagger_rounds {
+            if r > 10 {
+                return Err(CommandError::invalid(format!("--dagger-rounds {r}: at most 10")));
+            }
+            o.dagger_rounds = r;
+        }
+        if let Some(e) = self.dagger_epochs {
+            if e == 0 {
+                return Err(CommandError::invalid("--dagger-epochs 0: at least 1".to_string()));
+            }
+            o.dagger_epochs = e;
+        }
         Ok(o)
     }
 
@@ -67,6 +85,12 @@ impl SwarmTrainArgs {
         }
         if let Some(e) = self.epochs {
             c += &format!(" --epochs {e}");
+        }
+        if let Some(r) = self.dagger_rounds {
+            c += &format!(" --dagger-rounds {r}");
+        }
+        if let Some(e) = self.dagger_epochs {
+            c += &format!(" --dagger-epochs {e}");
         }
         c
     }

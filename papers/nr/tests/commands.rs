@@ -1,7 +1,8 @@
 //! Seed 003's orchestrator commands end to end, each on a tiny case: `orchestrator train nr-iso`
 //! (two training ISOs, two epochs) writes the weights and a report naming the command that
 //! reproduces them, and the same arguments give the same bytes; `orchestrator nr campaign` (one
-//! test ISO, the two learned methods, one Δt) writes its tables; bad arguments are refused with
+//! test ISO, the two learned methods, one Δt) writes its tables; `orchestrator nr swarm-campaign`
+//! (one N = 8 case, the three methods) writes its CSV and summary; bad arguments are refused with
 //! exit code 2 naming the flag. The full runs are the commands in papers/nr/README.md. Build the
 //! binaries first (`scripts/test` does).
 
@@ -92,13 +93,16 @@ fn a_tiny_campaign_writes_its_tables() {
 fn bad_arguments_are_refused_with_exit_code_2_naming_the_flag() {
     let dir = scratch_dir("nr-bad-args");
     let out = dir.join("x").display().to_string();
-    let cases: [(&[&str], &str); 6] = [
+    let cases: [(&[&str], &str); 9] = [
         (&["train", "nr-iso", "--gamma=-1", "--out", &out], "--gamma -1"),
         (&["train", "nr-iso", "--isos", "5..3", "--out", &out], "--isos"),
         (&["train", "nr-iso", "--inputs", "7", "--out", &out], "--inputs"),
         (&["nr", "campaign", "--methods", "magic", "--out", &out], "--methods"),
         (&["nr", "campaign", "--dts", "700", "--out", &out], "--dts"),
         (&["nr", "campaign", "--isos", "200..400", "--out", &out], "--isos"),
+        (&["nr", "swarm-campaign", "--methods", "nr,magic", "--out", &out], "--methods"),
+        (&["nr", "swarm-campaign", "--cases-8", "5000", "--out", &out], "--cases-8 5000"),
+        (&["nr", "swarm-campaign", "--scenario-20", "topologies/swarm-8.toml", "--out", &out], "--scenario-20"),
     ];
     for (args, flag) in cases {
         let o = orchestrator(args);
@@ -139,10 +143,58 @@ fn the_swarm_trainer_writes_the_same_weights_twice_and_refuses_bad_arguments() {
     }
     assert!(files[0] == files[1], "the swarm weights differ between two identical trainings");
     let out = dir.join("x").display().to_string();
-    for (args, flag) in [(["--cases", "1"], "--cases 1"), (["--epochs", "0"], "--epochs 0")] {
+    for (args, flag) in [
+        (["--cases", "1"], "--cases 1"),
+        (["--epochs", "0"], "--epochs 0"),
+        (["--dagger-epochs", "0"], "--dagger-epochs 0"),
+    ] {
         let o = orchestrator(&["train", "nr-swarm", args[0], args[1], "--out", &out]);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", describe_output(&o));
         assert!(String::from_utf8_lossy(&o.stderr).contains(flag), "{args:?}: {}", describe_output(&o));
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_tiny_swarm_campaign_writes_its_csv_and_summary() {
+    let dir = scratch_dir("nr-swarm-campaign");
+    let out = dir.join("c");
+    let o = orchestrator(&[
+        "nr",
+        "swarm-campaign",
+        "--seed",
+        "3",
+        "--cases-8",
+        "1",
+        "--cases-20",
+        "0",
+        "--cases-20-disturbed",
+        "0",
+        "--figures",
+        "0",
+        "--out",
+        &out.display().to_string(),
+    ]);
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let csv = std::fs::read_to_string(out.join("cases.csv")).expect("cases.csv");
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 4, "a header and one row per method:\n{csv}");
+    assert!(lines[0].contains("collisions_count") && lines[0].contains("effort_mps"), "{}", lines[0]);
+    for (line, method) in lines[1..].iter().zip(["nr", "deep-set", "scp"]) {
+        let cols: Vec<&str> = line.split(',').collect();
+        assert_eq!((cols[0], cols[3], cols[5], cols[6]), ("n8", "8", method, "\"ok\""), "{line}");
+        // Counts and distances are numbers; the SCP flown open-loop is collision-free.
+        let num = |k: usize| cols[k].parse::<f64>().unwrap_or_else(|_| panic!("column {k} of {line}"));
+        assert!(num(9) > 0.0 && num(12) > 0.0 && num(14) > 0.0, "{line}");
+        if method == "scp" {
+            assert!(num(7) == 0.0 && num(9) >= 1.0 && num(13) == 1.0, "{line}");
+        }
+    }
+    let md = std::fs::read_to_string(out.join("summary.md")).expect("summary.md");
+    assert!(md.contains("## Verdict") && md.contains("| n8 | nr | 1 (0 failed)"), "{md}");
+    // The NR run is a reference run of the swarm-8 scenario with the case's seed.
+    let run = out.join("runs/n8-00-nr/summary.json");
+    let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&run).expect("the NR run")).unwrap();
+    assert_eq!((s["mode"].as_str(), s["steps_completed"].as_u64()), (Some("reference"), Some(100)));
     let _ = std::fs::remove_dir_all(&dir);
 }
