@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use std::net::{SocketAddr, ToSocketAddrs, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use cohort_runtime::record::RunDirs;
 use cohort_scenario::HostSpec;
@@ -21,8 +21,18 @@ use crate::hostproto::{self, ExitReport, Info, RunRequest, SignalRequest, SpawnR
 
 /// How long a daemon has to answer a request.
 const REQUEST_TIMEOUT: Duration = Duration::from_secs(20);
+/// An answer-less end of a query sooner than this after asking means no queryable took it.
+const UNROUTED: Duration = Duration::from_millis(500);
+/// The pause before asking again then.
+const ROUTE_RETRY: Duration = Duration::from_millis(50);
 /// How long the pre-flight check waits for a daemon's connection and answer.
 const PREFLIGHT_TIMEOUT: Duration = Duration::from_secs(4);
+
+/// Whether a query asked at `asked` that ended now without a reply ended too soon to have reached
+/// a daemon, with time left before `deadline` to ask again.
+fn unrouted(asked: Instant, deadline: Instant) -> bool {
+    asked.elapsed() < UNROUTED && Instant::now() + ROUTE_RETRY < deadline
+}
 
 /// The address of a `tcp/<address>:<port>` endpoint.
 fn endpoint_addr(endpoint: &str) -> Result<SocketAddr, String> {
@@ -228,20 +238,38 @@ impl Remote {
         self.hosts.iter().find(|h| h.name == name)
     }
 
+    /// One request to `host`'s daemon and its answer. A query that no queryable matches ends at
+    /// once with no reply: on a slow or lossy link the daemon's queryable may reach this session's
+    /// routing after the first request does (our reading of a spawn request to a host behind 2 ms
+    /// of delay and 1 % loss that once ended unanswered: one lost segment holds a declaration back
+    /// by a TCP retransmission). So while the host is
+    /// not lost (its token not withdrawn) such an empty answer is asked again, until
+    /// [`REQUEST_TIMEOUT`]; a daemon that got the request always answers it, so nothing is done twice.
     fn ask(&self, host: &HostLink, verb: &str, body: Vec<u8>) -> Result<Vec<u8>, String> {
-        let replies = self
-            .control
-            .get(request_key(&host.name, verb))
-            .payload(body)
-            .timeout(REQUEST_TIMEOUT)
-            .wait()
-            .map_err(|e| format!("host {}: {verb}: {e}", host.name))?;
-        match replies.recv() {
-            Ok(r) => match r.into_result() {
-                Ok(s) => Ok(s.payload().to_bytes().to_vec()),
-                Err(e) => Err(format!("host {}: {}", host.name, String::from_utf8_lossy(&e.payload().to_bytes()))),
-            },
-            Err(_) => Err(format!("host {} ({}) did not answer its {verb} request", host.name, host.endpoint)),
+        let deadline = Instant::now() + REQUEST_TIMEOUT;
+        loop {
+            let asked = Instant::now();
+            let replies = self
+                .control
+                .get(request_key(&host.name, verb))
+                .payload(body.clone())
+                .timeout(deadline.saturating_duration_since(asked))
+                .wait()
+                .map_err(|e| format!("host {}: {verb}: {e}", host.name))?;
+            match replies.recv() {
+                Ok(r) => {
+                    return match r.into_result() {
+                        Ok(s) => Ok(s.payload().to_bytes().to_vec()),
+                        Err(e) => {
+                            Err(format!("host {}: {}", host.name, String::from_utf8_lossy(&e.payload().to_bytes())))
+                        }
+                    };
+                }
+                Err(_) if unrouted(asked, deadline) && !host.is_lost() => std::thread::sleep(ROUTE_RETRY),
+                Err(_) => {
+                    return Err(format!("host {} ({}) did not answer its {verb} request", host.name, host.endpoint));
+                }
+            }
         }
     }
 
