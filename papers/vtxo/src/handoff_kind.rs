@@ -14,7 +14,7 @@
 
 use std::any::Any;
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use cohort_runtime::model::Algorithm;
@@ -75,26 +75,32 @@ impl AlgorithmKind for VtxoHandoffKind {
                 c.problems.push(pr);
             }
         }
-        let mut dnn = None;
-        if let Some(w) = &a.handoff.transient_weights {
-            let path = PathBuf::from(ctx.scenario.resolve_path(&w.to_string_lossy()));
-            match TransientDnn::load(&path) {
-                Ok(d) => dnn = Some(Arc::new(d)),
-                Err(e) => c.fail(WEIGHTS_KEY, format!("{:?}", path.display().to_string()), e.to_string()),
-            }
-            a.handoff.transient_weights = Some(path);
-        }
-        let mut science_dnn = None;
-        if let Some(w) = &a.handoff.science_weights {
-            let path = PathBuf::from(ctx.scenario.resolve_path(&w.to_string_lossy()));
-            match ScienceDnn::load(&path) {
-                Ok(d) => science_dnn = Some(Arc::new(d)),
-                Err(e) => c.fail(SCIENCE_WEIGHTS_KEY, format!("{:?}", path.display().to_string()), e.to_string()),
-            }
-            a.handoff.science_weights = Some(path);
-        }
+        let dnn = load_weights(ctx.scenario, &mut a.handoff.transient_weights, WEIGHTS_KEY, TransientDnn::load, c);
+        let science_dnn =
+            load_weights(ctx.scenario, &mut a.handoff.science_weights, SCIENCE_WEIGHTS_KEY, ScienceDnn::load, c);
         Some(Arc::new(HandoffSetup { config: a, dnn, science_dnn }))
     }
+}
+
+/// Resolve the weights file at `key` (if given) against the scenario's folder, in place, and load
+/// it with `load`; a file that does not load is a problem at `key` naming the file and the reason.
+fn load_weights<T, E: std::fmt::Display>(
+    scenario: &Scenario,
+    file: &mut Option<PathBuf>,
+    key: &str,
+    load: impl Fn(&Path) -> Result<T, E>,
+    c: &mut Checker,
+) -> Option<Arc<T>> {
+    let path = PathBuf::from(scenario.resolve_path(&file.as_ref()?.to_string_lossy()));
+    let loaded = match load(&path) {
+        Ok(d) => Some(Arc::new(d)),
+        Err(e) => {
+            c.fail(key, format!("{:?}", path.display().to_string()), e.to_string());
+            None
+        }
+    };
+    *file = Some(path);
+    loaded
 }
 
 impl HandoffSetup {
