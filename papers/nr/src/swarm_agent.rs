@@ -32,7 +32,9 @@ use serde::{Deserialize, Serialize};
 use crate::min_norm::min_norm;
 use crate::swarm_config::SwarmMethod;
 use crate::swarm_messages::{SHARE_LEN, SwarmReading, SwarmShare};
+use crate::swarm_nav::{EstimatorConfig, OwnState};
 use crate::swarm_obs::{SwarmObservation, SwarmPolicy};
+use crate::swarm_safety::{self, SafetyConfig};
 use crate::swarm_setup::distance_m;
 
 type V3 = [f64; 3];
@@ -54,6 +56,10 @@ pub struct SwarmAgentParams {
     /// Control intervals per roll-out and per rebuild (rebuild ≤ horizon).
     pub horizon_steps: usize,
     pub rebuild_steps: usize,
+    /// The barrier filter on the final command, if any.
+    pub safety: Option<SafetyConfig>,
+    /// The own-state Kalman filter, if any (else the raw readings are flown).
+    pub estimator: Option<EstimatorConfig>,
 }
 
 /// A desired trajectory: nodes j = 0..=n at t₀ + jΔt, the acceleration held over each interval.
@@ -109,6 +115,11 @@ struct Outputs {
     du: f64,
     n_observed: f64,
     p_d: V3,
+    /// Rows of the safety filter the nominal command broke; the slack it needed; the least
+    /// barrier value h (NaN without a filter or with nobody heard).
+    safety_active: f64,
+    safety_slack: f64,
+    safety_min_h: f64,
 }
 
 /// Everything that changes during a run (the checkpoint).
@@ -120,6 +131,11 @@ struct State {
     out: Outputs,
     clipped_steps: u64,
     bad_readings: u64,
+    /// Steps the filter changed the command; steps its solver failed (the nominal was flown).
+    filtered_steps: u64,
+    filter_failures: u64,
+    /// The own-state estimate (with an estimator).
+    nav: OwnState,
 }
 
 pub struct SwarmAgent {
@@ -193,6 +209,11 @@ impl Algorithm for SwarmAgent {
             "p_d_y_m",
             "p_d_z_m",
             "clipped_steps",
+            "safety_active",
+            "safety_slack_mps2",
+            "safety_min_h",
+            "filtered_steps",
+            "filter_failures",
         ]
         .map(String::from)
         .to_vec()
@@ -201,14 +222,23 @@ impl Algorithm for SwarmAgent {
     fn share(&mut self, input: &AgentInput<'_>, out: &mut ShareOut) {
         out.command.clear();
         out.values.clear();
-        let Ok(r) = SwarmReading::parse(input.readings) else {
+        let Ok(mut r) = SwarmReading::parse(input.readings) else {
             self.st.bad_readings += 1;
-            self.st.out = Outputs { mode: MODE_BAD_READINGS, p_d: [f64::NAN; 3], ..Outputs::default() };
+            // The estimate moves on with the zero command flown.
+            if let Some(cfg) = &self.prm.estimator {
+                self.st.nav.predict(cfg, [0.0; 3], self.dt_s);
+            }
+            self.st.out =
+                Outputs { mode: MODE_BAD_READINGS, p_d: [f64::NAN; 3], safety_min_h: f64::NAN, ..Outputs::default() };
             out.command.extend([0.0; 3]);
             out.values.extend([f64::NAN; SHARE_LEN - 1]);
             out.values.push(MODE_BAD_READINGS);
             return;
         };
+        if let Some(cfg) = &self.prm.estimator {
+            self.st.nav.update(cfg, r.p_m, r.v_mps);
+            (r.p_m, r.v_mps) = (self.st.nav.p_m, self.st.nav.v_mps);
+        }
         let others = self.near(r.p_m);
         let obs = SwarmObservation::local(r.p_m, r.v_mps, r.goal_m, &others, self.prm.r_comm_m);
         let u_l = clip(self.policy.accel_mps2(&obs), self.prm.a_max_mps2);
@@ -224,6 +254,20 @@ impl Algorithm for SwarmAgent {
         }
         if !u.iter().all(|x| x.is_finite()) {
             u = [0.0; 3];
+        }
+        self.st.out.safety_min_h = f64::NAN;
+        if let Some(cfg) = &self.prm.safety {
+            let f = swarm_safety::filter(cfg, self.prm.a_max_mps2, r.p_m, r.v_mps, u, &others);
+            self.st.filtered_steps += u64::from(f.active > 0 && !f.failed);
+            self.st.filter_failures += u64::from(f.failed);
+            // No neighbour heard: no barrier value (NaN, as without a filter).
+            let min_h = if f.min_h.is_finite() { f.min_h } else { f64::NAN };
+            (self.st.out.safety_active, self.st.out.safety_slack, self.st.out.safety_min_h) =
+                (f.active as f64, f.slack_mps2, min_h);
+            u = f.u_mps2;
+        }
+        if let Some(cfg) = &self.prm.estimator {
+            self.st.nav.predict(cfg, u, self.dt_s);
         }
         (self.st.out.mode, self.st.out.u, self.st.out.du) = (mode, u, du);
         out.command.extend(u);
@@ -247,6 +291,8 @@ impl Algorithm for SwarmAgent {
         out.extend([o.du, o.n_observed]);
         out.extend(o.p_d);
         out.push(self.st.clipped_steps as f64);
+        out.extend([o.safety_active, o.safety_slack, o.safety_min_h]);
+        out.extend([self.st.filtered_steps as f64, self.st.filter_failures as f64]);
     }
 
     fn save_state(&self) -> Vec<u8> {
@@ -288,6 +334,8 @@ mod tests {
             alpha_per_s: 2.0,
             horizon_steps: 20,
             rebuild_steps: 5,
+            safety: None,
+            estimator: None,
         }
     }
 
@@ -397,9 +445,10 @@ mod tests {
         let bytes = a.save_state();
         let mut b = SwarmAgent::new(params(SwarmMethod::Nr), 0.1, Arc::new(pd));
         b.restore_state(&bytes).unwrap();
-        assert_eq!(a.st, b.st);
+        // Bytes, not ==: the state holds NaN (no barrier value without a filter).
+        assert_eq!(b.save_state(), bytes);
         assert!(b.restore_state(&bytes[..bytes.len() / 2]).is_err());
-        assert_eq!(a.st, b.st);
+        assert_eq!(b.save_state(), bytes);
         a.share(&AgentInput { k: 1, t_s: 0.1, readings: &[1.0; 4] }, &mut out);
         assert_eq!(out.command, vec![0.0; 3]);
         assert_eq!(out.values.len(), SHARE_LEN);

@@ -1,8 +1,9 @@
 //! The swarm campaign of Sec. 7.2 of "Neural-Rendezvous" (arXiv:2208.04883): one case (a scenario
 //! seed, which draws the starts and goals, the reading noise and the disturbance) flown by
 //!
-//! - **NR over the deep set** and **the deep set alone**: the scenario with `algorithm.method` =
-//!   `nr` / `policy`, flown as the orchestrator's in-process reference run (`launch
+//! - **NR over the deep set** (with the scenario's safety filter, [`crate::swarm_safety`]), **NR
+//!   without the filter** and **the deep set alone** (no filter): the scenario with
+//!   `algorithm.method` = `nr` / `policy`, flown as the orchestrator's in-process reference run (`launch
 //!   --reference`: the plant and every vehicle as threads over the in-memory transport, through
 //!   the multi-process drivers, so every number equals a multi-process run's); the metrics are the
 //!   run's own (`swarm_analysis`), the per-step compute the runtime's `agent_compute` (share +
@@ -45,20 +46,24 @@ pub const SCP_K_D_PER_S: f64 = 4.0;
 /// What flies a case.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CampaignMethod {
-    /// NR over the deep set.
+    /// NR over the deep set, with the scenario's safety filter (if it has one).
     Nr,
-    /// The deep set alone.
+    /// NR over the deep set without a safety filter (what the filter adds).
+    NrNoFilter,
+    /// The deep set alone, without a safety filter (the paper's SN-DNN alone).
     DeepSet,
     /// The global SCP solution.
     Scp,
 }
 
 impl CampaignMethod {
-    pub const ALL: [CampaignMethod; 3] = [CampaignMethod::Nr, CampaignMethod::DeepSet, CampaignMethod::Scp];
+    pub const ALL: [CampaignMethod; 4] =
+        [CampaignMethod::Nr, CampaignMethod::NrNoFilter, CampaignMethod::DeepSet, CampaignMethod::Scp];
 
     pub fn name(self) -> &'static str {
         match self {
             CampaignMethod::Nr => "nr",
+            CampaignMethod::NrNoFilter => "nr-no-filter",
             CampaignMethod::DeepSet => "deep-set",
             CampaignMethod::Scp => "scp",
         }
@@ -123,12 +128,14 @@ impl CaseResult {
     }
 }
 
-/// The base scenario re-seeded and flown by `method` (nr or policy), configured.
+/// The base scenario re-seeded and flown by `method` (nr or policy), without its safety filter
+/// unless `filtered`, configured.
 pub fn case_setup(
     launcher: &dyn Launcher,
     base: &Setup,
     seed: u64,
     method: SwarmMethod,
+    filtered: bool,
     name: &str,
 ) -> Result<Setup, String> {
     let (Some(plant), Some(alg)) = (base.plant_as::<SwarmConfig>(), base.algorithm_as::<SwarmSetup>()) else {
@@ -141,6 +148,9 @@ pub fn case_setup(
     s.plant.body = table_of(&SwarmConfig { problem_seed: None, ..plant.clone() })?;
     let mut config = alg.config.clone();
     config.method = method;
+    if !filtered {
+        config.safety = None;
+    }
     s.algorithm.body = table_of(&config)?;
     launcher.configure(s, name).map_err(|e| e.to_string())
 }
@@ -269,9 +279,9 @@ pub fn fly_case(
         let started = std::time::Instant::now();
         match m {
             CampaignMethod::Scp => fly_scp(plant, n, seed, base.scenario.dt_s, base.n_steps(), &mut row),
-            CampaignMethod::Nr | CampaignMethod::DeepSet => {
-                let method = if m == CampaignMethod::Nr { SwarmMethod::Nr } else { SwarmMethod::Policy };
-                let s = case_setup(launcher, base, seed, method, &name)?;
+            CampaignMethod::Nr | CampaignMethod::NrNoFilter | CampaignMethod::DeepSet => {
+                let method = if m == CampaignMethod::DeepSet { SwarmMethod::Policy } else { SwarmMethod::Nr };
+                let s = case_setup(launcher, base, seed, method, m == CampaignMethod::Nr, &name)?;
                 fly_reference(launcher, &s, &runs_dir.join(&name), plots, &mut row)?;
             }
         }

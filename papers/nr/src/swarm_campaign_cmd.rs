@@ -47,8 +47,8 @@ pub struct SwarmCampaignArgs {
     pub scenario_20: PathBuf,
     #[arg(long, default_value = "topologies/swarm-20-disturbed.toml")]
     pub scenario_20_disturbed: PathBuf,
-    /// Comma list of nr, deep-set, scp (default all three).
-    #[arg(long, default_value = "nr,deep-set,scp")]
+    /// Comma list of nr, nr-no-filter, deep-set, scp (default all four).
+    #[arg(long, default_value = "nr,nr-no-filter,deep-set,scp")]
     pub methods: String,
     /// Cases of each group whose runs draw their figures.
     #[arg(long, default_value_t = 1)]

@@ -9,6 +9,8 @@ use cohort_scenario::Problem;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{non_negative, positive};
+use crate::swarm_nav::EstimatorConfig;
+use crate::swarm_safety::SafetyConfig;
 use crate::swarm_setup::{A_MAX_MPS2, R_COMM_M, T_RECONFIG_S};
 
 fn d_a_max() -> f64 {
@@ -166,6 +168,14 @@ pub struct SwarmAlgorithmConfig {
     /// How often the roll-out is rebuilt, s (≤ horizon_s).
     #[serde(default = "d_rebuild")]
     pub rebuild_every_s: f64,
+    /// `[algorithm.safety]`: the barrier filter on the final command ([`crate::swarm_safety`]).
+    /// Absent: no filter (the paper's configuration gives none).
+    #[serde(default)]
+    pub safety: Option<SafetyConfig>,
+    /// `[algorithm.estimator]`: the own-state Kalman filter ([`crate::swarm_nav`]). Absent: the
+    /// vehicle flies (and shares) its raw readings.
+    #[serde(default)]
+    pub estimator: Option<EstimatorConfig>,
 }
 
 impl SwarmAlgorithmConfig {
@@ -182,6 +192,9 @@ impl SwarmAlgorithmConfig {
                 "policy \"pd\" has no weights: give it only with policy = \"deep-set\"",
             )),
             _ => {}
+        }
+        if let Some(e) = &self.estimator {
+            p.extend(e.validate());
         }
         positive(&mut p, "algorithm.r_comm_m", self.r_comm_m);
         positive(&mut p, "algorithm.pd_omega_per_s", self.pd_omega_per_s);

@@ -122,6 +122,8 @@ impl SwarmSetup {
             alpha_per_s: c.alpha_per_s,
             horizon_steps,
             rebuild_steps,
+            safety: c.safety,
+            estimator: c.estimator,
         }
     }
 
@@ -180,6 +182,9 @@ impl AlgorithmKind for NrSwarmKind {
         let a_max_mps2 = plant
             .and_then(|p| p.as_any().downcast_ref::<SwarmConfig>())
             .map_or(crate::swarm_setup::A_MAX_MPS2, |p| p.a_max_mps2);
+        if let Some(safety) = &config.safety {
+            c.problems.extend(safety.validate(a_max_mps2));
+        }
         if let Some(w) = &config.weights {
             config.weights = Some(PathBuf::from(s.resolve_path(&w.to_string_lossy())));
         }

@@ -178,9 +178,9 @@ fn a_tiny_swarm_campaign_writes_its_csv_and_summary() {
     assert!(o.status.success(), "{}", describe_output(&o));
     let csv = std::fs::read_to_string(out.join("cases.csv")).expect("cases.csv");
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines.len(), 4, "a header and one row per method:\n{csv}");
+    assert_eq!(lines.len(), 5, "a header and one row per method:\n{csv}");
     assert!(lines[0].contains("collisions_count") && lines[0].contains("effort_mps"), "{}", lines[0]);
-    for (line, method) in lines[1..].iter().zip(["nr", "deep-set", "scp"]) {
+    for (line, method) in lines[1..].iter().zip(["nr", "nr-no-filter", "deep-set", "scp"]) {
         let cols: Vec<&str> = line.split(',').collect();
         assert_eq!((cols[0], cols[3], cols[5], cols[6]), ("n8", "8", method, "\"ok\""), "{line}");
         // Counts and distances are numbers; the SCP flown open-loop is collision-free.
@@ -196,5 +196,11 @@ fn a_tiny_swarm_campaign_writes_its_csv_and_summary() {
     let run = out.join("runs/n8-00-nr/summary.json");
     let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&run).expect("the NR run")).unwrap();
     assert_eq!((s["mode"].as_str(), s["steps_completed"].as_u64()), (Some("reference"), Some(100)));
+    // NR flies the scenario's safety filter; the other two fly without it.
+    for (name, filtered) in [("n8-00-nr", true), ("n8-00-nr-no-filter", false), ("n8-00-deep-set", false)] {
+        let sc =
+            std::fs::read_to_string(out.join("runs").join(name).join("scenario.toml")).expect("the run's scenario");
+        assert_eq!(sc.contains("[algorithm.safety]"), filtered, "{name}:\n{sc}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
