@@ -11,7 +11,9 @@
 //!   0.1 m of their goal at the end), `max_goal_dist_at_t_m`, `total_effort_mps`;
 //! - from the agents: `du_active_share` (steps where the min-norm control changed the policy's
 //!   command, of all vehicle-steps), `max_observed` (most neighbours a vehicle observed),
-//!   `clipped_steps` and `bad_readings` (summed over the vehicles).
+//!   `clipped_steps` and `bad_readings` (summed over the vehicles), `filtered_steps` (steps the
+//!   safety filter changed a command) and `filter_failures` (its solver failed, the nominal was
+//!   flown), summed over the vehicles (0 without a filter).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -94,19 +96,27 @@ pub fn analyse(s: &Setup, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, Strin
     let mut m: BTreeMap<String, f64> = swarm.into_iter().filter(|(k, _)| k != "t_reconfig_s").collect();
     vehicle_metrics(&vehicles, &mut m);
     let (mut active, mut steps, mut observed, mut clipped, mut bad) = (0usize, 0usize, 0.0f64, 0.0, 0usize);
+    let (mut filtered, mut failures) = (0.0, 0.0);
     for j in 1..=n {
         let path = dirs.telemetry().join(format!("agent-{j}.csv"));
-        let a = Table::read_columns(&path, &["mode", "du_mps2", "n_observed", "clipped_steps"])
-            .map_err(|e| e.to_string())?;
+        let a = Table::read_columns(
+            &path,
+            &["mode", "du_mps2", "n_observed", "clipped_steps", "filtered_steps", "filter_failures"],
+        )
+        .map_err(|e| e.to_string())?;
         steps += a.rows();
         active += a.col("du_mps2").iter().filter(|d| **d > 0.0).count();
         observed = observed.max(a.col("n_observed").iter().copied().fold(0.0, f64::max));
         clipped += a.col("clipped_steps").last().copied().unwrap_or(0.0);
+        filtered += a.col("filtered_steps").last().copied().unwrap_or(0.0);
+        failures += a.col("filter_failures").last().copied().unwrap_or(0.0);
         bad += a.col("mode").iter().filter(|x| **x == MODE_BAD_READINGS).count();
     }
     m.insert("du_active_share".into(), active as f64 / steps.max(1) as f64);
     m.insert("max_observed".into(), observed);
     m.insert("clipped_steps".into(), clipped);
     m.insert("bad_readings".into(), bad as f64);
+    m.insert("filtered_steps".into(), filtered);
+    m.insert("filter_failures".into(), failures);
     Ok(m)
 }

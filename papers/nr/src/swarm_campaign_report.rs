@@ -119,14 +119,18 @@ fn verdicts(rows: &[CaseResult]) -> String {
     let speed: Vec<f64> = good.iter().map(|r| r.speedup()).filter(|x| x.is_finite()).collect();
     let slowest = fold(speed.iter().copied(), f64::min, f64::INFINITY);
     let mut s = String::new();
+    let ds_note = if ds.is_empty() {
+        "the deep set alone: not flown".to_string()
+    } else {
+        format!("the deep set alone: {ds_free} of {} cases, {ds_total} collisions", ds.len())
+    };
     let _ = writeln!(
         s,
         "- **0 collisions for NR in every case: {}** — {free} of {} NR cases collision-free, {total} collisions in all{} \
-         (the deep set alone: {ds_free} of {} cases, {ds_total} collisions).",
+         ({ds_note}).",
         verdict(failed == 0 && free == nr.len()),
         nr.len(),
         if failed > 0 { format!(", {failed} runs failed") } else { String::new() },
-        ds.len()
     );
     let _ = writeln!(
         s,
@@ -235,6 +239,7 @@ mod tests {
         let v = verdicts(&bad);
         assert!(v.contains("every case: NOT MET") && v.contains("SCP's (NR): NOT MET"), "{v}");
         assert!(v.contains("solve (NR): NOT MET") && v.contains("least speed-up 10×"), "{v}");
+        assert!(v.contains("the deep set alone: not flown") && !v.contains("-0"), "{v}");
         let c = csv(&good);
         assert_eq!(c.lines().count(), 3);
         assert!(c.lines().next().unwrap().split(',').count() == c.lines().nth(1).unwrap().split(',').count());

@@ -1,7 +1,8 @@
 //! The swarm (Sec. 7.2 of "Neural-Rendezvous", arXiv:2208.04883) through the orchestrator, one OS
 //! process per vehicle: `topologies/swarm-8.toml` multi-process and `--reference` over a short
 //! horizon are bit-identical (every telemetry value, the plant's end-of-run file, every summary
-//! metric, `f64::to_bits`), and the multi-process run draws both swarm figures;
+//! metric, `f64::to_bits`) with the safety filter and the estimator acting, and the multi-process
+//! run draws both swarm figures;
 //! `topologies/swarm-20.toml` runs as 21 processes (the plant and 20 vehicles, all-to-all
 //! shares) and leaves nothing behind: no process mentioning its run directory, no iceoryx2 entry
 //! of its run in /dev/shm. Build the binaries first (`scripts/test` does).
@@ -60,6 +61,9 @@ fn eight_vehicles_multi_process_are_bit_identical_to_the_reference() {
     }
     // Vehicles hear one another: someone observed a neighbour within R_comm.
     assert!(m["max_observed"].as_f64() >= Some(1.0), "{}", m["max_observed"]);
+    // The safety filter acted in those passes (so the bit-identity covers its solver), never failing.
+    assert!(m["filtered_steps"].as_f64() > Some(0.0), "filtered_steps = {}", m["filtered_steps"]);
+    assert_eq!(m["filter_failures"].as_f64(), Some(0.0));
     for png in ["swarm_trajectories.png", "swarm_min_distance.png"] {
         let p = mp.join("plots").join(png);
         let len = std::fs::metadata(&p).map(|m| m.len()).unwrap_or(0);
