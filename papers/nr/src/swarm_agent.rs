@@ -9,7 +9,13 @@
 //!   s = v̂ − v_d + Λ(p̂ − p_d), ς = a_d − Λ(v̂ − v_d), u* = argmin ‖u − u_ℓ‖² s.t.
 //!   sᵀ(u − ς) + α‖s‖² ≤ 0, about the policy's command u_ℓ at the current observation.
 //!
-//! The command is clipped to a_max per axis (counted; the plant clips too).
+//! The command is clipped to a_max per axis (counted; the plant clips too). Two additions of ours,
+//! each on only when its scenario table is there (the shipped swarm scenarios have both):
+//! `[algorithm.estimator]`, the vehicle flies and shares the Kalman estimate of
+//! [`crate::swarm_nav`] (updated with each reading, predicted with the command flown) in place of
+//! its raw readings; `[algorithm.safety]`, the clipped command passes last through the barrier
+//! filter of [`crate::swarm_safety`] against the neighbours heard within R_comm (the roll-out is
+//! the policy's own, unfiltered).
 //!
 //! What a vehicle knows of the others: the shares ([`crate::swarm_messages`]) every vehicle
 //! publishes each step, all-to-all. The runtime hands an agent its neighbours' shares of step k
