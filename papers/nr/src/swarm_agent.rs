@@ -1,10 +1,11 @@
 //! One vehicle of the swarm (Sec. 7.2 of "Neural-Rendezvous", arXiv:2208.04883): the algorithm of
 //! the `nr-swarm` kind, one process per vehicle. `algorithm.method` chooses
 //!
-//! - `policy`: the [`SwarmPolicy`] alone, u = u_ℓ(o), o the local observation;
+//! - `policy`: the [`SwarmPolicy`] alone, u = u_ℓ(o), o the local observation (with the time to
+//!   go T − t, T the plant's `t_reconfig_s`);
 //! - `nr`: the Neural-Rendezvous layer over that policy. Every `rebuild_every_s` (0.5 s) the
 //!   vehicle rolls its own policy `horizon_s` (2 s) ahead from its estimate, the neighbours it
-//!   hears moving at constant velocity ([`roll_out`]): the desired trajectory (p_d, v_d, a_d). Each
+//!   hears moving at constant velocity, the time to go running down ([`roll_out`]): the desired trajectory (p_d, v_d, a_d). Each
 //!   step it tracks it with the min-norm control (27) of [`crate::min_norm`] for m = 1, C = G = 0:
 //!   s = v̂ − v_d + Λ(p̂ − p_d), ς = a_d − Λ(v̂ − v_d), u* = argmin ‖u − u_ℓ‖² s.t.
 //!   sᵀ(u − ς) + α‖s‖² ≤ 0, about the policy's command u_ℓ at the current observation.
@@ -62,6 +63,8 @@ pub struct SwarmAgentParams {
     /// Control intervals per roll-out and per rebuild (rebuild ≤ horizon).
     pub horizon_steps: usize,
     pub rebuild_steps: usize,
+    /// The reconfiguration time T, s (the policy sees the time to go, T − t).
+    pub t_reconfig_s: f64,
     /// The barrier filter on the final command, if any.
     pub safety: Option<SafetyConfig>,
     /// The own-state Kalman filter, if any (else the raw readings are flown).
@@ -82,8 +85,8 @@ fn clip(u: V3, a_max: f64) -> V3 {
 }
 
 /// Roll `policy` `steps` intervals of `dt_s` ahead from (p0, v0), `others` = (p, v) of the heard
-/// neighbours moving at constant velocity, each node's command clipped to a_max; exact
-/// double-integrator steps.
+/// neighbours moving at constant velocity, the policy's time to go `t_to_go_s` at the start and
+/// running down, each node's command clipped to a_max; exact double-integrator steps.
 #[allow(clippy::too_many_arguments)]
 pub fn roll_out(
     policy: &dyn SwarmPolicy,
@@ -95,6 +98,7 @@ pub fn roll_out(
     a_max_mps2: f64,
     dt_s: f64,
     steps: usize,
+    t_to_go_s: f64,
 ) -> Rollout {
     let mut r = Rollout { k0: 0, p_m: vec![p0], v_mps: vec![v0], a_mps2: Vec::with_capacity(steps) };
     let mut moved = others.to_vec();
@@ -104,7 +108,8 @@ pub fn roll_out(
             m.0 = [0, 1, 2].map(|a| p[a] + v[a] * tau);
         }
         let (p, v) = (r.p_m[j], r.v_mps[j]);
-        let a = clip(policy.accel_mps2(&SwarmObservation::local(p, v, goal, &moved, r_comm_m)), a_max_mps2);
+        let obs = SwarmObservation::local(p, v, goal, &moved, r_comm_m).at(t_to_go_s - tau);
+        let a = clip(policy.accel_mps2(&obs), a_max_mps2);
         r.p_m.push([0, 1, 2].map(|i| p[i] + v[i] * dt_s + 0.5 * a[i] * dt_s * dt_s));
         r.v_mps.push([0, 1, 2].map(|i| v[i] + a[i] * dt_s));
         r.a_mps2.push(a);
@@ -168,7 +173,7 @@ impl SwarmAgent {
 
     /// The Neural-Rendezvous command about `u_l`: rebuild the roll-out when due, then the
     /// min-norm tracking of its node for step `k`.
-    fn track(&mut self, k: u64, r: &SwarmReading, others: &[(V3, V3)], u_l: V3) -> (V3, f64) {
+    fn track(&mut self, k: u64, t_s: f64, r: &SwarmReading, others: &[(V3, V3)], u_l: V3) -> (V3, f64) {
         let prm = self.prm;
         let due = self.st.plan.as_ref().is_none_or(|p| k >= p.k0 + prm.rebuild_steps as u64);
         if due {
@@ -182,6 +187,7 @@ impl SwarmAgent {
                 prm.a_max_mps2,
                 self.dt_s,
                 prm.horizon_steps,
+                prm.t_reconfig_s - t_s,
             );
             plan.k0 = k;
             self.st.plan = Some(plan);
@@ -246,12 +252,13 @@ impl Algorithm for SwarmAgent {
             (r.p_m, r.v_mps) = (self.st.nav.p_m, self.st.nav.v_mps);
         }
         let others = self.near(r.p_m);
-        let obs = SwarmObservation::local(r.p_m, r.v_mps, r.goal_m, &others, self.prm.r_comm_m);
+        let obs = SwarmObservation::local(r.p_m, r.v_mps, r.goal_m, &others, self.prm.r_comm_m)
+            .at(self.prm.t_reconfig_s - input.t_s);
         let u_l = clip(self.policy.accel_mps2(&obs), self.prm.a_max_mps2);
         self.st.out = Outputs { u_l, n_observed: obs.n_neighbours as f64, p_d: [f64::NAN; 3], ..Outputs::default() };
         let (u_star, mode) = match self.prm.method {
             SwarmMethod::Policy => (u_l, MODE_POLICY),
-            SwarmMethod::Nr => self.track(input.k, &r, &others, u_l),
+            SwarmMethod::Nr => self.track(input.k, input.t_s, &r, &others, u_l),
         };
         let du = distance_m(u_star, u_l);
         let mut u = clip(u_star, self.prm.a_max_mps2);
@@ -340,6 +347,7 @@ mod tests {
             alpha_per_s: 2.0,
             horizon_steps: 20,
             rebuild_steps: 5,
+            t_reconfig_s: 8.0,
             safety: None,
             estimator: None,
         }
@@ -389,6 +397,31 @@ mod tests {
                 &[(3, share_of([0.5, 0.0, 1.0], [0.0; 3])), (7, share_of([0.0, 1.5, 1.0], [0.0; 3]))],
             );
             assert_eq!(bits(&near), bits(&both), "{method:?}");
+        }
+    }
+
+    /// A policy that flies its time to go along x (to see which time it is given).
+    struct Clock;
+    impl SwarmPolicy for Clock {
+        fn accel_mps2(&self, obs: &SwarmObservation) -> [f64; 3] {
+            [obs.t_to_go_s, 0.0, 0.0]
+        }
+    }
+
+    #[test]
+    fn the_policy_sees_the_time_to_go_now_and_along_the_roll_out() {
+        let mut a = SwarmAgent::new(params(SwarmMethod::Policy), 0.1, Arc::new(Clock));
+        let mut out = ShareOut::default();
+        let r = readings([0.0, 0.0, 1.0], [0.0; 3], [1.0, 0.0, 1.0]);
+        for (t_s, want) in [(6.5, 1.5), (7.9, 8.0 - 7.9), (9.0, 0.0)] {
+            a.share(&AgentInput { k: 0, t_s, readings: &r }, &mut out);
+            assert!((out.command[0] - want).abs() < 1e-12, "t = {t_s}: {:?}", out.command);
+        }
+        // T − t = 1 s at the roll-out's start: 1.0, 0.9, …, 0.1, then 0 from T on.
+        let plan = roll_out(&Clock, [0.0; 3], [0.0; 3], [1.0; 3], &[], 1.0, 2.0, 0.1, 15, 1.0);
+        for (j, a) in plan.a_mps2.iter().enumerate() {
+            let want = (1.0 - 0.1 * j as f64).max(0.0);
+            assert!((a[0] - want).abs() < 1e-12, "node {j}: {a:?}");
         }
     }
 

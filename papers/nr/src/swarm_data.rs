@@ -11,7 +11,7 @@
 //! node (so small and large deviations both appear), and for each vehicle i:
 //!
 //! - the observation [`SwarmObservation::local`] of the *perturbed* swarm (nearest ≤ 6 within
-//!   R_comm), and
+//!   R_comm) at the node's time to go max(T − t_k, 0), and
 //! - the target u*ᵢ(k) + K_p (p*ᵢ(k) − pᵢ) + K_d (v*ᵢ(k) − vᵢ), clipped to ±a_max.
 //!
 //! Ours (the paper's are lost): σ_p = 0.1 m, σ_v = 0.1 m/s; K_p = 4 s⁻², K_d = 4 s⁻¹ (a critically
@@ -29,7 +29,7 @@ use rand_distr::StandardNormal;
 use serde::Serialize;
 
 use crate::swarm_obs::SwarmObservation;
-use crate::swarm_problem::{A_MAX_MPS2, R_COMM_M, STEPS, SwarmCase};
+use crate::swarm_problem::{A_MAX_MPS2, R_COMM_M, STEPS, SwarmCase, t_to_go_s};
 use crate::swarm_scp::{self, SwarmPlan, SwarmScpSettings};
 
 /// How the data set is drawn.
@@ -162,7 +162,7 @@ pub fn case_data(o: &SwarmDataOptions, c: usize) -> CaseData {
         for i in 0..n {
             let (p, v) = state[i];
             let others: Vec<_> = (0..n).filter(|&j| j != i).map(|j| state[j]).collect();
-            let obs = SwarmObservation::local(p, v, case.goals_m[i], &others, R_COMM_M);
+            let obs = SwarmObservation::local(p, v, case.goals_m[i], &others, R_COMM_M).at(t_to_go_s(k));
             samples.push(SwarmSample { case: c, obs, target_mps2: expert.target(o, i, k, p, v) });
         }
     }

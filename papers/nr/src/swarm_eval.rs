@@ -48,7 +48,8 @@ pub fn closed_loop(policy: &dyn SwarmPolicy, case: &SwarmCase, steps: usize) -> 
             let a = (0..n)
                 .map(|i| {
                     let others: Vec<_> = (0..n).filter(|&j| j != i).map(|j| (p[j], v[j])).collect();
-                    let obs = SwarmObservation::local(p[i], v[i], case.goals_m[i], &others, R_COMM_M);
+                    let obs = SwarmObservation::local(p[i], v[i], case.goals_m[i], &others, R_COMM_M)
+                        .at(crate::swarm_problem::t_to_go_s(k));
                     policy.accel_mps2(&obs).map(|x| x.clamp(-A_MAX_MPS2, A_MAX_MPS2))
                 })
                 .collect();

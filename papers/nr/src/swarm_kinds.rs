@@ -106,6 +106,8 @@ impl PlantSetup for SwarmConfig {
 pub struct SwarmSetup {
     pub config: SwarmAlgorithmConfig,
     pub a_max_mps2: f64,
+    /// The plant's reconfiguration time T, s.
+    pub t_reconfig_s: f64,
     pub deep_set: Option<Arc<DeepSetPolicy>>,
 }
 
@@ -122,6 +124,7 @@ impl SwarmSetup {
             alpha_per_s: c.alpha_per_s,
             horizon_steps,
             rebuild_steps,
+            t_reconfig_s: self.t_reconfig_s,
             safety: c.safety,
             estimator: c.estimator,
         }
@@ -179,9 +182,9 @@ impl AlgorithmKind for NrSwarmKind {
         let mut config = a?;
         c.problems.extend(config.validate());
         c.problems.extend(config.validate_dt(s.scenario.dt_s));
-        let a_max_mps2 = plant
-            .and_then(|p| p.as_any().downcast_ref::<SwarmConfig>())
-            .map_or(crate::swarm_setup::A_MAX_MPS2, |p| p.a_max_mps2);
+        let swarm = plant.and_then(|p| p.as_any().downcast_ref::<SwarmConfig>());
+        let a_max_mps2 = swarm.map_or(crate::swarm_setup::A_MAX_MPS2, |p| p.a_max_mps2);
+        let t_reconfig_s = swarm.map_or(crate::swarm_setup::T_RECONFIG_S, |p| p.t_reconfig_s);
         if let Some(safety) = &config.safety {
             c.problems.extend(safety.validate(a_max_mps2));
         }
@@ -199,7 +202,7 @@ impl AlgorithmKind for NrSwarmKind {
             },
             _ => None,
         };
-        Some(Arc::new(SwarmSetup { config, a_max_mps2, deep_set }))
+        Some(Arc::new(SwarmSetup { config, a_max_mps2, t_reconfig_s, deep_set }))
     }
 }
 

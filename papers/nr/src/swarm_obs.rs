@@ -3,7 +3,8 @@
 //!
 //! The paper's distributed policy acts on *local* observations (GLAS, its ref. [42]): its own
 //! goal offset and velocity, and the relative states of the vehicles within the communication
-//! radius R_comm. Ours (the paper's radius, counts and scalings are lost): at most
+//! radius R_comm; ours adds the vehicle's clock, the time to go to the reconfiguration time T
+//! (see [`crate::swarm_policy`] for why). Ours (the paper's radius, counts and scalings are lost): at most
 //! [`MAX_NEIGHBOURS`] = 6 neighbours, the nearest first, strictly within R_comm; a vehicle at or
 //! beyond R_comm is not observed at all, whatever it shares.
 //!
@@ -34,6 +35,9 @@ pub struct SwarmObservation {
     /// Observed neighbours, nearest first; only the first `n_neighbours` are meaningful.
     pub neighbours: [Neighbour; MAX_NEIGHBOURS],
     pub n_neighbours: usize,
+    /// Time to go to the reconfiguration time T, s: max(T − t, 0) (0 when the caller has no
+    /// clock; see [`SwarmObservation::at`]).
+    pub t_to_go_s: f64,
 }
 
 impl SwarmObservation {
@@ -65,6 +69,12 @@ impl SwarmObservation {
         }
         obs.n_neighbours = near.len().min(MAX_NEIGHBOURS);
         obs
+    }
+
+    /// The same observation at time to go `t_to_go_s` (clamped at 0).
+    pub fn at(mut self, t_to_go_s: f64) -> Self {
+        self.t_to_go_s = t_to_go_s.max(0.0);
+        self
     }
 
     /// The meaningful neighbours.

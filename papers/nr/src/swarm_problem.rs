@@ -33,6 +33,11 @@ pub use crate::swarm_setup::{
 };
 /// Control steps over the horizon.
 pub const STEPS: usize = 80;
+
+/// The time to go to T at node `k`, s (0 from T on).
+pub fn t_to_go_s(k: usize) -> f64 {
+    STEPS.saturating_sub(k) as f64 * DT_S
+}
 /// The cuboid [lo, hi] per axis, m (the plant's [`crate::swarm_setup::CUBOID_M`] as arrays).
 pub const CUBOID_M: [[f64; 2]; 3] = {
     let c = crate::swarm_setup::CUBOID_M;

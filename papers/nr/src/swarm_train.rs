@@ -412,7 +412,7 @@ mod tests {
         assert_eq!(ra.validation_samples, 2 * (80 + 2));
         assert!(ra.rms_train_mps2 > 0.0 && ra.rms_validation_mps2 > 0.0);
         let p = DeepSetPolicy::load(&a).unwrap();
-        assert_eq!((p.phi().n_in(), p.rho().n_in(), p.rho().n_out()), (6, 14, 3));
+        assert_eq!((p.phi().n_in(), p.rho().n_in(), p.rho().n_out()), (6, 15, 3));
         let _ = std::fs::remove_dir_all(&dir);
     }
 
