@@ -59,7 +59,7 @@ pub struct SwarmTrainOptions {
 
 impl SwarmTrainOptions {
     /// The reference run: 150 cases (135 trained on, 15 held out), φ 6 → 32 → 32,
-    /// ρ 38 → 64 → 64 → 3, C_sn = 2, 40 epochs of batches of 256, no DAgger round (the rounds
+    /// ρ 39 → 64 → 64 → 3, C_sn = 2, 40 epochs of batches of 256, no DAgger round (the rounds
     /// we tried made the closed loop worse; see the crate README).
     pub fn reference(out: PathBuf, seed: u64) -> Self {
         Self {
@@ -119,7 +119,7 @@ impl SwarmTrainReport {
         format!(
             "# Swarm deep-set policy training (seed {seed})\n\n\
              Reproduce: `{command}` (from the repository root).\n\n\
-             Weights: `{w}`; φ 6→32→32, ρ 38→64→64→3, tanh, C_sn = {c}, {ep} epochs, then {dr} DAgger rounds \
+             Weights: `{w}`; φ 6→32→32, ρ 39→64→64→3 (ρ also reads the time to go), tanh, C_sn = {c}, {ep} epochs, then {dr} DAgger rounds \
              of {de} epochs.\n\n\
              Global solutions: {nc} cases (N = 6–8), {ns} collision-free on the fine grid, {nu} not, {nf} failed; \
              mean SCP iterations {it:.2}, mean ∫‖u‖dt {ef:.4} m/s per case, least ellipsoid distance {md:.4}.\n\n\
