@@ -2,13 +2,15 @@
 //! (arXiv:2208.04883). Three groups of cases, each from a shipped scenario re-seeded per case
 //! (`--cases-8` cases of `topologies/swarm-8.toml`, N = 8, d̄ = 0; `--cases-20` of `swarm-20.toml`;
 //! `--cases-20-disturbed` of `swarm-20-disturbed.toml`, d̄ = 0.2 m/s²), each case's seed drawn
-//! from `--seed` (a stream per group), flown by NR over the deep set, the deep set alone and the
-//! global SCP ([`crate::swarm_campaign`]; how the SCP is flown is said there).
+//! from `--seed` (a stream per group), flown by NR over the deep set with the scenario's safety
+//! filter, NR without it, the deep set alone (no filter) and the global SCP
+//! ([`crate::swarm_campaign`]; how the SCP is flown is said there).
 //!
 //! Writes into `--out`: `cases.csv` (one row per case × method, units in the column names),
 //! `summary.md` (per group and method, and verdict lines against the goals: 0 collisions
-//! for NR in every case, ∫‖u‖dt ≤ 1.3× the SCP's, per-step compute ≥ 100× faster than one SCP
-//! solve) and `runs/` (the reference run of each NR and deep-set case; the first
+//! for NR in every case, every vehicle within 0.1 m of its goal at T + 2 s, ∫‖u‖dt ≤ 1.3× the
+//! SCP's, per-step compute ≥ 100× faster than one SCP solve) and `runs/` (the reference run of
+//! each case flown by the runtime; the first
 //! `--figures` cases of each group with `plots/swarm_trajectories.png` and
 //! `plots/swarm_min_distance.png`).
 
