@@ -15,7 +15,7 @@
 
 use crate::swarm_data::{Expert, SwarmDataOptions, SwarmSample};
 use crate::swarm_obs::{SwarmObservation, SwarmPolicy};
-use crate::swarm_problem::{A_MAX_MPS2, DT_S, R_COMM_M, STEPS};
+use crate::swarm_problem::{A_MAX_MPS2, DT_S, R_COMM_M, STEPS, t_to_go_s};
 
 /// The states `policy` visits on `e`'s case, each vehicle's observation labelled by `e`.
 pub fn visited(o: &SwarmDataOptions, e: &Expert, policy: &dyn SwarmPolicy) -> Vec<SwarmSample> {
@@ -26,8 +26,7 @@ pub fn visited(o: &SwarmDataOptions, e: &Expert, policy: &dyn SwarmPolicy) -> Ve
         let mut a = Vec::with_capacity(n);
         for i in 0..n {
             let others: Vec<_> = (0..n).filter(|&j| j != i).map(|j| (p[j], v[j])).collect();
-            let obs = SwarmObservation::local(p[i], v[i], e.problem.goals_m[i], &others, R_COMM_M)
-                .at(crate::swarm_problem::t_to_go_s(k));
+            let obs = SwarmObservation::local(p[i], v[i], e.problem.goals_m[i], &others, R_COMM_M).at(t_to_go_s(k));
             out.push(SwarmSample { case: e.case, obs, target_mps2: e.target(o, i, k, p[i], v[i]) });
             a.push(policy.accel_mps2(&obs).map(|x| x.clamp(-A_MAX_MPS2, A_MAX_MPS2)));
         }

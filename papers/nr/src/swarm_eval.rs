@@ -15,7 +15,7 @@ use std::collections::BTreeSet;
 use std::time::Instant;
 
 use crate::swarm_obs::{SwarmObservation, SwarmPolicy};
-use crate::swarm_problem::{A_MAX_MPS2, DT_S, R_COMM_M, STEPS, SwarmCase, ellipsoid_distance};
+use crate::swarm_problem::{A_MAX_MPS2, DT_S, R_COMM_M, STEPS, SwarmCase, ellipsoid_distance, t_to_go_s};
 use crate::swarm_scp::{self, FINE_SUBSTEPS, SwarmScpSettings};
 
 /// Steps of T + 2 s.
@@ -48,8 +48,7 @@ pub fn closed_loop(policy: &dyn SwarmPolicy, case: &SwarmCase, steps: usize) -> 
             let a = (0..n)
                 .map(|i| {
                     let others: Vec<_> = (0..n).filter(|&j| j != i).map(|j| (p[j], v[j])).collect();
-                    let obs = SwarmObservation::local(p[i], v[i], case.goals_m[i], &others, R_COMM_M)
-                        .at(crate::swarm_problem::t_to_go_s(k));
+                    let obs = SwarmObservation::local(p[i], v[i], case.goals_m[i], &others, R_COMM_M).at(t_to_go_s(k));
                     policy.accel_mps2(&obs).map(|x| x.clamp(-A_MAX_MPS2, A_MAX_MPS2))
                 })
                 .collect();

@@ -4,9 +4,9 @@
 //! The paper's distributed policy acts on *local* observations (GLAS, its ref. [42]): its own
 //! goal offset and velocity, and the relative states of the vehicles within the communication
 //! radius R_comm; ours adds the vehicle's clock, the time to go to the reconfiguration time T
-//! (see [`crate::swarm_policy`] for why). Ours (the paper's radius, counts and scalings are lost): at most
-//! [`MAX_NEIGHBOURS`] = 6 neighbours, the nearest first, strictly within R_comm; a vehicle at or
-//! beyond R_comm is not observed at all, whatever it shares.
+//! (see [`crate::swarm_policy`] for why). Ours (the paper's radius, counts and scalings are
+//! lost): at most [`MAX_NEIGHBOURS`] = 6 neighbours, the nearest first, strictly within R_comm; a
+//! vehicle at or beyond R_comm is not observed at all, whatever it shares.
 //!
 //! The learned deep-set policy, the goal-seeking baselines and the Neural-Rendezvous layer (which
 //! rolls a policy ahead and tracks it) all consume a [`SwarmObservation`] through

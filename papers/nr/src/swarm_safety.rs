@@ -45,7 +45,7 @@ use serde::{Deserialize, Serialize};
 use cohort_scenario::Problem;
 
 use crate::config::positive;
-use crate::swarm_setup::ELLIPSOID_RADII_M;
+use crate::swarm_setup::{ELLIPSOID_RADII_M, dot, norm};
 
 type V3 = [f64; 3];
 
@@ -236,14 +236,6 @@ fn solve(rows: &[Row], nominal: V3, a_max: f64) -> Option<(V3, f64)> {
     let u = [x[0], x[1], x[2]].map(|v| v.clamp(-a_max, a_max));
     let slack = rows.iter().map(|r| (r.beta_mps2 - dot(r.c, u)).max(0.0)).fold(0.0, f64::max);
     Some((u, slack))
-}
-
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn norm(a: V3) -> f64 {
-    dot(a, a).sqrt()
 }
 
 #[cfg(test)]

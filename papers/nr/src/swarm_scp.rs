@@ -45,6 +45,7 @@ use clarabel::solver::{
 };
 
 use crate::swarm_problem::{A_MAX_MPS2, DT_S, ELLIPSOID_M, STEPS, SwarmCase, T_S, ellipsoid_distance};
+use crate::swarm_setup::norm;
 
 /// Fine-grid points per step of the collision check.
 pub const FINE_SUBSTEPS: usize = 10;
@@ -433,10 +434,6 @@ fn normal(pi: [f64; 3], pj: [f64; 3], i: usize, j: usize) -> [f64; 3] {
         return [ang.cos() / ELLIPSOID_M[0], ang.sin() / ELLIPSOID_M[1], 0.0];
     }
     std::array::from_fn(|c| (pi[c] - pj[c]) / (ELLIPSOID_M[c] * ELLIPSOID_M[c] * d))
-}
-
-fn norm(x: [f64; 3]) -> f64 {
-    (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
 }
 
 /// Σ ‖a‖² Δt.
