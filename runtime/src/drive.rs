@@ -58,6 +58,10 @@ pub enum RunError {
     /// rejected by every reader and the run end later as a silent peer; fail here, naming it.
     #[error("{who} produced a non-finite {what} at step {step} (t = {t_s} s): it diverged")]
     Diverged { step: u64, t_s: f64, who: &'static str, what: String },
+    /// The model's own code failed (a Python exception, a wrong return): see
+    /// [`PlantModel::take_failure`].
+    #[error("{who} failed at step {step} (t = {t_s} s): {what}")]
+    Model { step: u64, t_s: f64, who: &'static str, what: String },
 }
 
 impl RunError {
@@ -70,10 +74,11 @@ impl RunError {
             RunError::Transport(_) => ErrorKind::Transport,
             RunError::Io { .. } => ErrorKind::Io,
             RunError::Diverged { .. } => ErrorKind::Diverged,
+            RunError::Model { .. } => ErrorKind::Model,
         };
         let e = crate::record::ProcessError::new(kind, self.to_string());
         match self {
-            RunError::Diverged { t_s, .. } => e.at(*t_s),
+            RunError::Diverged { t_s, .. } | RunError::Model { t_s, .. } => e.at(*t_s),
             _ => e,
         }
     }
@@ -734,6 +739,9 @@ fn plant_loop<T: Transport + ?Sized>(
             for i in 1..=n_agents {
                 readings.clear();
                 model.readings(i, rng, &mut readings);
+                if let Some(what) = model.take_failure() {
+                    return Err(RunError::Model { step: k, t_s: p.t_s(k), who: "the plant model", what });
+                }
                 if !readings.iter().all(|x| x.is_finite()) {
                     let what = format!("reading for agent {i}");
                     return Err(RunError::Diverged { step: k, t_s: p.t_s(k), who: "the plant model", what });
@@ -829,6 +837,9 @@ fn plant_loop<T: Transport + ?Sized>(
             }
             let round_ns = monotonic_ns() - round_start;
             model.advance(p.dt_s);
+            if let Some(what) = model.take_failure() {
+                return Err(RunError::Model { step: k, t_s, who: "the plant model", what });
+            }
             if let Some(rate) = p.realtime_rate {
                 // Real-time pacing: step k+1 starts no earlier than (k+1)·dt/rate after step 0.
                 let due = paced_from + Duration::from_secs_f64((k + 1) as f64 * p.dt_s / rate);
@@ -1411,6 +1422,9 @@ fn agent_loop<T: Transport + ?Sized>(
                 }
                 for s in k..back_at {
                     advance(algo, &mut inbox, s.checked_sub(delay), report);
+                    if let Some(what) = algo.take_failure() {
+                        return Err(RunError::Model { step: s, t_s: p.t_s(s), who: "the algorithm", what });
+                    }
                 }
                 report.faults.steps_missed += back_at - k;
                 k = back_at;
@@ -1433,6 +1447,9 @@ fn agent_loop<T: Transport + ?Sized>(
             out.command.clear();
             out.values.clear();
             algo.share(&AgentInput { k, t_s, readings: m.readings() }, &mut out);
+            if let Some(what) = algo.take_failure() {
+                return Err(RunError::Model { step: k, t_s, who: "the algorithm", what });
+            }
             if !out.command.iter().all(|x| x.is_finite()) {
                 return Err(RunError::Diverged { step: k, t_s, who: "the algorithm", what: "command".into() });
             }
@@ -1483,6 +1500,9 @@ fn agent_loop<T: Transport + ?Sized>(
                 row.clear();
                 row.push(t_s);
                 algo.row(&mut row);
+                if let Some(what) = algo.take_failure() {
+                    return Err(RunError::Model { step: k, t_s, who: "the algorithm", what });
+                }
                 tel.row(k, &row).map_err(io("agent telemetry"))?;
             }
 
@@ -1496,6 +1516,9 @@ fn agent_loop<T: Transport + ?Sized>(
 
             let step_start = monotonic_ns();
             advance(algo, &mut inbox, used, report);
+            if let Some(what) = algo.take_failure() {
+                return Err(RunError::Model { step: k, t_s, who: "the algorithm", what });
+            }
             compute_ns += monotonic_ns() - step_start;
             timing.row(k, &[inbox.meas_latency_ns, neighbour_wait_ns, compute_ns]).map_err(io("agent timing"))?;
             report.steps_completed = k + 1;

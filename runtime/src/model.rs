@@ -25,6 +25,13 @@ pub trait PlantModel: Send {
     fn extra_telemetry(&self) -> Vec<(String, String)> {
         Vec::new()
     }
+    /// An error the model hit in one of the calls since the last time the driver asked (a user's
+    /// Python method raised, or returned the wrong thing), in words naming the method and what
+    /// went wrong; the driver then fails the run at this step, naming it. A model that cannot fail
+    /// (every Rust one) keeps the default.
+    fn take_failure(&mut self) -> Option<String> {
+        None
+    }
 }
 
 /// What an agent's algorithm gets from its own sensors at step k.
@@ -75,6 +82,11 @@ pub trait Algorithm: Send {
     /// wall-clock solve times, for the end-of-run report (never telemetry: times differ between
     /// runs). None for the others.
     fn solver_stats(&self) -> Option<crate::solver_stats::SolverStats> {
+        None
+    }
+    /// An error the algorithm hit since the driver last asked (see [`PlantModel::take_failure`]);
+    /// its outputs of that call are then not used.
+    fn take_failure(&mut self) -> Option<String> {
         None
     }
 }

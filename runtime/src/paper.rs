@@ -32,6 +32,22 @@ pub trait Paper: Sync {
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind];
 }
 
+/// Whether kinds run the checks that cost a child process (importing a user's Python module):
+/// on in `check`, `launch` and every tool that reads a scenario a user wrote; off in the plant and
+/// agent processes, which read the run directory's resolved scenario that the orchestrator has
+/// already checked (N agents would otherwise import each module N more times at start-up).
+static DEEP_CHECKS: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
+
+/// Turn off the checks of [`deep_checks`] for this process (the child processes call it).
+pub fn skip_deep_checks() {
+    DEEP_CHECKS.store(false, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether a kind should run its costly checks (see [`skip_deep_checks`]).
+pub fn deep_checks() -> bool {
+    DEEP_CHECKS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// What a kind sees while it configures itself.
 pub struct ConfigureCtx<'a> {
     /// The scenario with its paper sections raw (generic sections parsed, maybe invalid).
@@ -58,6 +74,17 @@ pub trait PlantSetup: Send + Sync + Any {
     fn resolved(&self) -> Result<toml::Table, String>;
     /// Readings per measurement of agent `id`.
     fn readings(&self, s: &Scenario, id: u32) -> usize;
+    /// Names of agent `id`'s readings, in order, each ending in its unit as telemetry columns do
+    /// (`r_x_m`): what an algorithm written outside Rust is told about its measurement. The
+    /// default numbers them (`reading_0_1`, unit unknown); a plant an algorithm of another kind
+    /// may fly names them.
+    fn reading_names(&self, s: &Scenario, id: u32) -> Vec<String> {
+        (0..self.readings(s, id)).map(|i| format!("reading_{i}_1")).collect()
+    }
+    /// Names of the command's components with their units (default: numbered, unit unknown).
+    fn command_names(&self) -> Vec<String> {
+        (0..self.command_len()).map(|i| format!("command_{i}_1")).collect()
+    }
     /// Components of every agent's command.
     fn command_len(&self) -> usize;
     /// The truth model (the plant process's, or the reference run's plant thread).

@@ -116,6 +116,7 @@ pub fn child_main(
     };
     let dirs = RunDirs::new(&spec.run_dir);
     let overrides = cohort_scenario::Overrides { step_timeout_s: spec.step_timeout_s, ..Default::default() };
+    crate::paper::skip_deep_checks();
     let scenario = match crate::paper::load(&spec.run_dir.join("scenario.toml"), &overrides, papers) {
         Ok(s) => s,
         Err(e) => {

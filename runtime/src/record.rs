@@ -225,6 +225,8 @@ pub enum ErrorKind {
     Diverged,
     /// A relaunched agent could not restore its checkpoint.
     Checkpoint,
+    /// The model's own code failed (a Python exception or a wrong return value).
+    Model,
 }
 
 /// A process's error: its kind and the message, which names who, what and the step.
