@@ -19,6 +19,11 @@ use serde::{Deserialize, Serialize};
 pub struct DoubleIntegratorPlant {
     /// Standard deviation of the zero-mean Gaussian noise on each position reading, m.
     pub position_noise_std_m: f64,
+    /// The slots of the formation-error metric when the algorithm is not `consensus-formation`
+    /// (which has its own): a regular polygon of this circumradius in the x–y plane, as that kind
+    /// places them. Absent: every slot is the centre.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub formation_radius_m: Option<f64>,
 }
 
 /// A double integrator's per-agent keys.
@@ -67,6 +72,9 @@ impl PlantKind for DoubleIntegratorKind {
         let agents = agent_keys::<DoubleIntegratorAgent>(s, c);
         if let Some(p) = &config {
             c.non_negative("plant.position_noise_std_m", p.position_noise_std_m);
+            if let Some(r) = p.formation_radius_m {
+                c.non_negative("plant.formation_radius_m", r);
+            }
         }
         let agents = agents?;
         let kind = self.kind();
@@ -103,8 +111,14 @@ impl PlantSetup for DoubleIntegratorSetup {
     fn readings(&self, _s: &Scenario, _id: u32) -> usize {
         3
     }
+    fn reading_names(&self, _s: &Scenario, _id: u32) -> Vec<String> {
+        ["y_x_m", "y_y_m", "y_z_m"].map(String::from).to_vec()
+    }
     fn command_len(&self) -> usize {
         3
+    }
+    fn command_names(&self) -> Vec<String> {
+        ["u_x_mps2", "u_y_mps2", "u_z_mps2"].map(String::from).to_vec()
     }
     fn build(&self, setup: &Setup) -> Box<dyn PlantModel> {
         let n = setup.n_agents();
@@ -112,7 +126,10 @@ impl PlantSetup for DoubleIntegratorSetup {
         // algorithm has no formation, so every slot is the centre.
         let slots = match setup.algorithm_as::<ConsensusFormationSetup>() {
             Some(a) => (1..=n).map(|i| a.config.slot_m(i, n)).collect(),
-            None => vec![[0.0; 3]; n as usize],
+            None => match self.config.formation_radius_m {
+                Some(r) => (1..=n).map(|i| polygon_slot_m(r, i, n)).collect(),
+                None => vec![[0.0; 3]; n as usize],
+            },
         };
         Box::new(crate::double_integrator::DoubleIntegrator::new(
             self.r0_m.clone(),
@@ -193,9 +210,14 @@ pub struct ConsensusFormation {
 impl ConsensusFormation {
     /// Agent `id`'s slot (of `n`) on the regular polygon, relative to the formation centre.
     pub fn slot_m(&self, id: u32, n: u32) -> [f64; 3] {
-        let a = std::f64::consts::TAU * f64::from(id - 1) / f64::from(n);
-        [self.formation_radius_m * a.cos(), self.formation_radius_m * a.sin(), 0.0]
+        polygon_slot_m(self.formation_radius_m, id, n)
     }
+}
+
+/// Slot `id` of `n` on a regular polygon of circumradius `radius_m` in the x–y plane.
+pub fn polygon_slot_m(radius_m: f64, id: u32, n: u32) -> [f64; 3] {
+    let a = std::f64::consts::TAU * f64::from(id - 1) / f64::from(n);
+    [radius_m * a.cos(), radius_m * a.sin(), 0.0]
 }
 
 pub struct ConsensusFormationKind;
@@ -211,12 +233,26 @@ impl AlgorithmKind for ConsensusFormationKind {
     fn configure(
         &self,
         ctx: &ConfigureCtx<'_>,
-        _plant: Option<&dyn PlantSetup>,
+        plant: Option<&dyn PlantSetup>,
         c: &mut Checker,
     ) -> Option<Arc<dyn AlgorithmSetup>> {
         let a = section_as::<ConsensusFormation>(&ctx.scenario.algorithm.body, "algorithm", c);
-        if ctx.scenario.plant.kind != DoubleIntegratorKind.kind() {
-            c.fail("algorithm.kind", "\"consensus-formation\"", "needs plant.kind = \"double-integrator\"");
+        // It flies any plant whose agents read their own 3-D position and take a 3-D
+        // acceleration: the double integrator, or a user's (a Python plant) that says so.
+        if let Some(p) = plant {
+            let s = ctx.scenario;
+            let reads_three = !ctx.ids_ok || (1..=s.n_agents()).all(|id| p.readings(s, id) == 3);
+            if !reads_three || p.command_len() != 3 {
+                c.fail(
+                    "algorithm.kind",
+                    "\"consensus-formation\"",
+                    format!(
+                        "needs a plant whose agents read their 3-D position and take a 3-D acceleration \
+                         (as plant.kind = \"double-integrator\"), but plant.kind = {:?} does not",
+                        p.kind()
+                    ),
+                );
+            }
         }
         let a = a?;
         c.non_negative("algorithm.formation_radius_m", a.formation_radius_m);

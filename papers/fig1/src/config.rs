@@ -294,8 +294,20 @@ impl PlantSetup for OrbitalSetup {
         let rows = self.agents[id as usize - 1].output_matrix.as_ref().map_or(0, |m| m.len());
         rows + 3 * s.agent(id).neighbours.len()
     }
+    /// yᵢ's rows (`y1_m`…), then dᵢⱼ for every neighbour j in the scenario's order, LVLH axes.
+    fn reading_names(&self, s: &Scenario, id: u32) -> Vec<String> {
+        let rows = self.agents[id as usize - 1].output_matrix.as_ref().map_or(0, |m| m.len());
+        let mut names: Vec<String> = (1..=rows).map(|r| format!("y{r}_m")).collect();
+        for j in &s.agent(id).neighbours {
+            names.extend(["x", "y", "z"].map(|ax| format!("d{j}_{ax}_lvlh_m")));
+        }
+        names
+    }
     fn command_len(&self) -> usize {
         3
+    }
+    fn command_names(&self) -> Vec<String> {
+        ["u_x_lvlh_mps2", "u_y_lvlh_mps2", "u_z_lvlh_mps2"].map(String::from).to_vec()
     }
     fn build(&self, setup: &Setup) -> Box<dyn PlantModel> {
         Box::new(self.servicing(setup))
