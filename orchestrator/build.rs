@@ -2,12 +2,17 @@
 //! `unknown` outside a git checkout), for `--version` beside the build id of the sources.
 use std::process::Command;
 
+// The run path of libpython (kind = "python"), shared with the other packages that link it.
+#[path = "../kinds/python/rpath.rs"]
+mod rpath;
+
 fn git(args: &[&str]) -> Option<String> {
     let out = Command::new("git").args(args).output().ok()?;
     out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
 fn main() {
+    rpath::emit();
     let commit = git(&["rev-parse", "--short=12", "HEAD"]).unwrap_or_else(|| "unknown".into());
     println!("cargo:rustc-env=COHORT_GIT_COMMIT={commit}");
     // Rebuild when HEAD moves: HEAD itself (a checkout) and the branch it names (a commit).

@@ -27,6 +27,7 @@ registry! {
     cohort_paper_dai::Dai,
     cohort_paper_vtxo::Vtxo,
     cohort_paper_nr::Nr,
+    cohort_kind_python::Python,
 }
 
 /// Read, parse, validate and configure a scenario file with every registered paper.

@@ -1,0 +1,226 @@
+//! A Python class as an agent's [`Algorithm`]. Every call holds the GIL only for itself; a call
+//! that raises or returns the wrong thing leaves zeros in its outputs and a failure the driver
+//! collects at once ([`Algorithm::take_failure`]), so the run fails at that step naming the agent,
+//! the method and the exception's last line, the full traceback in the agent's log.
+
+use std::cell::RefCell;
+
+use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict, PyTuple};
+
+use crate::convert::{array, floats};
+use crate::interp::{last_line, traceback};
+
+/// What the wrapper knows beside the object: sizes to check returns against, and names for errors.
+pub struct Shape {
+    /// `Class` as the errors name it (`consensus.py:ConsensusFormation`).
+    pub name: String,
+    pub command_len: usize,
+    pub share_values: usize,
+}
+
+pub struct PyAlgorithm {
+    shape: Shape,
+    /// None when building it failed (the failure says why, at the first step).
+    obj: Option<Py<PyAny>>,
+    /// The agent's `numpy.random.Generator`: its state is part of every checkpoint.
+    rng: Option<Py<PyAny>>,
+    columns: Vec<String>,
+    has_roster: bool,
+    failure: RefCell<Option<String>>,
+}
+
+impl PyAlgorithm {
+    /// An algorithm whose construction failed: it commands zeros and fails the run at its first
+    /// step with `why`.
+    pub fn failed(shape: Shape, why: String) -> Self {
+        Self { shape, obj: None, rng: None, columns: Vec::new(), has_roster: false, failure: RefCell::new(Some(why)) }
+    }
+
+    /// Wrap a constructed instance: read its columns and which optional methods it has.
+    pub fn new(py: Python<'_>, shape: Shape, obj: Bound<'_, PyAny>, rng: Bound<'_, PyAny>) -> Self {
+        let mut me = Self {
+            has_roster: obj.hasattr("roster").unwrap_or(false),
+            shape,
+            obj: None,
+            rng: Some(rng.unbind()),
+            columns: Vec::new(),
+            failure: RefCell::new(None),
+        };
+        match obj.call_method0("columns").map_err(|e| me.raised(py, "columns", &e)).and_then(|c| {
+            c.extract::<Vec<String>>().map_err(|_| format!("{}.columns(): expected a list of str", me.shape.name))
+        }) {
+            Ok(c) => me.columns = c,
+            Err(e) => me.fail(e),
+        }
+        me.obj = Some(obj.unbind());
+        me
+    }
+
+    fn fail(&self, why: String) {
+        let mut f = self.failure.borrow_mut();
+        if f.is_none() {
+            *f = Some(why);
+        }
+    }
+
+    /// Words for an exception raised in `method`; the traceback goes to the log.
+    fn raised(&self, py: Python<'_>, method: &str, e: &PyErr) -> String {
+        tracing::error!("{}.{method}() raised:\n{}", self.shape.name, traceback(py, e));
+        format!("Python {}.{method}() raised {} (traceback in the agent's log)", self.shape.name, last_line(py, e))
+    }
+
+    fn call_share(
+        &self,
+        py: Python<'_>,
+        obj: &Bound<'_, PyAny>,
+        input: &AgentInput<'_>,
+    ) -> Result<(Vec<f64>, Vec<f64>), String> {
+        let y = array(py, input.readings).map_err(|e| self.raised(py, "share", &e))?;
+        let ret = obj.call_method1("share", (input.k, input.t_s, y)).map_err(|e| self.raised(py, "share", &e))?;
+        let name = &self.shape.name;
+        let pair = ret
+            .cast::<PyTuple>()
+            .ok()
+            .filter(|t| t.len() == 2)
+            .ok_or_else(|| format!("{name}.share(): expected a tuple (command, values)"))?;
+        let get = |i: usize| pair.get_item(i).map_err(|e| self.raised(py, "share", &e));
+        let command = floats(&get(0)?, self.shape.command_len, &format!("{name}.share() command"))?;
+        let values = floats(&get(1)?, self.shape.share_values, &format!("{name}.share() values"))?;
+        Ok((command, values))
+    }
+
+    fn call_step(&self, py: Python<'_>, obj: &Bound<'_, PyAny>, dt_s: f64, nb: &[Neighbour<'_>]) -> Result<(), String> {
+        let d = PyDict::new(py);
+        for n in nb {
+            d.set_item(n.id, array(py, n.values).map_err(|e| self.raised(py, "step", &e))?)
+                .map_err(|e| self.raised(py, "step", &e))?;
+        }
+        obj.call_method1("step", (dt_s, d)).map_err(|e| self.raised(py, "step", &e))?;
+        Ok(())
+    }
+
+    fn call_row(&self, py: Python<'_>, obj: &Bound<'_, PyAny>) -> Result<Vec<f64>, String> {
+        let ret = obj.call_method0("row").map_err(|e| self.raised(py, "row", &e))?;
+        floats(&ret, self.columns.len(), &format!("{}.row() (one per column)", self.shape.name))
+    }
+
+    /// The user's state, then the generator's, as one checkpoint: [u64 LE length][user][rng].
+    fn call_save(&self, py: Python<'_>, obj: &Bound<'_, PyAny>) -> Result<Vec<u8>, String> {
+        let name = &self.shape.name;
+        let user = obj.call_method0("save_state").map_err(|e| self.raised(py, "save_state", &e))?;
+        let user = user.extract::<Vec<u8>>().map_err(|_| format!("{name}.save_state(): expected bytes"))?;
+        let rng = self.rng.as_ref().expect("built with its generator").bind(py);
+        let state = py
+            .import("pickle")
+            .and_then(|p| p.call_method1("dumps", (rng.getattr("bit_generator")?.getattr("state")?,)))
+            .and_then(|b| b.extract::<Vec<u8>>())
+            .map_err(|e| format!("saving the agent's numpy generator: {}", last_line(py, &e)))?;
+        let mut out = (user.len() as u64).to_le_bytes().to_vec();
+        out.extend_from_slice(&user);
+        out.extend_from_slice(&state);
+        Ok(out)
+    }
+
+    fn call_restore(&self, py: Python<'_>, obj: &Bound<'_, PyAny>, bytes: &[u8]) -> Result<(), String> {
+        let name = &self.shape.name;
+        let (len, rest) = bytes.split_at_checked(8).ok_or("a Python checkpoint shorter than its header")?;
+        let len = u64::from_le_bytes(len.try_into().expect("8 bytes")) as usize;
+        let (user, state) = rest.split_at_checked(len).ok_or("a Python checkpoint shorter than it says")?;
+        let rng = self.rng.as_ref().expect("built with its generator").bind(py);
+        let state = py
+            .import("pickle")
+            .and_then(|p| p.call_method1("loads", (PyBytes::new(py, state),)))
+            .map_err(|e| format!("the checkpoint's numpy generator state: {}", last_line(py, &e)))?;
+        obj.call_method1("restore_state", (PyBytes::new(py, user),))
+            .map_err(|e| format!("{name}.restore_state() raised {}", last_line(py, &e)))?;
+        rng.getattr("bit_generator")
+            .and_then(|g| g.setattr("state", state))
+            .map_err(|e| format!("restoring the agent's numpy generator: {}", last_line(py, &e)))
+    }
+}
+
+impl Algorithm for PyAlgorithm {
+    fn columns(&self) -> Vec<String> {
+        self.columns.clone()
+    }
+
+    fn share(&mut self, input: &AgentInput<'_>, out: &mut ShareOut) {
+        let r = match &self.obj {
+            Some(obj) => Python::attach(|py| self.call_share(py, obj.bind(py), input)),
+            None => Err(String::new()), // failed at build: the failure is already set
+        };
+        match r {
+            Ok((command, values)) => {
+                out.command.extend_from_slice(&command);
+                out.values.extend_from_slice(&values);
+            }
+            Err(e) => {
+                if !e.is_empty() {
+                    self.fail(e);
+                }
+                out.command.resize(self.shape.command_len, 0.0);
+                out.values.resize(self.shape.share_values, 0.0);
+            }
+        }
+    }
+
+    fn step(&mut self, dt_s: f64, neighbours: &[Neighbour<'_>]) {
+        if let Some(obj) = &self.obj
+            && let Err(e) = Python::attach(|py| self.call_step(py, obj.bind(py), dt_s, neighbours))
+        {
+            self.fail(e);
+        }
+    }
+
+    fn row(&self, out: &mut Vec<f64>) {
+        let r = match &self.obj {
+            Some(obj) => Python::attach(|py| self.call_row(py, obj.bind(py))),
+            None => Ok(Vec::new()),
+        };
+        match r {
+            Ok(v) => out.extend_from_slice(&v),
+            Err(e) => {
+                self.fail(e);
+                out.extend(std::iter::repeat_n(0.0, self.columns.len()));
+            }
+        }
+    }
+
+    fn roster(&mut self, live: &[bool]) {
+        if let (Some(obj), true) = (&self.obj, self.has_roster) {
+            let r = Python::attach(|py| {
+                obj.bind(py)
+                    .call_method1("roster", (live.to_vec(),))
+                    .map(drop)
+                    .map_err(|e| self.raised(py, "roster", &e))
+            });
+            if let Err(e) = r {
+                self.fail(e);
+            }
+        }
+    }
+
+    fn save_state(&self) -> Vec<u8> {
+        let Some(obj) = &self.obj else { return Vec::new() };
+        match Python::attach(|py| self.call_save(py, obj.bind(py))) {
+            Ok(b) => b,
+            Err(e) => {
+                self.fail(e);
+                Vec::new()
+            }
+        }
+    }
+
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let Some(obj) = &self.obj else {
+            return Err(self.failure.borrow().clone().unwrap_or_else(|| "not built".into()));
+        };
+        Python::attach(|py| self.call_restore(py, obj.bind(py), bytes))
+    }
+
+    fn take_failure(&mut self) -> Option<String> {
+        self.failure.get_mut().take()
+    }
+}
