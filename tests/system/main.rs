@@ -15,6 +15,7 @@ mod hardening;
 mod launch;
 mod logging;
 mod multihost;
+mod python;
 mod python_loader;
 mod replay;
 mod runtime_options;
