@@ -20,10 +20,18 @@ pub struct Shape {
     pub share_values: usize,
 }
 
+/// The instance's per-step methods, looked up once.
+struct Methods {
+    share: Py<PyAny>,
+    step: Py<PyAny>,
+    row: Py<PyAny>,
+}
+
 pub struct PyAlgorithm {
     shape: Shape,
     /// None when building it failed (the failure says why, at the first step).
     obj: Option<Py<PyAny>>,
+    methods: Option<Methods>,
     /// The agent's `numpy.random.Generator`: its state is part of every checkpoint.
     rng: Option<Py<PyAny>>,
     columns: Vec<String>,
@@ -35,7 +43,15 @@ impl PyAlgorithm {
     /// An algorithm whose construction failed: it commands zeros and fails the run at its first
     /// step with `why`.
     pub fn failed(shape: Shape, why: String) -> Self {
-        Self { shape, obj: None, rng: None, columns: Vec::new(), has_roster: false, failure: RefCell::new(Some(why)) }
+        Self {
+            shape,
+            obj: None,
+            methods: None,
+            rng: None,
+            columns: Vec::new(),
+            has_roster: false,
+            failure: RefCell::new(Some(why)),
+        }
     }
 
     /// Wrap a constructed instance: read its columns and which optional methods it has.
@@ -44,10 +60,16 @@ impl PyAlgorithm {
             has_roster: obj.hasattr("roster").unwrap_or(false),
             shape,
             obj: None,
+            methods: None,
             rng: Some(rng.unbind()),
             columns: Vec::new(),
             failure: RefCell::new(None),
         };
+        let method = |m: &str| obj.getattr(m).map(Bound::unbind);
+        match (method("share"), method("step"), method("row")) {
+            (Ok(share), Ok(step), Ok(row)) => me.methods = Some(Methods { share, step, row }),
+            _ => me.fail(format!("{} lacks one of share, step, row", me.shape.name)),
+        }
         match obj.call_method0("columns").map_err(|e| me.raised(py, "columns", &e)).and_then(|c| {
             c.extract::<Vec<String>>().map_err(|_| format!("{}.columns(): expected a list of str", me.shape.name))
         }) {
@@ -71,14 +93,9 @@ impl PyAlgorithm {
         format!("Python {}.{method}() raised {} (traceback in the agent's log)", self.shape.name, last_line(py, e))
     }
 
-    fn call_share(
-        &self,
-        py: Python<'_>,
-        obj: &Bound<'_, PyAny>,
-        input: &AgentInput<'_>,
-    ) -> Result<(Vec<f64>, Vec<f64>), String> {
-        let y = array(py, input.readings).map_err(|e| self.raised(py, "share", &e))?;
-        let ret = obj.call_method1("share", (input.k, input.t_s, y)).map_err(|e| self.raised(py, "share", &e))?;
+    fn call_share(&self, py: Python<'_>, m: &Methods, input: &AgentInput<'_>) -> Result<(Vec<f64>, Vec<f64>), String> {
+        let y = array(py, input.readings);
+        let ret = m.share.bind(py).call1((input.k, input.t_s, y)).map_err(|e| self.raised(py, "share", &e))?;
         let name = &self.shape.name;
         let pair = ret
             .cast::<PyTuple>()
@@ -86,24 +103,23 @@ impl PyAlgorithm {
             .filter(|t| t.len() == 2)
             .ok_or_else(|| format!("{name}.share(): expected a tuple (command, values)"))?;
         let get = |i: usize| pair.get_item(i).map_err(|e| self.raised(py, "share", &e));
-        let command = floats(&get(0)?, self.shape.command_len, &format!("{name}.share() command"))?;
-        let values = floats(&get(1)?, self.shape.share_values, &format!("{name}.share() values"))?;
+        let command = floats(&get(0)?, self.shape.command_len, || format!("{name}.share() command"))?;
+        let values = floats(&get(1)?, self.shape.share_values, || format!("{name}.share() values"))?;
         Ok((command, values))
     }
 
-    fn call_step(&self, py: Python<'_>, obj: &Bound<'_, PyAny>, dt_s: f64, nb: &[Neighbour<'_>]) -> Result<(), String> {
+    fn call_step(&self, py: Python<'_>, m: &Methods, dt_s: f64, nb: &[Neighbour<'_>]) -> Result<(), String> {
         let d = PyDict::new(py);
         for n in nb {
-            d.set_item(n.id, array(py, n.values).map_err(|e| self.raised(py, "step", &e))?)
-                .map_err(|e| self.raised(py, "step", &e))?;
+            d.set_item(n.id, array(py, n.values)).map_err(|e| self.raised(py, "step", &e))?;
         }
-        obj.call_method1("step", (dt_s, d)).map_err(|e| self.raised(py, "step", &e))?;
+        m.step.bind(py).call1((dt_s, d)).map_err(|e| self.raised(py, "step", &e))?;
         Ok(())
     }
 
-    fn call_row(&self, py: Python<'_>, obj: &Bound<'_, PyAny>) -> Result<Vec<f64>, String> {
-        let ret = obj.call_method0("row").map_err(|e| self.raised(py, "row", &e))?;
-        floats(&ret, self.columns.len(), &format!("{}.row() (one per column)", self.shape.name))
+    fn call_row(&self, py: Python<'_>, m: &Methods) -> Result<Vec<f64>, String> {
+        let ret = m.row.bind(py).call0().map_err(|e| self.raised(py, "row", &e))?;
+        floats(&ret, self.columns.len(), || format!("{}.row() (one per column)", self.shape.name))
     }
 
     /// The user's state, then the generator's, as one checkpoint: [u64 LE length][user][rng].
@@ -147,8 +163,8 @@ impl Algorithm for PyAlgorithm {
     }
 
     fn share(&mut self, input: &AgentInput<'_>, out: &mut ShareOut) {
-        let r = match &self.obj {
-            Some(obj) => Python::attach(|py| self.call_share(py, obj.bind(py), input)),
+        let r = match &self.methods {
+            Some(m) => Python::attach(|py| self.call_share(py, m, input)),
             None => Err(String::new()), // failed at build: the failure is already set
         };
         match r {
@@ -167,16 +183,16 @@ impl Algorithm for PyAlgorithm {
     }
 
     fn step(&mut self, dt_s: f64, neighbours: &[Neighbour<'_>]) {
-        if let Some(obj) = &self.obj
-            && let Err(e) = Python::attach(|py| self.call_step(py, obj.bind(py), dt_s, neighbours))
+        if let Some(m) = &self.methods
+            && let Err(e) = Python::attach(|py| self.call_step(py, m, dt_s, neighbours))
         {
             self.fail(e);
         }
     }
 
     fn row(&self, out: &mut Vec<f64>) {
-        let r = match &self.obj {
-            Some(obj) => Python::attach(|py| self.call_row(py, obj.bind(py))),
+        let r = match &self.methods {
+            Some(m) => Python::attach(|py| self.call_row(py, m)),
             None => Ok(Vec::new()),
         };
         match r {

@@ -2,33 +2,50 @@
 //! what Python returns may be an array or any sequence of numbers, checked for its length and
 //! finiteness, every problem naming the method and what was expected.
 
-use numpy::{PyArray1, PyReadonlyArray1};
+use numpy::npyffi::NPY_ARRAY_WRITEABLE;
+use numpy::{PyArray1, PyReadonlyArray1, PyUntypedArrayMethods};
 use pyo3::prelude::*;
+use pyo3::types::{PyList, PyTuple};
 
 /// `x` as a fresh float64 array the callee cannot write to (a write would not reach Cohort, so
 /// it is refused rather than silently lost).
-pub fn array<'py>(py: Python<'py>, x: &[f64]) -> PyResult<Bound<'py, PyArray1<f64>>> {
+pub fn array<'py>(py: Python<'py>, x: &[f64]) -> Bound<'py, PyArray1<f64>> {
     let a = PyArray1::from_slice(py, x);
-    a.getattr("flags")?.setattr("writeable", false)?;
-    Ok(a)
+    // SAFETY: the array was just created and is owned by us alone; clearing the flag is what
+    // `a.flags.writeable = False` does, without two attribute look-ups per call.
+    unsafe { (*a.as_array_ptr()).fields.flags &= !NPY_ARRAY_WRITEABLE };
+    a
 }
 
-/// A returned vector of floats: `what` names the method and the value (`share() command`),
-/// `expected` its length.
-pub fn floats(obj: &Bound<'_, PyAny>, expected: usize, what: &str) -> Result<Vec<f64>, String> {
-    let v = if let Ok(a) = obj.extract::<PyReadonlyArray1<'_, f64>>() {
-        a.as_slice().map(<[f64]>::to_vec).unwrap_or_else(|_| a.as_array().to_vec())
+/// A list's or tuple's items as floats (None if one is not a number).
+fn items<'py>(mut it: impl Iterator<Item = Bound<'py, PyAny>>, out: &mut Vec<f64>) -> Option<()> {
+    it.try_for_each(|x| x.extract::<f64>().ok().map(|v| out.push(v)))
+}
+
+/// A returned vector of floats: `what` names the method and the value (`share() command`; made
+/// only for an error), `expected` its length.
+pub fn floats(obj: &Bound<'_, PyAny>, expected: usize, what: impl Fn() -> String) -> Result<Vec<f64>, String> {
+    let mut v = Vec::with_capacity(expected);
+    // Lists and tuples first: the common returns, read without a failed conversion's cost.
+    let ok = if let Ok(l) = obj.cast::<PyList>() {
+        items(l.iter(), &mut v)
+    } else if let Ok(t) = obj.cast::<PyTuple>() {
+        items(t.iter(), &mut v)
+    } else if let Ok(a) = obj.extract::<PyReadonlyArray1<'_, f64>>() {
+        v.extend(a.as_array().iter());
+        Some(())
     } else {
-        obj.extract::<Vec<f64>>().map_err(|_| {
-            let ty = obj.get_type().name().map(|n| n.to_string()).unwrap_or_else(|_| "?".into());
-            format!("{what}: expected a sequence of {expected} floats, got a {ty}")
-        })?
+        obj.extract::<Vec<f64>>().ok().map(|x| v = x)
     };
+    if ok.is_none() {
+        let ty = obj.get_type().name().map(|n| n.to_string()).unwrap_or_else(|_| "?".into());
+        return Err(format!("{}: expected a sequence of {expected} floats, got a {ty}", what()));
+    }
     if v.len() != expected {
-        return Err(format!("{what}: expected {expected} values, got {}", v.len()));
+        return Err(format!("{}: expected {expected} values, got {}", what(), v.len()));
     }
     if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-        return Err(format!("{what}: value {i} is {} (not finite)", v[i]));
+        return Err(format!("{}: value {i} is {} (not finite)", what(), v[i]));
     }
     Ok(v)
 }

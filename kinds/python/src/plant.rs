@@ -105,7 +105,7 @@ impl PlantModel for PyPlant {
                     .bind(py)
                     .call_method1("readings", (agent, rng.bind(py)))
                     .map_err(|e| self.raised(py, "readings", &e))?;
-                floats(&ret, self.n_readings, &format!("{}.readings({agent})", self.name))
+                floats(&ret, self.n_readings, || format!("{}.readings({agent})", self.name))
             }),
             _ => Err(String::new()),
         };
@@ -125,7 +125,7 @@ impl PlantModel for PyPlant {
         let mut u = command.to_vec();
         u.resize(self.command_len, 0.0);
         self.call("apply_command", |py| {
-            pyo3::types::PyTuple::new(py, [agent.into_pyobject(py)?.into_any(), array(py, &u)?.into_any()])
+            pyo3::types::PyTuple::new(py, [agent.into_pyobject(py)?.into_any(), array(py, &u).into_any()])
         });
     }
 
@@ -137,7 +137,7 @@ impl PlantModel for PyPlant {
         let r = match &self.obj {
             Some(obj) => Python::attach(|py| {
                 let ret = obj.bind(py).call_method0("row").map_err(|e| self.raised(py, "row", &e))?;
-                floats(&ret, self.columns.len(), &format!("{}.row() (one per column)", self.name))
+                floats(&ret, self.columns.len(), || format!("{}.row() (one per column)", self.name))
             }),
             None => Ok(Vec::new()),
         };

@@ -33,6 +33,8 @@ use cohort_supervisor::netlab::{Lab, Links};
 
 use crate::summary::Summary;
 
+mod python;
+
 /// One benchmark case: a scenario and how to run it.
 #[derive(Clone)]
 struct Case {
@@ -78,6 +80,9 @@ struct Sample {
     solver_max_us: Option<f64>,
     /// Every process's waits for messages, summed (how adaptive waiting spun or blocked).
     wait: cohort_runtime::record::WaitStats,
+    /// An agent's own computation per step (share and step, from timing/): the median over the
+    /// first agents of each one's median, µs.
+    agent_compute_us: Option<f64>,
 }
 
 #[derive(Debug, Serialize)]
@@ -117,6 +122,8 @@ struct RingRun<'a> {
     authenticate: bool,
     /// A hosts file placing the processes (multi-host zenoh runs).
     hosts: Option<&'a Path>,
+    /// An `[algorithm]` section replacing the ring's (a Python twin of the Rust kind).
+    algorithm: Option<&'a str>,
 }
 
 const RING: RingRun<'static> = RingRun {
@@ -128,6 +135,7 @@ const RING: RingRun<'static> = RingRun {
     realtime: false,
     authenticate: false,
     hosts: None,
+    algorithm: None,
 };
 
 /// The consensus ring with `n` agents (each hears i−1 and i+1), `steps` steps, as scenario text
@@ -150,7 +158,16 @@ fn ring(n: u32, steps: u64, r: RingRun<'_>) -> Result<Setup, String> {
     if r.authenticate {
         t.push_str("authenticate = true\n");
     }
-    if r.null {
+    if let Some(algorithm) = r.algorithm {
+        let plant = if r.null {
+            "[plant]\nkind = \"null\"\nreadings = 3\n".to_string()
+        } else {
+            format!(
+                "[plant]\nkind = \"double-integrator\"\nposition_noise_std_m = 0.05\nformation_radius_m = {radius:?}\n"
+            )
+        };
+        let _ = write!(t, "\n{plant}\n{algorithm}");
+    } else if r.null {
         t.push_str("\n[plant]\nkind = \"null\"\nreadings = 3\n\n[algorithm]\nkind = \"null\"\nshare_values = 6\n");
     } else {
         let _ = write!(
@@ -176,7 +193,7 @@ fn ring(n: u32, steps: u64, r: RingRun<'_>) -> Result<Setup, String> {
         .map_err(|problems| cohort_scenario::ScenarioError { file, problems }.to_string())
 }
 
-fn cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<Case>, String> {
+fn cases(quick: bool, repo: &Path, lab_dir: Option<&Path>, scratch: &Path) -> Result<Vec<Case>, String> {
     let ns: &[u32] = if quick { &[6, 20] } else { &[6, 20, 50, 100] };
     let steps = if quick { 500 } else { 2000 };
     let mut out = Vec::new();
@@ -246,6 +263,7 @@ fn cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<Case>, 
     let idle = ring(6, if quick { 20 } else { 50 }, RingRun { dt_s: 0.1, realtime: true, ..RING })?;
     push("idle", 6, "10Hz", "idle", idle, false);
     out.extend(zenoh_cases(quick, repo, lab_dir)?);
+    out.extend(python::cases(quick, repo, scratch)?);
     Ok(out)
 }
 
@@ -523,7 +541,13 @@ fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
         let mut r: Vec<f64> = compute.iter().zip(&rounds).map(|(c, r)| c / r.max(1.0)).collect();
         median(&mut r)
     });
-    let _ = s;
+    let mut per_agent: Vec<f64> = (1..=s.n_agents().min(8))
+        .filter_map(|i| {
+            let mut c = timing_column(dir, &format!("agent-{i}"), "compute_ns");
+            (!c.is_empty()).then(|| median(&mut c) / 1e3)
+        })
+        .collect();
+    let agent_compute_us = (!per_agent.is_empty()).then(|| median(&mut per_agent));
     Sample {
         wall_s,
         steps: summary.steps_completed,
@@ -542,6 +566,7 @@ fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
         solver_p99_us: largest(&solver_p99),
         solver_max_us: largest(&solver_max),
         wait,
+        agent_compute_us,
     }
 }
 
@@ -570,7 +595,7 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     let _scratch_guard = RemoveOnDrop(scratch.clone());
     let (lab, veth_rtt) = start_lab();
     let lab_dir = scratch.join("lab");
-    let mut cases = cases(quick, &repo, lab.as_ref().map(|_| lab_dir.as_path()))?;
+    let mut cases = cases(quick, &repo, lab.as_ref().map(|_| lab_dir.as_path()), &scratch)?;
     if let Some(prefix) = only {
         let all: Vec<String> = cases.iter().map(|c| c.key.clone()).collect();
         cases.retain(|c| c.key.starts_with(prefix));
@@ -649,6 +674,7 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     let mut md = markdown(&aggregates, quick, reps, only, started.elapsed().as_secs_f64());
     md.push_str(&mac_markdown(&aggregates, &mac));
     md.push_str(&zenoh_markdown(&aggregates, &rtts, links));
+    md.push_str(&python::markdown(&aggregates));
     std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let json = serde_json::json!({
         "machine": machine(),
