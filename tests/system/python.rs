@@ -187,3 +187,39 @@ fn a_python_algorithm_that_raises_or_returns_the_wrong_thing_fails_the_run_namin
     assert!(cohort::processes_mentioning(&id).is_empty(), "{:?}", cohort::processes_mentioning(&id));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The debugging loop of docs/python-algorithms.md: record, replay (identical), edit the module,
+/// replay again (the first differing share named); and the same ring over zenoh on one host.
+#[test]
+fn a_recorded_python_agent_replays_and_an_edit_is_named_at_its_first_differing_share() {
+    let _g = heavy();
+    let dir = scratch_dir("python-replay");
+    let module = dir.join("consensus.py");
+    std::fs::copy(example("consensus.py"), &module).unwrap();
+    let text = std::fs::read_to_string(example("consensus-ring.toml")).unwrap();
+    let file = dir.join("ring.toml");
+    std::fs::write(&file, text.replace("duration_s = 20.0", "duration_s = 2.0")).unwrap();
+    let run = dir.join("run");
+    launch_ok(&file, &run, &["--record"]);
+    let replay = |what: &str| {
+        let o = orchestrator_command().args(["replay"]).arg(&run).args(["--agent", "3"]).output().unwrap();
+        (o.status.code(), format!("{what}:\n{}", describe_output(&o)))
+    };
+    let (code, out) = replay("as recorded");
+    assert_eq!(code, Some(0), "{out}");
+    assert!(out.contains("all 200 shares identical"), "{out}");
+    // An edit that changes the damping: the first share that differs is named.
+    let edited = std::fs::read_to_string(&module)
+        .unwrap()
+        .replace("u[a] -= self.kd * self.v[a]", "u[a] -= 1.01 * self.kd * self.v[a]");
+    std::fs::write(&module, edited).unwrap();
+    let (code, out) = replay("edited");
+    assert_eq!(code, Some(1), "{out}");
+    assert!(out.contains("step") && out.contains("differs"), "names the first difference: {out}");
+
+    let (zenoh, reference) = (dir.join("zenoh"), dir.join("reference"));
+    launch_ok(&example("consensus-ring.toml"), &zenoh, &["--transport", "zenoh", "--duration", "5"]);
+    launch_ok(&example("consensus-ring.toml"), &reference, &["--reference", "--duration", "5"]);
+    assert_same_bits(&zenoh, &reference, "python over zenoh vs --reference");
+    let _ = std::fs::remove_dir_all(&dir);
+}

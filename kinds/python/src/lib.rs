@@ -30,6 +30,8 @@ mod instance;
 mod interp;
 mod plant;
 pub mod probe;
+#[cfg(test)]
+mod tests;
 
 use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind};
 
