@@ -223,3 +223,27 @@ fn a_recorded_python_agent_replays_and_an_edit_is_named_at_its_first_differing_s
     assert_same_bits(&zenoh, &reference, "python over zenoh vs --reference");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// docs/python-algorithms.md's tutorial, as written: its class and scenario (the page's first
+/// Python and TOML blocks) check and fly, and bring the spacecraft to rest.
+#[test]
+fn the_tutorials_class_and_scenario_fly_as_written() {
+    let _g = heavy();
+    let dir = scratch_dir("python-tutorial");
+    let page = std::fs::read_to_string(repo_root().join("docs/python-algorithms.md")).unwrap();
+    let block = |lang: &str| {
+        let start = page.find(&format!("```{lang}\n")).unwrap_or_else(|| panic!("no {lang} block")) + lang.len() + 4;
+        page[start..start + page[start..].find("```").unwrap()].to_string()
+    };
+    std::fs::write(dir.join("damper.py"), block("python")).unwrap();
+    std::fs::write(dir.join("damper.toml"), block("toml")).unwrap();
+    let o = orchestrator_command().arg("check").arg(dir.join("damper.toml")).output().unwrap();
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let run = dir.join("run");
+    launch_ok(&dir.join("damper.toml"), &run, &["--duration", "10"]);
+    // Agent 1 starts at 1 m/s along x (the truth, in the plant's telemetry).
+    let v = cohort::telemetry_column(&run, "plant", "a1_v_x_mps");
+    let (first, last) = (v[0], *v.last().unwrap());
+    assert!(first == 1.0 && last.abs() < 0.05, "v_x of agent 1 from {first} to {last} m/s");
+    let _ = std::fs::remove_dir_all(&dir);
+}
