@@ -16,6 +16,7 @@ mod launch;
 mod logging;
 mod multihost;
 mod python_loader;
+mod reliability;
 mod replay;
 mod runtime_options;
 mod summary;
