@@ -597,6 +597,16 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
     launch(&a.file, a.out.as_deref(), &o, a.reference, !a.no_plots, a.json)
 }
 
+/// A signal that came while the scenario was read or the hosts were asked (the handlers are
+/// installed first, so it was recorded): 128 + signal before anything was created.
+fn interrupted_before_the_run() -> Option<ExitCode> {
+    let sig = supervise::SIGNALLED.load(std::sync::atomic::Ordering::SeqCst);
+    (sig != 0).then(|| {
+        errln!("interrupted by signal {sig} before the run started; nothing was created");
+        ExitCode::from(128 + sig as u8)
+    })
+}
+
 /// Human text at the end of a launch: on stdout, or on stderr when stdout carries the JSON.
 macro_rules! humanln {
     ($json:expr, $($t:tt)*) => {{
@@ -613,6 +623,9 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         Ok(s) => s,
         Err(code) => return code,
     };
+    if let Some(code) = interrupted_before_the_run() {
+        return code;
+    }
     if reference && let Some(f) = s.faults.iter().find(|f| f.is_process_fault()) {
         error!(
             "--reference runs every process as a thread of this one, so it cannot {} agent {} \
@@ -626,6 +639,9 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         if let Err(e) = cohort_supervisor::preflight(&s.hosts) {
             error!("{}: {e}", file.display());
             return ExitCode::from(EXIT_INVALID);
+        }
+        if let Some(code) = interrupted_before_the_run() {
+            return code;
         }
     }
     let dirs = match prepare(&s, out) {

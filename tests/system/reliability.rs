@@ -60,3 +60,54 @@ fn of_two_launches_into_one_out_one_runs_and_the_other_is_refused() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A spawned command's output, or a failure naming what it was waiting for if it has not ended
+/// within `limit` (then it is killed).
+fn output_within(mut cmd: Command, limit: Duration, what: &str) -> Output {
+    let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let deadline = Instant::now() + limit;
+    while child.try_wait().unwrap().is_none() {
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let o = child.wait_with_output().unwrap();
+            panic!("{what}: still running after {limit:?} (killed)\n{}", describe_output(&o));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// Defect 3: a FIFO, a device and a file past the documented size are refused at once with exit 2
+/// and a reason (before, `launch FIFO` waited for a writer ignoring SIGTERM, and `/dev/zero` was
+/// read until memory ran out), by `launch`, `check` and `--hosts`.
+#[test]
+fn a_fifo_a_device_or_an_oversized_file_is_refused_at_once() {
+    let dir = scratch_dir("input");
+    let fifo = dir.join("scenario.fifo");
+    let c = std::ffi::CString::new(fifo.display().to_string()).unwrap();
+    // SAFETY: mkfifo on a path we own.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    let big = dir.join("big.toml");
+    let mut text = std::fs::read_to_string(ring()).unwrap();
+    text.push_str(&format!("# {}\n", "x".repeat(5 << 20)));
+    std::fs::write(&big, text).unwrap();
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (vec!["launch".into(), fifo.display().to_string()], "a FIFO"),
+        (vec!["check".into(), fifo.display().to_string()], "a FIFO"),
+        (vec!["launch".into(), "/dev/zero".into()], "a device"),
+        (vec!["check".into(), "/dev/zero".into()], "a device"),
+        (vec!["launch".into(), big.display().to_string()], "more than the 4194304 bytes"),
+        (vec!["launch".into(), ring().display().to_string(), "--hosts".into(), "/dev/zero".into()], "a device"),
+        (vec!["launch".into(), dir.display().to_string()], "a directory"),
+    ];
+    for (args, says) in cases {
+        let what = args.join(" ");
+        let mut cmd = orchestrator_command();
+        cmd.args(&args).args(["--no-plots"].iter().filter(|_| args[0] == "launch"));
+        let o = output_within(cmd, Duration::from_secs(60), &what);
+        assert_eq!(o.status.code(), Some(2), "{what}\n{}", describe_output(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(says), "{what}: expected {says:?}\n{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
