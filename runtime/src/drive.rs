@@ -1373,6 +1373,7 @@ fn agent_loop<T: Transport + ?Sized>(
             // The state at the start of step k (after step k−1), before any fault due at k.
             if p.checkpoint_every > 0 && k % p.checkpoint_every == 0 && restore.is_none_or(|c| c.step != k) {
                 let ck = Checkpoint {
+                    run_id: p.run_id,
                     agent: id,
                     step: k,
                     kind: p.algorithm_kind.clone(),

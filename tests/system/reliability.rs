@@ -111,3 +111,48 @@ fn a_fifo_a_device_or_an_oversized_file_is_refused_at_once() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Defect 6: a valid checkpoint of another run (seed 8's agent 2) copied over agent 2's own
+/// before a restart fault is refused, naming the reason, and the agent stays off the roster
+/// (before, it was restored from and the run ended 0).
+#[test]
+fn a_checkpoint_of_another_run_is_refused() {
+    let _g = heavy();
+    let dir = scratch_dir("foreign-ckpt");
+    let other = dir.join("seed-8");
+    let o = cohort::launch_scenario(&ring(), &other, &["--duration", "6", "--seed", "8"]);
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let foreign = std::fs::read(other.join("checkpoints/agent-2.ckpt")).expect("seed 8's agent-2 checkpoint");
+    let run = dir.join("seed-1");
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let watcher = {
+        let (path, stop, foreign) = (run.join("checkpoints/agent-2.ckpt"), stop.clone(), foreign.clone());
+        std::thread::spawn(move || {
+            let mut swapped = 0;
+            while !stop.load(std::sync::atomic::Ordering::SeqCst) {
+                if std::fs::read(&path).is_ok_and(|b| b != foreign) && std::fs::write(&path, &foreign).is_ok() {
+                    swapped += 1;
+                }
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            swapped
+        })
+    };
+    // Restart at 10 s (real time at rate 2: 5 s of wall time), relaunch 1 s later.
+    let o = cohort::launch_scenario(
+        &ring(),
+        &run,
+        &["--duration", "12", "--seed", "1", "--realtime", "--rate", "2", "--fault", "restart:agent=2@t=10,for=1"],
+    );
+    stop.store(true, std::sync::atomic::Ordering::SeqCst);
+    assert!(watcher.join().unwrap() > 0, "the watcher never saw a checkpoint");
+    assert_eq!(o.status.code(), Some(1), "a refused checkpoint fails the run:\n{}", describe_output(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("agent-2") && err.contains("a checkpoint of another run"), "{err}");
+    let s = summary(&run);
+    let timeline = s["timeline"].as_array().unwrap();
+    let of_2 = |ev: &str| timeline.iter().filter(|e| e["agent"] == 2 && e["event"] == ev).count();
+    assert_eq!(of_2("restore-failed"), 1, "{}", s["timeline"]);
+    assert_eq!(of_2("alive"), 0, "a foreign checkpoint must not bring the agent back");
+    let _ = std::fs::remove_dir_all(&dir);
+}
