@@ -251,6 +251,9 @@ pub(crate) fn key_pipe(key: &MacKey) -> Result<std::fs::File, String> {
 /// What a child needs between fork and exec: the key pipe's read end as [`KEY_FD`], its own
 /// process group (a terminal's Ctrl-C reaches only us), and death with its parent.
 pub(crate) fn child_setup(cmd: &mut Command, key_raw: Option<i32>) {
+    // The base directory this process resolved (its fallback, if the usual one is another
+    // user's): the children must find the run's iceoryx2 files where it made them.
+    cmd.env(cohort_wire::transport::iox::BASE_ENV, cohort_wire::transport::iox::user_base());
     // SAFETY: only async-signal-safe calls (dup2, setpgid, prctl, getppid) between fork and exec.
     unsafe {
         cmd.pre_exec(move || {
@@ -376,6 +379,10 @@ impl Resources {
         }
         let claim =
             run.claim().map_err(|e| format!("cannot claim the run's directory {}: {e}", run.root_dir().display()))?;
+        if let Some(note) = cohort_wire::transport::iox::user_base_note() {
+            static SAID: std::sync::Once = std::sync::Once::new();
+            SAID.call_once(|| tracing::warn!("{note}"));
+        }
         match IoxServices::create(run, &s.topology(), spare) {
             Ok(services) => Ok(Resources::Iox { services, claim }),
             Err(e) => {

@@ -156,3 +156,45 @@ fn a_checkpoint_of_another_run_is_refused() {
     assert_eq!(of_2("alive"), 0, "a foreign checkpoint must not bring the agent back");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Defect 7: another user owns the per-user base directory (here `$XDG_RUNTIME_DIR/cohort`, in a
+/// scratch `XDG_RUNTIME_DIR`, so no other run on the machine is affected). The launch warns,
+/// naming the owner and the fresh private directory it uses instead, and succeeds (before, it
+/// exited 1: "belongs to uid 65534"); it leaves nothing there but the squatted directory.
+#[test]
+fn a_base_directory_squatted_by_another_user_is_replaced_by_a_private_one() {
+    use std::os::unix::fs::PermissionsExt;
+    let _g = heavy();
+    // Short: a run's iceoryx2 root inside the base must stay within 42 bytes.
+    let xdg = PathBuf::from(format!("/tmp/cq{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&xdg);
+    std::fs::create_dir_all(xdg.join("cohort")).unwrap();
+    std::fs::set_permissions(&xdg, std::fs::Permissions::from_mode(0o700)).unwrap();
+    let squatted = xdg.join("cohort");
+    let c = std::ffi::CString::new(squatted.display().to_string()).unwrap();
+    // SAFETY: chown of a directory this test created.
+    if unsafe { libc::chown(c.as_ptr(), 65534, 65534) } != 0 {
+        eprintln!("skipped: chown to another user is not permitted here");
+        let _ = std::fs::remove_dir_all(&xdg);
+        return;
+    }
+    let dir = scratch_dir("squat");
+    for round in 0..2 {
+        let out = dir.join(format!("run{round}"));
+        let o = orchestrator_command()
+            .env("XDG_RUNTIME_DIR", &xdg)
+            .args(["launch", "--duration", "2", "--no-plots", "--out"])
+            .arg(&out)
+            .arg(ring())
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(0), "round {round}\n{}", describe_output(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("belongs to uid 65534") && err.contains("this user's runs use"), "{err}");
+        assert!(err.contains(&format!("{}-", squatted.display())), "names the fallback: {err}");
+        let left: Vec<_> = std::fs::read_dir(&xdg).unwrap().flatten().map(|e| e.file_name()).collect();
+        assert_eq!(left, vec![std::ffi::OsString::from("cohort")], "round {round}: left in {}", xdg.display());
+    }
+    let _ = std::fs::remove_dir_all(&xdg);
+    let _ = std::fs::remove_dir_all(&dir);
+}
