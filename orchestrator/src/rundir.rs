@@ -5,13 +5,13 @@
 //! [`CLAIM`] inside it with `O_EXCL`, so of two launches into one directory exactly one gets it
 //! and the other is refused (exit 2) before it has written a byte.
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use cohort_runtime::record::RunDirs;
 
 /// The file that marks a run directory as taken: created exclusively by the launch that claims
-/// the directory, holding its pid; it stays (the directory is that run's from then on).
+/// the directory; it stays (the directory is that run's from then on). Empty, so that on a nearly
+/// full disk it costs no block and the disk's error comes where it did before.
 pub const CLAIM: &str = ".cohort-run";
 
 /// Create a fresh run directory. With `out`, that directory (which must be absent or empty and
@@ -48,20 +48,17 @@ fn claim(dir: &Path) -> Result<PathBuf, String> {
     }
     std::fs::create_dir_all(dir).map_err(|e| format!("--out {}: cannot create: {e}", dir.display()))?;
     let claim = dir.join(CLAIM);
-    let mut f = match std::fs::OpenOptions::new().write(true).create_new(true).open(&claim) {
-        Ok(f) => f,
+    match std::fs::OpenOptions::new().write(true).create_new(true).open(&claim) {
+        Ok(_) => {}
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-            let owner = std::fs::read_to_string(&claim).unwrap_or_default();
-            let owner = owner.trim();
-            let by = if owner.is_empty() { String::new() } else { format!(" (by pid {owner})") };
             return Err(format!(
-                "--out {}: already claimed by another launch{by}; refusing to mix runs (give another --out)",
-                dir.display()
+                "--out {}: already claimed by another launch ({} exists); refusing to mix runs (give another --out)",
+                dir.display(),
+                CLAIM
             ));
         }
         Err(e) => return Err(format!("--out {}: cannot claim ({}): {e}", dir.display(), claim.display())),
-    };
-    let _ = write!(f, "{}", std::process::id());
+    }
     let others = std::fs::read_dir(dir)
         .map_err(|e| format!("--out {}: {e}", dir.display()))?
         .filter_map(|e| e.ok())
