@@ -725,15 +725,41 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         );
     }
     if plots {
-        match launcher::report(&dirs.root) {
-            Ok(_) => humanln!(json, "plots: {}", dirs.root.join("plots").display()),
-            Err(e) => warn!("plots not drawn: {e}"),
+        match report_unless_signalled(&dirs.root) {
+            Ok(Ok(_)) => humanln!(json, "plots: {}", dirs.root.join("plots").display()),
+            Ok(Err(e)) => warn!("plots not drawn: {e}"),
+            Err(sig) => {
+                errln!(
+                    "interrupted by signal {sig} while drawing the plots; the run directory {} is complete \
+                     (orchestrator report draws them)",
+                    dirs.root.display()
+                );
+                return ExitCode::from(128 + sig);
+            }
         }
     }
     if json {
         print_json(&dirs.root);
     }
     ExitCode::from(outcome.exit_code)
+}
+
+/// The plots of a finished run, drawn on a thread while this one watches for a signal: Ctrl-C or
+/// SIGTERM while drawing ends the orchestrator at once (128 + signal) instead of being recorded
+/// and ignored. `Err(signal)` then; the drawing thread ends with the process.
+fn report_unless_signalled(run_dir: &Path) -> Result<Result<Vec<PathBuf>, String>, u8> {
+    let dir = run_dir.to_path_buf();
+    let drawing = std::thread::spawn(move || launcher::report(&dir));
+    loop {
+        let sig = supervise::SIGNALLED.load(std::sync::atomic::Ordering::SeqCst);
+        if sig != 0 {
+            return Err(sig as u8);
+        }
+        if drawing.is_finished() {
+            return Ok(drawing.join().unwrap_or_else(|_| Err("drawing the plots panicked".into())));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
 }
 
 /// `--json`: the run's summary.json, as written, on stdout (a summary that could not be written

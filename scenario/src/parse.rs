@@ -36,6 +36,35 @@ pub struct Overrides {
     pub telemetry: Option<String>,
 }
 
+impl Overrides {
+    /// The key paths this command line sets, each with the flag that set it.
+    pub fn flags(&self) -> Vec<(&'static str, &'static str)> {
+        let set = [
+            (self.seed.is_some(), "scenario.seed", "--seed"),
+            (self.duration_s.is_some(), "scenario.duration_s", "--duration"),
+            (self.step_timeout_s.is_some(), "run.step_timeout_s", "--step-timeout"),
+            (self.wait.is_some(), "run.wait", "--wait"),
+            (self.spin_us.is_some(), "run.spin_us", "--spin-us"),
+            (self.link_delay_steps.is_some(), "run.link_delay_steps", "--link-delay"),
+            (self.transport.is_some(), "run.transport", "--transport"),
+            (self.realtime_rate.is_some(), "run.realtime_rate", "--rate"),
+            (self.on_agent_loss.is_some(), "run.on_agent_loss", "--on-agent-loss"),
+            (self.authenticate.is_some(), "run.authenticate", "--authenticate"),
+            (self.record.is_some(), "run.record", "--record"),
+            (self.telemetry.is_some(), "run.telemetry", "--telemetry"),
+        ];
+        set.into_iter().filter(|(on, _, _)| *on).map(|(_, path, flag)| (path, flag)).collect()
+    }
+
+    /// Mark the problems of values this command line set with their flag (see [`Problem::flag`]).
+    pub fn mark(&self, problems: &mut [Problem]) {
+        let flags = self.flags();
+        for p in problems.iter_mut().filter(|p| p.flag.is_none()) {
+            p.flag = flags.iter().find(|(path, _)| p.path == *path).map(|(_, flag)| *flag);
+        }
+    }
+}
+
 /// Read and parse a scenario file: the generic sections typed and checked for their own form
 /// (not yet validated: see [`crate::validate::validate`]), the paper sections raw.
 pub fn load(file: &Path, overrides: &Overrides) -> Result<Scenario, ScenarioError> {
@@ -118,7 +147,10 @@ pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario,
 
 /// [`parse`], keeping going past problems of `[run]` and `[[faults]]` (see [`load_all`]).
 pub fn parse_all(text: &str, file: &Path, overrides: &Overrides) -> Result<(Scenario, Vec<Problem>), ScenarioError> {
-    let err = |problems| ScenarioError { file: file.to_path_buf(), problems }.located(text);
+    let err = |mut problems: Vec<Problem>| {
+        overrides.mark(&mut problems);
+        ScenarioError { file: file.to_path_buf(), problems }.located(text)
+    };
     let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| err(vec![syntax_problem(text, &e)]))?;
     let faults_in_file = match table.get("faults") {
         Some(toml::Value::Array(a)) => a.len(),
@@ -131,6 +163,7 @@ pub fn parse_all(text: &str, file: &Path, overrides: &Overrides) -> Result<(Scen
     if let Some(h) = &overrides.hosts {
         problems.extend(crate::hosts::unplaced_ids(h, &s));
     }
+    overrides.mark(&mut problems);
     s.source = text.into();
     s.faults_in_file = faults_in_file;
     s.duration_from_command_line = overrides.duration_s.is_some();

@@ -198,3 +198,158 @@ fn a_base_directory_squatted_by_another_user_is_replaced_by_a_private_one() {
     let _ = std::fs::remove_dir_all(&xdg);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The pid of `parent`'s child process whose command name is `name`, if there is one.
+fn child_named(parent: u32, name: &str) -> Option<i32> {
+    for e in std::fs::read_dir("/proc").ok()?.flatten() {
+        let Ok(pid) = e.file_name().to_string_lossy().parse::<i32>() else { continue };
+        let Ok(stat) = std::fs::read_to_string(e.path().join("stat")) else { continue };
+        // "pid (comm) state ppid ...": comm may hold spaces, so split after its last ')'.
+        let Some((head, rest)) = stat.rsplit_once(')') else { continue };
+        let comm = head.split_once('(').map_or("", |(_, c)| c);
+        let ppid: Option<u32> = rest.split_whitespace().nth(1).and_then(|p| p.parse().ok());
+        if comm == name && ppid == Some(parent) {
+            return Some(pid);
+        }
+    }
+    None
+}
+
+/// Wait (generously) until `run` has its status directory and every process's log, the sign the
+/// processes are under way.
+fn wait_until_running(run: &Path, n_logs: usize) {
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while !run.join("status").exists() || std::fs::read_dir(run.join("logs")).map_or(0, |d| d.count()) < n_logs {
+        assert!(Instant::now() < deadline, "waited 120 s for {} to start its {n_logs} processes", run.display());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Defect 8: after the plant is SIGKILLed the summary's steps_completed is not 0 but a lower
+/// bound from its telemetry and the agents' reports, and says so.
+#[test]
+fn a_killed_plant_still_gives_the_steps_the_run_completed() {
+    let _g = heavy();
+    let dir = scratch_dir("plant-kill");
+    let run = dir.join("run");
+    let child = orchestrator_command()
+        .args(["launch", "--duration", "600", "--no-plots", "--realtime", "--rate", "20", "--out"])
+        .arg(&run)
+        .arg(ring())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_until_running(&run, 7);
+    std::thread::sleep(Duration::from_secs(3));
+    let plant = child_named(child.id(), "plant").expect("the plant process");
+    // SAFETY: kill(2) on the run's plant.
+    unsafe { libc::kill(plant, libc::SIGKILL) };
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
+    let s = summary(&run);
+    let done = s["steps_completed"].as_u64().unwrap();
+    let agents: Vec<u64> = s["processes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|p| p["process"].as_str().is_some_and(|n| n.starts_with("agent-")))
+        .map(|p| p["steps_completed"].as_u64().unwrap())
+        .collect();
+    let most = *agents.iter().max().expect("the agents' reports");
+    assert!(most > 100, "the agents completed {agents:?} steps in 3 s at rate 20");
+    assert!(done + 1 >= most && done <= most, "steps_completed {done}, agents {agents:?}");
+    let warnings = s["warnings"].to_string();
+    assert!(warnings.contains("lower bound"), "{warnings}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Defect 8: a bad value given on the command line is cited by its flag, not by a line of the
+/// scenario file it did not come from.
+#[test]
+fn a_bad_command_line_value_cites_its_flag() {
+    let dir = scratch_dir("flag");
+    for (args, flag) in [
+        (vec!["--duration", "nan"], "--duration (command line): scenario.duration_s"),
+        (vec!["--step-timeout", "0.01"], "--step-timeout (command line): run.step_timeout_s"),
+        (vec!["--wait", "sometimes"], "--wait (command line): run.wait"),
+    ] {
+        let o = cohort::launch_scenario(&ring(), &dir.join("run"), &args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}\n{}", describe_output(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(flag), "{args:?}: expected {flag:?}\n{err}");
+        let cites_a_line =
+            err.split("consensus-ring.toml:").skip(1).any(|after| after.starts_with(|c: char| c.is_ascii_digit()));
+        assert!(!cites_a_line, "{args:?}: cites a line of the file\n{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Defect 8: SIGTERM while the plots are drawn ends the orchestrator at once with 143 (before,
+/// the drawing went on and the launch exited 0).
+#[test]
+fn sigterm_while_drawing_the_plots_exits_143() {
+    let _g = heavy();
+    let dir = scratch_dir("plot-term");
+    let run = dir.join("run");
+    let mut child = orchestrator_command()
+        .args(["launch", "--duration", "600", "--out"])
+        .arg(&run)
+        .arg(ring())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The summary is written before the plots are drawn.
+    let deadline = Instant::now() + Duration::from_secs(300);
+    while !run.join("summary.json").exists() {
+        assert!(Instant::now() < deadline, "waited 300 s for the run to finish");
+        assert!(child.try_wait().unwrap().is_none(), "the launch ended before its summary");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // SAFETY: kill(2) on the child we spawned.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let started = Instant::now();
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(143), "{}", describe_output(&o));
+    assert!(err.contains("while drawing the plots"), "{err}");
+    assert!(started.elapsed() < Duration::from_secs(10), "took {:?} to stop", started.elapsed());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Defect 8: on a file system with room for the run directory's first files but not for a single
+/// log line, every log stays empty: the error says the file system is full (the cause itself),
+/// not "see logs/".
+#[test]
+fn on_a_full_disk_with_empty_logs_the_error_gives_the_cause() {
+    let _g = heavy();
+    let dir = scratch_dir("full-logs");
+    let mnt = dir.join("mnt");
+    std::fs::create_dir_all(&mnt).unwrap();
+    let mounted = Command::new("mount").args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"]).arg(&mnt).output();
+    if !mounted.as_ref().is_ok_and(|o| o.status.success()) {
+        eprintln!("skipped: cannot mount a small tmpfs here ({mounted:?})");
+        return;
+    }
+    // 15 of the 16 pages taken: the last one holds scenario.toml.
+    std::fs::write(mnt.join("filler"), vec![0u8; 15 * 4096]).unwrap();
+    let o = cohort::launch_scenario(&ring(), &mnt.join("run"), &["--duration", "2"]);
+    let logs: Vec<u64> = std::fs::read_dir(mnt.join("run/logs"))
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.metadata().map_or(0, |m| m.len()))
+        .collect();
+    let _ = Command::new("umount").arg(&mnt).status();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    if logs.iter().any(|&n| n > 0) {
+        eprintln!("skipped: a log got written ({logs:?}), so the case did not arise\n{err}");
+        return;
+    }
+    let first = err.lines().find(|l| l.starts_with("error:")).unwrap_or("");
+    assert!(first.contains("is full") && first.contains("No space left on device"), "{err}");
+    assert!(!err.contains("see logs/"), "{err}");
+}
