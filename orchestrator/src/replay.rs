@@ -76,6 +76,9 @@ fn run(run_dir: &Path, agent: u32, out: Option<&Path>) -> Result<(replay::Replay
         ));
     }
     let rec = reader::read(&recording::path_for(run_dir, Proc::Agent(agent))).map_err(|e| e.to_string())?;
+    if let Some(c) = &rec.cut_short {
+        tracing::warn!("{c}");
+    }
     if let Some(b) = rec.meta.get("build_id").filter(|b| b.as_str() != cohort_wire::BUILD_ID) {
         tracing::warn!("recorded by build {b}, replayed with build {}", cohort_wire::BUILD_ID);
     }
