@@ -29,6 +29,7 @@ mod progress;
 mod reference;
 mod replay;
 mod rundir;
+mod salvage;
 mod soak;
 mod summary;
 mod sweep_report;
@@ -191,6 +192,13 @@ enum Cmd {
         /// Where the replayed agent's telemetry goes; default RUN_DIR/replay/agent-<I>/.
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Turn the `.rows` journals of a run whose orchestrator was killed into its telemetry and
+    /// timing files, and write its missing summary.json (status "salvaged"); a damaged journal is
+    /// named and left, the others are turned all the same (exit 1 if one could not be).
+    Salvage {
+        /// A run directory written by `launch`.
+        run_dir: PathBuf,
     },
     /// Draw PNG plots of a run directory's telemetry into RUN_DIR/plots/.
     Report {
@@ -362,9 +370,9 @@ fn main() -> ExitCode {
     cohort_runtime::logging::init_orchestrator(cohort_runtime::logging::level_of(matches.get_count("verbose"), quiet));
     QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
     // Commands that run things stop them in order on Ctrl-C, SIGTERM or SIGHUP and exit 128 +
-    // signal; `check` and `report` only read and `train` only computes: they die on the signal as
-    // usual.
-    if !matches!(matches.subcommand_name(), Some("check" | "report" | "train"))
+    // signal; `check` and `report` only read, `salvage` only converts files and `train` only
+    // computes: they die on the signal as usual.
+    if !matches!(matches.subcommand_name(), Some("check" | "report" | "salvage" | "train"))
         && let Err(e) = supervise::install_signal_handlers()
     {
         error!("{e}");
@@ -522,6 +530,7 @@ fn generic(command: Cmd) -> ExitCode {
             }
         },
         Cmd::Replay { run_dir, agent, out } => replay::command(&run_dir, agent, out.as_deref()),
+        Cmd::Salvage { run_dir } => salvage::command(&run_dir),
         Cmd::Report { run_dir } => match launcher::report(&run_dir) {
             Ok(files) => {
                 for f in files {

@@ -430,3 +430,50 @@ fn a_killed_agents_recording_replays_up_to_its_last_complete_chunk() {
     assert!(steps > 100 && steps <= 2500, "{said}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Defect 5: the orchestrator SIGKILLed mid-run leaves only `.rows` journals (its children die
+/// with it); `orchestrator salvage RUN_DIR` turns every intact one into its file, names the one
+/// damaged here (exit 1) without stopping at it, and writes the missing summary; `report` then
+/// draws the run.
+#[test]
+fn salvage_turns_a_killed_runs_journals_into_files_past_a_damaged_one() {
+    let _g = heavy();
+    let dir = scratch_dir("salvage");
+    let run = dir.join("run");
+    let mut child = orchestrator_command()
+        .args(["launch", "--duration", "600", "--no-plots", "--realtime", "--rate", "20", "--out"])
+        .arg(&run)
+        .arg(ring())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_until_running(&run, 7);
+    std::thread::sleep(Duration::from_secs(3));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !cohort::processes_mentioning(&run.display().to_string()).is_empty() {
+        assert!(Instant::now() < deadline, "the run's processes outlived their orchestrator by 60 s");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let tel = run.join("telemetry");
+    assert!(tel.join("plant.rows").is_file() && !tel.join("plant.parquet").exists(), "only journals are left");
+    std::fs::write(tel.join("agent-3.rows"), b"damaged").unwrap();
+    let o = orchestrator_command().arg("salvage").arg(&run).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("agent-3.rows"), "{err}");
+    for p in ["plant", "agent-1", "agent-2", "agent-4", "agent-5", "agent-6"] {
+        assert!(tel.join(format!("{p}.parquet")).is_file(), "{p}.parquet not written\n{}", describe_output(&o));
+        assert!(run.join(format!("timing/{p}.parquet")).is_file(), "timing/{p}.parquet not written");
+    }
+    let s = summary(&run);
+    assert_eq!(s["status"], "salvaged");
+    assert!(s["steps_completed"].as_u64().unwrap() > 100, "{}", s["steps_completed"]);
+    let rows = cohort::telemetry_table(&run, "plant").rows();
+    assert!(rows > 100, "{rows} plant rows salvaged");
+    let o = orchestrator_command().arg("report").arg(&run).output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
