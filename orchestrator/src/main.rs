@@ -725,6 +725,18 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     if !text.is_empty() {
         humanln!(json, "{}", text.trim_end());
     }
+    if s.run.realtime_rate.is_some()
+        && let Some(plant) = summary.processes.iter().find(|p| p.process == "plant")
+    {
+        match plant.faults.deadline_misses {
+            0 => humanln!(json, "real time: no deadline missed"),
+            n => humanln!(
+                json,
+                "real time: {n} deadline misses (each flew the agent's previous command: this run's telemetry \
+                 depends on timing, not only on scenario and seed)"
+            ),
+        }
+    }
     if s.run.record && s.algorithm.coupled().is_none() {
         let dir = cohort_runtime::recording::dir(&dirs.root);
         errln!(

@@ -477,3 +477,47 @@ fn salvage_turns_a_killed_runs_journals_into_files_past_a_damaged_one() {
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Defect 1: in real time, a plant stopped for longer than the step timeout (SIGSTOP 11 s, then
+/// SIGCONT; timeout 10 s) drops no healthy agent: the stall is the clock's, not their silence
+/// (before, all 6 were declared silent and the launch exited 1). The launch reports its deadline
+/// misses.
+#[test]
+fn in_real_time_a_stalled_plant_drops_no_healthy_agent() {
+    let _g = heavy();
+    let dir = scratch_dir("plant-stall");
+    let run = dir.join("run");
+    let child = orchestrator_command()
+        .args(["launch", "--realtime", "--no-plots", "--out"])
+        .arg(&run)
+        .arg(ring())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_until_running(&run, 7);
+    std::thread::sleep(Duration::from_secs(2));
+    let plant = child_named(child.id(), "plant").expect("the plant process");
+    // SAFETY: kill(2) on the run's plant.
+    unsafe { libc::kill(plant, libc::SIGSTOP) };
+    std::thread::sleep(Duration::from_secs(11));
+    // SAFETY: as above.
+    unsafe { libc::kill(plant, libc::SIGCONT) };
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
+    let s = summary(&run);
+    assert_eq!(s["status"], "ok", "{}", s["timeline"]);
+    assert_eq!(s["steps_completed"], 2000);
+    let lost: Vec<_> = s["timeline"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter(|e| e["event"] == "dead" || e["event"] == "silent")
+        .collect();
+    assert!(lost.is_empty(), "agents dropped: {lost:?}");
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(said.contains("real time: "), "{said}");
+    let log = std::fs::read_to_string(run.join("logs/plant.log")).unwrap();
+    assert!(log.contains("behind its real-time schedule"), "{log}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
