@@ -18,7 +18,7 @@ struct Args {
     #[arg(long)]
     id: u32,
     /// Relaunched by a `restart` fault: resume from the agent's latest checkpoint in the run
-    /// directory (refused if it is damaged, of another version, agent or algorithm).
+    /// directory (refused if it is damaged, of another version, run, agent or algorithm).
     /// Relaunched at this step: resume from the agent's latest checkpoint, which must be older.
     #[arg(long)]
     restore_at: Option<u64>,
@@ -33,7 +33,13 @@ fn main() -> ExitCode {
         let mut algo = setup.algorithm.build(setup, id);
         let neighbours = setup.agent(id).neighbours.clone();
         let checkpoint = if let Some(at) = restore_at {
-            match load(&params.dirs.root, id, &params.algorithm_kind, algo.as_mut(), (at, params.n_steps)) {
+            match load(
+                &params.dirs.root,
+                (params.run_id, id),
+                &params.algorithm_kind,
+                algo.as_mut(),
+                (at, params.n_steps),
+            ) {
                 Ok(c) => Some(c),
                 Err(e) => return failed(id, e),
             }
@@ -49,13 +55,13 @@ fn main() -> ExitCode {
 /// encoded again from the live algorithm (`agent-<id>.restored.ckpt`).
 fn load(
     run_dir: &std::path::Path,
-    id: u32,
+    (run_id, id): (u64, u32),
     kind: &str,
     algo: &mut dyn cohort_runtime::model::Algorithm,
     (relaunch_step, n_steps): (u64, u64),
 ) -> Result<Checkpoint, String> {
     let path = path_for(run_dir, id);
-    let c = Checkpoint::read(&path, id, kind).map_err(|e| format!("cannot restore: {e}"))?;
+    let c = Checkpoint::read(&path, run_id, id, kind).map_err(|e| format!("cannot restore: {e}"))?;
     c.check_resume(relaunch_step, n_steps)
         .map_err(|e| format!("cannot restore: checkpoint {}: {e}", path.display()))?;
     algo.restore_state(&c.state.algorithm)

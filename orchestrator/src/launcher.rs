@@ -111,11 +111,11 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
     // timing's journals: turn them into their files, as its own clean exit would have. A failure
     // is a warning of the summary, printed after the run's error (on a full disk that error is
     // the cause).
-    let sealed = [dirs.telemetry(), dirs.timing()].iter().try_for_each(|d| {
-        cohort_runtime::parquet_out::seal_dir(d)
-            .map(drop)
-            .map_err(|e| format!("cannot turn the telemetry journals in {}: {e}", d.display()))
-    });
+    let unsealed: Vec<String> = [dirs.telemetry(), dirs.timing()]
+        .iter()
+        .flat_map(|d| cohort_runtime::parquet_out::seal_dir(d).failures)
+        .map(|e| format!("cannot turn a telemetry journal into its file: {e}"))
+        .collect();
     let mut summary = summary::build(
         s,
         dirs,
@@ -129,9 +129,7 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
             timeline: outcome.timeline.clone(),
         },
     );
-    if let Err(w) = sealed {
-        summary.warnings.push(w);
-    }
+    summary.warnings.extend(unsealed);
     mark_divergence(s, &mut outcome, &mut summary);
     // Derived quantities come from the telemetry alone, so a partial run gets them too.
     let view = RunView { setup: s, dirs };
@@ -225,7 +223,22 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, String> {
         .map(|s| cohort_registry::hosts_of(s).into_iter().filter_map(|h| h.figures(s, run_dir)).collect())
         .unwrap_or_default();
     let refs: Vec<&dyn cohort_host::FigureSource> = sources.iter().map(|b| b.as_ref()).collect();
-    cohort_report::report(run_dir, &refs).map_err(|e| e.to_string())
+    cohort_report::report(run_dir, &refs).map_err(|e| {
+        let journals = std::fs::read_dir(run_dir.join("telemetry"))
+            .into_iter()
+            .flatten()
+            .flatten()
+            .any(|f| f.path().extension().is_some_and(|x| x == "rows"));
+        if journals {
+            format!(
+                "{e} (its telemetry/ holds .rows journals: the run's orchestrator was killed before it turned them \
+                 into files; `orchestrator salvage {}` does)",
+                run_dir.display()
+            )
+        } else {
+            e.to_string()
+        }
+    })
 }
 
 /// The [`Launcher`] of the papers' commands.

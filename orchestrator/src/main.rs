@@ -29,6 +29,7 @@ mod progress;
 mod reference;
 mod replay;
 mod rundir;
+mod salvage;
 mod soak;
 mod summary;
 mod sweep_report;
@@ -191,6 +192,13 @@ enum Cmd {
         /// Where the replayed agent's telemetry goes; default RUN_DIR/replay/agent-<I>/.
         #[arg(long)]
         out: Option<PathBuf>,
+    },
+    /// Turn the `.rows` journals of a run whose orchestrator was killed into its telemetry and
+    /// timing files, and write its missing summary.json (status "salvaged"); a damaged journal is
+    /// named and left, the others are turned all the same (exit 1 if one could not be).
+    Salvage {
+        /// A run directory written by `launch`.
+        run_dir: PathBuf,
     },
     /// Draw PNG plots of a run directory's telemetry into RUN_DIR/plots/.
     Report {
@@ -362,9 +370,9 @@ fn main() -> ExitCode {
     cohort_runtime::logging::init_orchestrator(cohort_runtime::logging::level_of(matches.get_count("verbose"), quiet));
     QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
     // Commands that run things stop them in order on Ctrl-C, SIGTERM or SIGHUP and exit 128 +
-    // signal; `check` and `report` only read and `train` only computes: they die on the signal as
-    // usual.
-    if !matches!(matches.subcommand_name(), Some("check" | "report" | "train"))
+    // signal; `check` and `report` only read, `salvage` only converts files and `train` only
+    // computes: they die on the signal as usual.
+    if !matches!(matches.subcommand_name(), Some("check" | "report" | "salvage" | "train"))
         && let Err(e) = supervise::install_signal_handlers()
     {
         error!("{e}");
@@ -522,6 +530,7 @@ fn generic(command: Cmd) -> ExitCode {
             }
         },
         Cmd::Replay { run_dir, agent, out } => replay::command(&run_dir, agent, out.as_deref()),
+        Cmd::Salvage { run_dir } => salvage::command(&run_dir),
         Cmd::Report { run_dir } => match launcher::report(&run_dir) {
             Ok(files) => {
                 for f in files {
@@ -597,6 +606,16 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
     launch(&a.file, a.out.as_deref(), &o, a.reference, !a.no_plots, a.json)
 }
 
+/// A signal that came while the scenario was read or the hosts were asked (the handlers are
+/// installed first, so it was recorded): 128 + signal before anything was created.
+fn interrupted_before_the_run() -> Option<ExitCode> {
+    let sig = supervise::SIGNALLED.load(std::sync::atomic::Ordering::SeqCst);
+    (sig != 0).then(|| {
+        errln!("interrupted by signal {sig} before the run started; nothing was created");
+        ExitCode::from(128 + sig as u8)
+    })
+}
+
 /// Human text at the end of a launch: on stdout, or on stderr when stdout carries the JSON.
 macro_rules! humanln {
     ($json:expr, $($t:tt)*) => {{
@@ -613,6 +632,9 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         Ok(s) => s,
         Err(code) => return code,
     };
+    if let Some(code) = interrupted_before_the_run() {
+        return code;
+    }
     if reference && let Some(f) = s.faults.iter().find(|f| f.is_process_fault()) {
         error!(
             "--reference runs every process as a thread of this one, so it cannot {} agent {} \
@@ -626,6 +648,9 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         if let Err(e) = cohort_supervisor::preflight(&s.hosts) {
             error!("{}: {e}", file.display());
             return ExitCode::from(EXIT_INVALID);
+        }
+        if let Some(code) = interrupted_before_the_run() {
+            return code;
         }
     }
     let dirs = match prepare(&s, out) {
@@ -700,6 +725,18 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     if !text.is_empty() {
         humanln!(json, "{}", text.trim_end());
     }
+    if s.run.realtime_rate.is_some()
+        && let Some(plant) = summary.processes.iter().find(|p| p.process == "plant")
+    {
+        match plant.faults.deadline_misses {
+            0 => humanln!(json, "real time: no deadline missed"),
+            n => humanln!(
+                json,
+                "real time: {n} deadline misses (each flew the agent's previous command: this run's telemetry \
+                 depends on timing, not only on scenario and seed)"
+            ),
+        }
+    }
     if s.run.record && s.algorithm.coupled().is_none() {
         let dir = cohort_runtime::recording::dir(&dirs.root);
         errln!(
@@ -709,15 +746,41 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         );
     }
     if plots {
-        match launcher::report(&dirs.root) {
-            Ok(_) => humanln!(json, "plots: {}", dirs.root.join("plots").display()),
-            Err(e) => warn!("plots not drawn: {e}"),
+        match report_unless_signalled(&dirs.root) {
+            Ok(Ok(_)) => humanln!(json, "plots: {}", dirs.root.join("plots").display()),
+            Ok(Err(e)) => warn!("plots not drawn: {e}"),
+            Err(sig) => {
+                errln!(
+                    "interrupted by signal {sig} while drawing the plots; the run directory {} is complete \
+                     (orchestrator report draws them)",
+                    dirs.root.display()
+                );
+                return ExitCode::from(128 + sig);
+            }
         }
     }
     if json {
         print_json(&dirs.root);
     }
     ExitCode::from(outcome.exit_code)
+}
+
+/// The plots of a finished run, drawn on a thread while this one watches for a signal: Ctrl-C or
+/// SIGTERM while drawing ends the orchestrator at once (128 + signal) instead of being recorded
+/// and ignored. `Err(signal)` then; the drawing thread ends with the process.
+fn report_unless_signalled(run_dir: &Path) -> Result<Result<Vec<PathBuf>, String>, u8> {
+    let dir = run_dir.to_path_buf();
+    let drawing = std::thread::spawn(move || launcher::report(&dir));
+    loop {
+        let sig = supervise::SIGNALLED.load(std::sync::atomic::Ordering::SeqCst);
+        if sig != 0 {
+            return Err(sig as u8);
+        }
+        if drawing.is_finished() {
+            return Ok(drawing.join().unwrap_or_else(|_| Err("drawing the plots panicked".into())));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
 }
 
 /// `--json`: the run's summary.json, as written, on stdout (a summary that could not be written

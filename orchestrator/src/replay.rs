@@ -17,7 +17,7 @@ use crate::{EXIT_FAILED, EXIT_INVALID};
 
 /// Run the command; prints its result and returns its exit code.
 pub fn command(run_dir: &Path, agent: u32, out: Option<&Path>) -> ExitCode {
-    let (outcome, out) = match run(run_dir, agent, out) {
+    let (outcome, out, cut_short) = match run(run_dir, agent, out) {
         Ok(x) => x,
         Err(e) => {
             tracing::error!("{e}");
@@ -27,6 +27,23 @@ pub fn command(run_dir: &Path, agent: u32, out: Option<&Path>) -> ExitCode {
     tracing::info!("replayed agent's telemetry: {}", out.join("telemetry").display());
     if outcome.identical() {
         outln!("replayed {} steps of agent {agent}: all {} shares identical", outcome.steps, outcome.identical);
+        return ExitCode::SUCCESS;
+    }
+    // A recording cut short ends inside a step: the replayed agent goes on to send the share the
+    // recording stops before. Every share recorded is compared; the ones past its end cannot be.
+    if cut_short
+        && outcome.first.is_none()
+        && outcome.error.is_none()
+        && outcome.identical == outcome.recorded_sent
+        && outcome.replayed_sent > outcome.recorded_sent
+    {
+        outln!(
+            "replayed {} steps of agent {agent}: all {} recorded shares identical (the recording stops there; \
+             {} share(s) sent past its end)",
+            outcome.steps,
+            outcome.identical,
+            outcome.replayed_sent - outcome.recorded_sent
+        );
         return ExitCode::SUCCESS;
     }
     if let Some(m) = &outcome.first {
@@ -52,7 +69,7 @@ pub fn command(run_dir: &Path, agent: u32, out: Option<&Path>) -> ExitCode {
 }
 
 /// Read the run directory and replay; every error names what and where.
-fn run(run_dir: &Path, agent: u32, out: Option<&Path>) -> Result<(replay::ReplayOutcome, PathBuf), String> {
+fn run(run_dir: &Path, agent: u32, out: Option<&Path>) -> Result<(replay::ReplayOutcome, PathBuf, bool), String> {
     if !run_dir.is_dir() {
         return Err(format!("{}: no such run directory", run_dir.display()));
     }
@@ -76,10 +93,13 @@ fn run(run_dir: &Path, agent: u32, out: Option<&Path>) -> Result<(replay::Replay
         ));
     }
     let rec = reader::read(&recording::path_for(run_dir, Proc::Agent(agent))).map_err(|e| e.to_string())?;
+    if let Some(c) = &rec.cut_short {
+        tracing::warn!("{c}");
+    }
     if let Some(b) = rec.meta.get("build_id").filter(|b| b.as_str() != cohort_wire::BUILD_ID) {
         tracing::warn!("recorded by build {b}, replayed with build {}", cohort_wire::BUILD_ID);
     }
     let out = out.map_or_else(|| run_dir.join("replay").join(Proc::Agent(agent).name()), Path::to_path_buf);
     let outcome = replay::replay_agent(&s, &rec, agent, &RunDirs::new(&out)).map_err(|e| e.to_string())?;
-    Ok((outcome, out))
+    Ok((outcome, out, rec.cut_short.is_some()))
 }

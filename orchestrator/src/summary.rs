@@ -130,7 +130,20 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
     });
     let (link_latency, process_latency) = percentiles(&histograms);
     let plant = processes.iter().find(|p| p.process == "plant");
-    let steps_completed = plant.map_or(0, |p| p.steps_completed);
+    let steps_completed = match plant {
+        Some(p) => p.steps_completed,
+        None => {
+            let n = steps_without_the_plants_report(dirs, &processes);
+            // Only when the run got going: some process reported.
+            if !processes.is_empty() {
+                warnings.push(format!(
+                    "the plant left no report (status/plant.json): steps_completed = {n} is a lower bound, from its \
+                 telemetry and the agents' reports"
+                ));
+            }
+            n
+        }
+    };
     let loop_wall = plant.map_or(0.0, |p| p.wall_s);
     let mut rejected: BTreeMap<String, u64> = BTreeMap::new();
     for p in &processes {
@@ -190,6 +203,20 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
         verdict_overall: None,
         warnings,
     }
+}
+
+/// How many steps a plant that left no report (SIGKILLed, crashed) completed, at least: one past
+/// the last row of its telemetry (its journal, sealed), or one less than the most steps an agent
+/// completed (an agent computes step k only on the plant's measurement k, which the plant sends
+/// once it has completed step k − 1), whichever is more.
+fn steps_without_the_plants_report(dirs: &RunDirs, processes: &[ProcessReport]) -> u64 {
+    let path = dirs.telemetry().join("plant.parquet");
+    let from_telemetry = cohort_report::Table::read_columns(&path, &[] as &[&str])
+        .ok()
+        .and_then(|t| t.steps().last().map(|k| k + 1))
+        .unwrap_or(0);
+    let from_agents = processes.iter().map(|p| p.steps_completed).max().unwrap_or(0).saturating_sub(1);
+    from_telemetry.max(from_agents)
 }
 
 type LinkHistograms = BTreeMap<(String, String), LatencyBuckets>;

@@ -58,6 +58,9 @@ pub enum ReportError {
     NoTelemetry { path: PathBuf },
     #[error("cannot read {}: {error}", .path.display())]
     Io { path: PathBuf, error: std::io::Error },
+    /// Neither format of a telemetry file exists (`path` without its extension).
+    #[error("cannot read {}.parquet or .csv: neither exists", .path.display())]
+    MissingTelemetryFile { path: PathBuf },
     #[error("{}: bad header: {reason}", .path.display())]
     BadHeader { path: PathBuf, reason: String },
     #[error(

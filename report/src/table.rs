@@ -134,6 +134,12 @@ impl Table {
 pub fn read_table_with(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Table, ReportError> {
     let resolved = resolve(path);
     let path = resolved.as_path();
+    let telemetry = path.extension().is_some_and(|e| e == "parquet" || e == "csv");
+    if telemetry && !path.exists() {
+        // Neither format is there: name both, not only the one asked for (a Parquet run's missing
+        // file was reported as a missing `.csv`).
+        return Err(ReportError::MissingTelemetryFile { path: path.with_extension("") });
+    }
     if path.extension().is_some_and(|e| e == "parquet") {
         return crate::parquet_in::read(path, keep);
     }
@@ -231,4 +237,18 @@ fn read_lines(reader: impl BufRead, path: &Path, keep: &dyn Fn(&str) -> bool) ->
         }
     }
     Ok(Table { k: steps, t, columns })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 36, defect 8: a file missing in both formats is reported as such, not as a missing
+    /// `.csv` when the run writes Parquet.
+    #[test]
+    fn a_file_missing_in_both_formats_names_both() {
+        let dir = std::env::temp_dir().join(format!("cohort-table-missing-{}", std::process::id()));
+        let e = Table::read(&dir.join("telemetry/plant.csv")).unwrap_err().to_string();
+        assert!(e.contains("telemetry/plant.parquet or .csv: neither exists"), "{e}");
+    }
 }

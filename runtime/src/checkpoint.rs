@@ -1,9 +1,11 @@
 //! Agent checkpoints: an agent's full state every `run.checkpoint_every_steps` steps, so a
 //! restarted process resumes where its predecessor was. A file is checked end to end before a
-//! single byte of it is used — magic, schema version, agent, algorithm, length, CRC-32 — and a
-//! refused file is an error naming the file and the reason, never a half-loaded state.
+//! single byte of it is used — magic, schema version, run, agent, algorithm, length, CRC-32 — and
+//! a refused file is an error naming the file and the reason, never a half-loaded state. The run
+//! id ties a checkpoint to the run that wrote it: one copied in from another run (another seed,
+//! another scenario, the same scenario run before) is refused, however valid.
 //!
-//! Layout (little-endian): `COHORTCK` · u32 version · u32 agent id · u64 step · u32 kind length ·
+//! Layout (little-endian): `COHORTCK` · u32 version · u64 run id · u32 agent id · u64 step · u32 kind length ·
 //! kind (UTF-8) · u64 payload length · payload (bincode: algorithm state and the driver's held
 //! neighbour values) · u32 CRC-32 of everything before it.
 
@@ -13,7 +15,7 @@ use serde::{Deserialize, Serialize};
 
 const MAGIC: &[u8; 8] = b"COHORTCK";
 /// Bumped whenever the layout or the meaning of the payload changes.
-pub const CHECKPOINT_VERSION: u32 = 1;
+pub const CHECKPOINT_VERSION: u32 = 2;
 
 /// What a checkpoint restores: the algorithm's own bytes and the driver's last valid share of
 /// each neighbour (id, step, values).
@@ -25,6 +27,8 @@ pub struct AgentState {
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Checkpoint {
+    /// The run that wrote it (`DriveParams::run_id`, the orchestrator's random id of the run).
+    pub run_id: u64,
     pub agent: u32,
     /// The step the agent is about to start (its state is at t = step·dt).
     pub step: u64,
@@ -54,6 +58,7 @@ impl Checkpoint {
         let mut out = Vec::with_capacity(payload.len() + 64);
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&CHECKPOINT_VERSION.to_le_bytes());
+        out.extend_from_slice(&self.run_id.to_le_bytes());
         out.extend_from_slice(&self.agent.to_le_bytes());
         out.extend_from_slice(&self.step.to_le_bytes());
         out.extend_from_slice(&(self.kind.len() as u32).to_le_bytes());
@@ -65,8 +70,8 @@ impl Checkpoint {
         out
     }
 
-    /// Decode and check `bytes` as agent `agent`'s checkpoint for algorithm `kind`.
-    pub fn decode(bytes: &[u8], agent: u32, kind: &str) -> Result<Self, String> {
+    /// Decode and check `bytes` as run `run_id`'s checkpoint of agent `agent` for algorithm `kind`.
+    pub fn decode(bytes: &[u8], run_id: u64, agent: u32, kind: &str) -> Result<Self, String> {
         if bytes.len() < MAGIC.len() + 4 || &bytes[..8] != MAGIC {
             return Err("not a Cohort checkpoint (bad magic)".into());
         }
@@ -81,6 +86,13 @@ impl Checkpoint {
             return Err(format!("checksum mismatch (stored {got:08x}, computed {want:08x}): the file is corrupted"));
         }
         let mut r = Reader { b: body, at: 12 };
+        let run = r.u64()?;
+        if run != run_id {
+            return Err(format!(
+                "written by run {run:016x}, not this run ({run_id:016x}): a checkpoint of another run \
+                 (another seed or scenario, or an earlier run) is never restored"
+            ));
+        }
         let id = r.u32()?;
         if id != agent {
             return Err(format!("written by agent {id}, not agent {agent}"));
@@ -101,7 +113,7 @@ impl Checkpoint {
         if used != payload.len() {
             return Err("payload longer than its state".into());
         }
-        Ok(Self { agent, step, kind: k.to_string(), state })
+        Ok(Self { run_id, agent, step, kind: k.to_string(), state })
     }
 
     /// Write atomically (a reader never sees half a file): to a temporary name, then rename.
@@ -132,10 +144,10 @@ impl Checkpoint {
         Ok(())
     }
 
-    pub fn read(path: &Path, agent: u32, kind: &str) -> Result<Self, CheckpointError> {
+    pub fn read(path: &Path, run_id: u64, agent: u32, kind: &str) -> Result<Self, CheckpointError> {
         let err = |reason: String| CheckpointError { path: path.to_path_buf(), reason };
         let bytes = std::fs::read(path).map_err(|e| err(format!("cannot read: {e}")))?;
-        Self::decode(&bytes, agent, kind).map_err(err)
+        Self::decode(&bytes, run_id, agent, kind).map_err(err)
     }
 }
 
@@ -193,8 +205,11 @@ pub mod as_json {
 mod tests {
     use super::*;
 
+    const RUN: u64 = 0x1234_5678_9abc_def0;
+
     fn sample() -> Checkpoint {
         Checkpoint {
+            run_id: RUN,
             agent: 2,
             step: 1200,
             kind: "lb-dnn-servicing".into(),
@@ -205,7 +220,7 @@ mod tests {
     #[test]
     fn round_trips_exactly() {
         let c = sample();
-        assert_eq!(Checkpoint::decode(&c.encode(), 2, "lb-dnn-servicing").unwrap(), c);
+        assert_eq!(Checkpoint::decode(&c.encode(), RUN, 2, "lb-dnn-servicing").unwrap(), c);
     }
 
     #[test]
@@ -216,17 +231,24 @@ mod tests {
         flipped[mid] ^= 0x40;
         let mut version = good.clone();
         version[8] = 9;
-        let cases: Vec<(Vec<u8>, &str, u32, &str)> = vec![
-            (flipped, "checksum mismatch", 2, "lb-dnn-servicing"),
-            (good[..good.len() - 7].to_vec(), "checksum", 2, "lb-dnn-servicing"),
-            (version, "schema version 9", 2, "lb-dnn-servicing"),
-            (b"hello world, not a checkpoint".to_vec(), "bad magic", 2, "lb-dnn-servicing"),
-            (good.clone(), "not agent 3", 3, "lb-dnn-servicing"),
-            (good.clone(), "this agent runs \"coast\"", 2, "coast"),
-            (Vec::new(), "bad magic", 2, "lb-dnn-servicing"),
+        let cases: Vec<(Vec<u8>, &str, u64, u32, &str)> = vec![
+            (flipped, "checksum mismatch", RUN, 2, "lb-dnn-servicing"),
+            (good[..good.len() - 7].to_vec(), "checksum", RUN, 2, "lb-dnn-servicing"),
+            (version, "schema version 9", RUN, 2, "lb-dnn-servicing"),
+            (b"hello world, not a checkpoint".to_vec(), "bad magic", RUN, 2, "lb-dnn-servicing"),
+            (good.clone(), "not agent 3", RUN, 3, "lb-dnn-servicing"),
+            (good.clone(), "this agent runs \"coast\"", RUN, 2, "coast"),
+            (
+                good.clone(),
+                "written by run 123456789abcdef0, not this run (0000000000000001)",
+                1,
+                2,
+                "lb-dnn-servicing",
+            ),
+            (Vec::new(), "bad magic", RUN, 2, "lb-dnn-servicing"),
         ];
-        for (bytes, says, agent, kind) in cases {
-            let e = Checkpoint::decode(&bytes, agent, kind).unwrap_err();
+        for (bytes, says, run, agent, kind) in cases {
+            let e = Checkpoint::decode(&bytes, run, agent, kind).unwrap_err();
             assert!(e.contains(says), "expected {says:?}, got {e:?}");
         }
     }
@@ -242,7 +264,7 @@ mod tests {
         assert!(c.check_resume(36_000, 36_000).unwrap_err().contains("past the run's last step"));
         c.step = 1 << 63;
         let bytes = c.encode();
-        let decoded = Checkpoint::decode(&bytes, 2, "lb-dnn-servicing").unwrap();
+        let decoded = Checkpoint::decode(&bytes, RUN, 2, "lb-dnn-servicing").unwrap();
         assert!(decoded.check_resume(3000, 36_000).is_err());
     }
 
@@ -251,8 +273,8 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("cohort-ckpt-{}", std::process::id()));
         let p = path_for(&dir, 2);
         sample().write(&p).unwrap();
-        assert_eq!(Checkpoint::read(&p, 2, "lb-dnn-servicing").unwrap(), sample());
-        let e = Checkpoint::read(&path_for(&dir, 5), 5, "x").unwrap_err().to_string();
+        assert_eq!(Checkpoint::read(&p, RUN, 2, "lb-dnn-servicing").unwrap(), sample());
+        let e = Checkpoint::read(&path_for(&dir, 5), RUN, 5, "x").unwrap_err().to_string();
         assert!(e.contains("agent-5.ckpt") && e.contains("cannot read"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }

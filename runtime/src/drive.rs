@@ -499,6 +499,24 @@ fn new_report(me: Proc, p: &DriveParams) -> ProcessReport {
     }
 }
 
+/// Real time: a plant more than `timeout` behind its schedule (`due` passed that long ago) was
+/// stalled itself (stopped, starved of CPU): that is not its agents' silence. As after a hold, the
+/// schedule goes on from now (`paced_from` moves by the lag) and each agent's silence counts from
+/// now.
+fn rebase_if_stalled(paced_from: &mut Instant, last_heard: &mut [Instant], due: Instant, timeout: Duration, k: u64) {
+    let now = Instant::now();
+    let lag = now.saturating_duration_since(due);
+    if lag > timeout {
+        tracing::warn!(
+            "step {k}: the plant fell {:.3} s behind its real-time schedule (stopped or starved); the schedule \
+             goes on from here",
+            lag.as_secs_f64()
+        );
+        *paced_from += lag;
+        last_heard.iter_mut().for_each(|h| *h = now);
+    }
+}
+
 /// Run the plant's side of every step. Returns its report (also on error, with `error` set);
 /// telemetry written so far is flushed either way.
 pub fn run_plant<T: Transport + ?Sized>(
@@ -758,7 +776,7 @@ fn plant_loop<T: Transport + ?Sized>(
             roster.lost_at_close = Roster::EMPTY;
             Ok::<(), RunError>(())
         };
-    let paced_from = Instant::now();
+    let mut paced_from = Instant::now();
     let result = (|| {
         let mut round_start = monotonic_ns();
         if p.n_steps > 0 {
@@ -777,8 +795,10 @@ fn plant_loop<T: Transport + ?Sized>(
             let limit = match p.realtime_rate {
                 // Real time: a command is due by the end of its step.
                 Some(rate) => {
-                    let due = paced_from + Duration::from_secs_f64((k + 1) as f64 * p.dt_s / rate);
-                    due.saturating_duration_since(Instant::now())
+                    let due = |from: Instant| from + Duration::from_secs_f64((k + 1) as f64 * p.dt_s / rate);
+                    let was_due = due(paced_from);
+                    rebase_if_stalled(&mut paced_from, &mut last_heard, was_due, p.step_timeout, k);
+                    due(paced_from).saturating_duration_since(Instant::now())
                 }
                 None => p.step_timeout,
             };
@@ -846,6 +866,8 @@ fn plant_loop<T: Transport + ?Sized>(
                 let now = Instant::now();
                 if due > now {
                     std::thread::sleep(due - now);
+                } else {
+                    rebase_if_stalled(&mut paced_from, &mut last_heard, due, p.step_timeout, k);
                 }
             }
             if k + 1 < p.n_steps && hold_steps.binary_search(&(k + 1)).is_ok() {
@@ -1384,6 +1406,7 @@ fn agent_loop<T: Transport + ?Sized>(
             // The state at the start of step k (after step k−1), before any fault due at k.
             if p.checkpoint_every > 0 && k % p.checkpoint_every == 0 && restore.is_none_or(|c| c.step != k) {
                 let ck = Checkpoint {
+                    run_id: p.run_id,
                     agent: id,
                     step: k,
                     kind: p.algorithm_kind.clone(),

@@ -394,6 +394,7 @@ pub fn load(file: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -
         Ok(_) => Err(ScenarioError { file: file.to_path_buf(), problems }.located(&source)),
         Err(more) => {
             problems.extend(more);
+            overrides.mark(&mut problems);
             Err(ScenarioError { file: file.to_path_buf(), problems }.located(&source))
         }
     }

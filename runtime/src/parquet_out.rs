@@ -524,22 +524,33 @@ fn last_k(b: &RecordBatch) -> Option<u64> {
     b.column(0).as_primitive::<UInt64Type>().values().last().copied()
 }
 
+/// What [`seal_dir`] did: the files written, and each journal it could not turn into its file.
+#[derive(Debug, Default)]
+pub struct Sealed {
+    pub files: Vec<PathBuf>,
+    /// "`<journal>`: why", one per journal left as it was.
+    pub failures: Vec<String>,
+}
+
 /// Seal every journal in a telemetry directory (see [`seal`]): what processes killed before
-/// their clean exit left. Returns the files written.
-pub fn seal_dir(telemetry: &Path) -> std::io::Result<Vec<PathBuf>> {
-    let Ok(entries) = std::fs::read_dir(telemetry) else { return Ok(Vec::new()) };
+/// their clean exit left. A journal that cannot be sealed (damaged, a full disk) is reported and
+/// left in place, and the others are sealed all the same.
+pub fn seal_dir(telemetry: &Path) -> Sealed {
+    let mut out = Sealed::default();
+    let Ok(entries) = std::fs::read_dir(telemetry) else { return out };
     let mut journals: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.is_file() && p.extension().is_some_and(|e| e == "rows"))
         .collect();
     journals.sort();
-    let mut sealed = Vec::new();
     for j in journals {
         let path = j.with_extension("parquet");
-        seal(&path)?;
-        sealed.push(path);
+        match seal(&path) {
+            Ok(()) => out.files.push(path),
+            Err(e) => out.failures.push(format!("{}: {e}", j.display())),
+        }
     }
-    Ok(sealed)
+    out
 }
 
 /// nice 19 for the calling thread only (Linux: `setpriority` on a thread id is per thread). A
@@ -652,7 +663,7 @@ mod tests {
         drop(j);
         let (cols, rows) = read_journal(&journal_path(&path)).unwrap();
         assert_eq!((cols, rows.num_rows() as u64), (columns(), n));
-        assert_eq!(seal_dir(&dir).unwrap(), vec![path.clone()]);
+        assert_eq!(seal_dir(&dir).files, vec![path.clone()]);
         assert!(!journal_path(&path).exists());
         let (schema, k, cols) = read_back(&path);
         assert_eq!(k, (0..n).collect::<Vec<_>>());
@@ -660,7 +671,7 @@ mod tests {
             assert_eq!(c, &(0..n).map(|k| row(k)[j].to_bits()).collect::<Vec<_>>());
         }
         assert_eq!(schema.field(2).metadata().get(UNIT_KEY).map(String::as_str), Some("rad/s"));
-        assert!(seal_dir(&dir).unwrap().is_empty(), "sealed twice");
+        assert!(seal_dir(&dir).files.is_empty(), "sealed twice");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
@@ -688,7 +699,7 @@ mod tests {
         write(&a, true);
         write(&b, false);
         assert!(!b.exists() && journal_path(&b).exists());
-        assert_eq!(seal_dir(&dir).unwrap(), vec![b.clone()]);
+        assert_eq!(seal_dir(&dir).files, vec![b.clone()]);
         for path in [&a, &b] {
             assert_eq!(read_u64_column(path, "k").unwrap(), (0..n).collect::<Vec<_>>());
             for (j, c) in [(1, "round_ns"), (2, "share_latency_max_ns")] {
@@ -730,6 +741,35 @@ mod tests {
         std::fs::write(journal_path(&path), journal).unwrap();
         seal(&path).unwrap();
         assert_eq!(read_back(&path).1, want);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Issue 36, defect 5: a damaged journal is reported and left, and the others are sealed all
+    /// the same (before, the first failure ended the directory's sealing).
+    #[test]
+    fn one_bad_journal_does_not_stop_the_others() {
+        let dir = scratch("one-bad");
+        let cols: Vec<String> = ["k", "x_m"].iter().map(|s| s.to_string()).collect();
+        let paths: Vec<PathBuf> =
+            ["agent-1", "agent-2", "agent-3"].iter().map(|n| dir.join(format!("{n}.parquet"))).collect();
+        for p in &paths {
+            let mut w = ParquetWriter::<f64>::create(p, &cols).unwrap();
+            for k in 0..10 {
+                w.row(k, &[k as f64]).unwrap();
+            }
+            w.flush().unwrap();
+            std::mem::forget(w);
+        }
+        std::fs::write(journal_path(&paths[0]), b"not a journal").unwrap();
+        let sealed = seal_dir(&dir);
+        assert_eq!(sealed.files, paths[1..].to_vec());
+        assert_eq!(sealed.failures.len(), 1, "{:?}", sealed.failures);
+        assert!(
+            sealed.failures[0].contains("agent-1.rows") && sealed.failures[0].contains("no header"),
+            "{:?}",
+            sealed.failures
+        );
+        assert!(journal_path(&paths[0]).exists(), "the bad journal is left as it was");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

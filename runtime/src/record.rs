@@ -576,12 +576,15 @@ impl ProcessReport {
 
 /// Write a file whole or not at all: into a temporary name beside it, then renamed over it; on
 /// any error (a full disk) the temporary file is removed, so no empty or half-written file is
-/// left where a reader expects a complete one.
+/// left where a reader expects a complete one. The temporary name is the writer's own (pid and a
+/// counter), created exclusively: two writers of one path never write into each other's file.
 pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    static N: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
+    let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = path.with_file_name(format!(".{name}.{}-{n}.tmp", std::process::id()));
     let written = (|| {
-        let mut f = File::create(&tmp)?;
+        let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
         f.write_all(bytes)?;
         f.sync_data()?;
         std::fs::rename(&tmp, path)

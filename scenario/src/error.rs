@@ -14,11 +14,14 @@ pub struct Problem {
     pub reason: String,
     /// Line and column in the file (1-based), once located ([`ScenarioError::located`]).
     pub at: Option<(usize, usize)>,
+    /// The command-line flag that set the value (`--duration`), when one did: the problem is
+    /// then cited by the flag, not by a line of the file the value did not come from.
+    pub flag: Option<&'static str>,
 }
 
 impl Problem {
     pub fn new(path: impl Into<String>, value: Option<String>, reason: impl Into<String>) -> Self {
-        Self { path: path.into(), value, reason: reason.into(), at: None }
+        Self { path: path.into(), value, reason: reason.into(), at: None, flag: None }
     }
 }
 
@@ -43,7 +46,7 @@ impl ScenarioError {
     /// path is found.
     pub fn located(mut self, text: &str) -> Self {
         for p in &mut self.problems {
-            if p.at.is_none() {
+            if p.at.is_none() && p.flag.is_none() {
                 p.at = crate::locate::locate(text, &p.path);
             }
         }
@@ -56,9 +59,10 @@ impl fmt::Display for ScenarioError {
         let n = self.problems.len();
         write!(f, "{}: invalid scenario ({n} problem{})", self.file.display(), if n == 1 { "" } else { "s" })?;
         for p in &self.problems {
-            match p.at {
-                Some((line, col)) => write!(f, "\n  {}:{line}:{col}: {p}", self.file.display())?,
-                None => write!(f, "\n  {}: {p}", self.file.display())?,
+            match (p.flag, p.at) {
+                (Some(flag), _) => write!(f, "\n  {flag} (command line): {p}")?,
+                (None, Some((line, col))) => write!(f, "\n  {}:{line}:{col}: {p}", self.file.display())?,
+                (None, None) => write!(f, "\n  {}: {p}", self.file.display())?,
             }
             // A problem spanning several lines (a TOML syntax error's caret) stays indented.
         }

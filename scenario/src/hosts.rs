@@ -50,8 +50,8 @@ impl HostsFile {
     /// Read and parse a hosts file; its problems carry its own name and key paths.
     pub fn load(file: &Path) -> Result<Self, ScenarioError> {
         let fail = |problems| ScenarioError { file: file.to_path_buf(), problems };
-        let text = std::fs::read_to_string(file)
-            .map_err(|e| fail(vec![Problem::new("(file)", None, format!("cannot read: {e}"))]))?;
+        let text =
+            crate::parse::read_bounded(file).map_err(|reason| fail(vec![Problem::new("(file)", None, reason)]))?;
         let value: toml::Value = text
             .parse::<toml::Table>()
             .map_err(|e| fail(vec![Problem::new("(file)", None, format!("not valid TOML: {}", e.message()))]))?

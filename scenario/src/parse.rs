@@ -36,6 +36,35 @@ pub struct Overrides {
     pub telemetry: Option<String>,
 }
 
+impl Overrides {
+    /// The key paths this command line sets, each with the flag that set it.
+    pub fn flags(&self) -> Vec<(&'static str, &'static str)> {
+        let set = [
+            (self.seed.is_some(), "scenario.seed", "--seed"),
+            (self.duration_s.is_some(), "scenario.duration_s", "--duration"),
+            (self.step_timeout_s.is_some(), "run.step_timeout_s", "--step-timeout"),
+            (self.wait.is_some(), "run.wait", "--wait"),
+            (self.spin_us.is_some(), "run.spin_us", "--spin-us"),
+            (self.link_delay_steps.is_some(), "run.link_delay_steps", "--link-delay"),
+            (self.transport.is_some(), "run.transport", "--transport"),
+            (self.realtime_rate.is_some(), "run.realtime_rate", "--rate"),
+            (self.on_agent_loss.is_some(), "run.on_agent_loss", "--on-agent-loss"),
+            (self.authenticate.is_some(), "run.authenticate", "--authenticate"),
+            (self.record.is_some(), "run.record", "--record"),
+            (self.telemetry.is_some(), "run.telemetry", "--telemetry"),
+        ];
+        set.into_iter().filter(|(on, _, _)| *on).map(|(_, path, flag)| (path, flag)).collect()
+    }
+
+    /// Mark the problems of values this command line set with their flag (see [`Problem::flag`]).
+    pub fn mark(&self, problems: &mut [Problem]) {
+        let flags = self.flags();
+        for p in problems.iter_mut().filter(|p| p.flag.is_none()) {
+            p.flag = flags.iter().find(|(path, _)| p.path == *path).map(|(_, flag)| *flag);
+        }
+    }
+}
+
 /// Read and parse a scenario file: the generic sections typed and checked for their own form
 /// (not yet validated: see [`crate::validate::validate`]), the paper sections raw.
 pub fn load(file: &Path, overrides: &Overrides) -> Result<Scenario, ScenarioError> {
@@ -51,11 +80,62 @@ pub fn load(file: &Path, overrides: &Overrides) -> Result<Scenario, ScenarioErro
 /// (with the defaults there) together with those problems, so the paper sections can be checked
 /// too and every problem of the file reported at once.
 pub fn load_all(file: &Path, overrides: &Overrides) -> Result<(Scenario, Vec<Problem>), ScenarioError> {
-    let text = std::fs::read_to_string(file).map_err(|e| ScenarioError {
+    let text = read_bounded(file).map_err(|reason| ScenarioError {
         file: file.to_path_buf(),
-        problems: vec![Problem::new("(file)", None, format!("cannot read: {e}"))],
+        problems: vec![Problem::new("(file)", None, reason)],
     })?;
     parse_all(&text, file, overrides)
+}
+
+/// The largest scenario or hosts file read, bytes (the largest in `topologies/` is ≈ 6 kB; a
+/// generated scenario of hundreds of agents stays far below).
+pub const MAX_INPUT_BYTES: u64 = 4 << 20;
+
+/// A scenario or hosts file's text: a regular file of at most [`MAX_INPUT_BYTES`], read whole.
+/// A FIFO, a device (`/dev/zero`) or a directory is refused before it is opened (opening a FIFO
+/// would block, reading a device would never end), and so is a larger file; the reason is the
+/// error's text.
+pub fn read_bounded(file: &Path) -> Result<String, String> {
+    use std::io::Read as _;
+    let kind = |m: &std::fs::Metadata| {
+        use std::os::unix::fs::FileTypeExt as _;
+        let t = m.file_type();
+        if t.is_dir() {
+            "a directory"
+        } else if t.is_fifo() {
+            "a FIFO (named pipe)"
+        } else if t.is_char_device() || t.is_block_device() {
+            "a device"
+        } else if t.is_socket() {
+            "a socket"
+        } else {
+            "not a regular file"
+        }
+    };
+    let check = |m: &std::fs::Metadata| {
+        if !m.is_file() {
+            return Err(format!("cannot read: {}, not a regular file", kind(m)));
+        }
+        if m.len() > MAX_INPUT_BYTES {
+            return Err(format!(
+                "cannot read: {} bytes, more than the {MAX_INPUT_BYTES} bytes (4 MiB) a scenario file may have",
+                m.len()
+            ));
+        }
+        Ok(())
+    };
+    check(&std::fs::metadata(file).map_err(|e| format!("cannot read: {e}"))?)?;
+    let f = std::fs::File::open(file).map_err(|e| format!("cannot read: {e}"))?;
+    // The file opened may not be the one looked at (replaced in between): look again.
+    check(&f.metadata().map_err(|e| format!("cannot read: {e}"))?)?;
+    let mut bytes = Vec::new();
+    f.take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes).map_err(|e| format!("cannot read: {e}"))?;
+    if bytes.len() as u64 > MAX_INPUT_BYTES {
+        return Err(format!(
+            "cannot read: grew past the {MAX_INPUT_BYTES} bytes (4 MiB) a scenario file may have while read"
+        ));
+    }
+    String::from_utf8(bytes).map_err(|e| format!("cannot read: not UTF-8 text (byte {})", e.utf8_error().valid_up_to()))
 }
 
 /// Parse scenario text; `file` names it in messages, and its directory is the base of relative
@@ -67,7 +147,10 @@ pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario,
 
 /// [`parse`], keeping going past problems of `[run]` and `[[faults]]` (see [`load_all`]).
 pub fn parse_all(text: &str, file: &Path, overrides: &Overrides) -> Result<(Scenario, Vec<Problem>), ScenarioError> {
-    let err = |problems| ScenarioError { file: file.to_path_buf(), problems }.located(text);
+    let err = |mut problems: Vec<Problem>| {
+        overrides.mark(&mut problems);
+        ScenarioError { file: file.to_path_buf(), problems }.located(text)
+    };
     let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| err(vec![syntax_problem(text, &e)]))?;
     let faults_in_file = match table.get("faults") {
         Some(toml::Value::Array(a)) => a.len(),
@@ -80,6 +163,7 @@ pub fn parse_all(text: &str, file: &Path, overrides: &Overrides) -> Result<(Scen
     if let Some(h) = &overrides.hosts {
         problems.extend(crate::hosts::unplaced_ids(h, &s));
     }
+    overrides.mark(&mut problems);
     s.source = text.into();
     s.faults_in_file = faults_in_file;
     s.duration_from_command_line = overrides.duration_s.is_some();

@@ -251,6 +251,9 @@ pub(crate) fn key_pipe(key: &MacKey) -> Result<std::fs::File, String> {
 /// What a child needs between fork and exec: the key pipe's read end as [`KEY_FD`], its own
 /// process group (a terminal's Ctrl-C reaches only us), and death with its parent.
 pub(crate) fn child_setup(cmd: &mut Command, key_raw: Option<i32>) {
+    // The base directory this process resolved (its fallback, if the usual one is another
+    // user's): the children must find the run's iceoryx2 files where it made them.
+    cmd.env(cohort_wire::transport::iox::BASE_ENV, cohort_wire::transport::iox::user_base());
     // SAFETY: only async-signal-safe calls (dup2, setpgid, prctl, getppid) between fork and exec.
     unsafe {
         cmd.pre_exec(move || {
@@ -376,6 +379,10 @@ impl Resources {
         }
         let claim =
             run.claim().map_err(|e| format!("cannot claim the run's directory {}: {e}", run.root_dir().display()))?;
+        if let Some(note) = cohort_wire::transport::iox::user_base_note() {
+            static SAID: std::sync::Once = std::sync::Once::new();
+            SAID.call_once(|| tracing::warn!("{note}"));
+        }
         match IoxServices::create(run, &s.topology(), spare) {
             Ok(services) => Ok(Resources::Iox { services, claim }),
             Err(e) => {
@@ -1059,14 +1066,41 @@ fn blame(s: &Setup, dirs: &RunDirs, kids: &[Kid], waiting: &[Option<Waiting>], p
     // The others, briefly: they usually failed because of the primary.
     let others: Vec<String> =
         failed.iter().filter(|k| primary.is_none_or(|p| p.proc_ != k.proc_)).map(|k| describe(k)).collect();
+    let logs_empty = kids.iter().all(|k| last_log_line(&dirs.logs().join(format!("{}.log", k.proc_.name()))).is_none());
     const SHOWN: usize = 3;
     if !others.is_empty() {
         msg.push_str(&format!("; then: {}", others[..others.len().min(SHOWN)].join("; ")));
         if others.len() > SHOWN {
-            msg.push_str(&format!("; and {} more (see logs/)", others.len() - SHOWN));
+            let more = others.len() - SHOWN;
+            msg.push_str(&if logs_empty {
+                format!("; and {more} more")
+            } else {
+                format!("; and {more} more (see logs/)")
+            });
         }
     }
-    msg
+    match free_bytes(&dirs.root) {
+        // Nothing in any log, and no room left: that is the cause, and no log will say it.
+        Some(free) if logs_empty && free < FULL_BELOW_BYTES => format!(
+            "the file system of {} is full ({free} bytes free; No space left on device): its processes could \
+             write neither logs nor reports; {msg}",
+            dirs.root.display()
+        ),
+        _ => msg,
+    }
+}
+
+/// Below this many free bytes a file system counts as full: a process's first log line or report
+/// no longer fits.
+const FULL_BELOW_BYTES: u64 = 64 << 10;
+
+/// Bytes an unprivileged process may still write on the file system holding `dir`.
+fn free_bytes(dir: &Path) -> Option<u64> {
+    use std::os::unix::ffi::OsStrExt as _;
+    let c = std::ffi::CString::new(dir.as_os_str().as_bytes()).ok()?;
+    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+    // SAFETY: statvfs fills the struct we own from a NUL-terminated path.
+    (unsafe { libc::statvfs(c.as_ptr(), &mut st) } == 0).then(|| st.f_bavail as u64 * st.f_frsize as u64)
 }
 
 /// Stop every live child: stop request, then SIGTERM, then SIGKILL (see the module docs).

@@ -17,6 +17,7 @@ mod logging;
 mod multihost;
 mod python;
 mod python_loader;
+mod reliability;
 mod replay;
 mod runtime_options;
 mod summary;

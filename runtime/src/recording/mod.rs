@@ -34,6 +34,7 @@ pub mod reader;
 pub mod replay;
 #[cfg(test)]
 mod tests;
+pub mod walk;
 pub mod writer;
 
 use cohort_wire::msg::PLANT_ID;

@@ -218,9 +218,7 @@ fn a_damaged_cut_short_missing_or_foreign_file_is_refused_by_reason() {
     assert!(good.len() > 1000, "{} bytes", good.len());
 
     // One bit flipped in the first chunk's CRC of its decompressed records (chunk record: opcode,
-    // length, start and end time, decompressed size, CRC, …). A flip inside the compressed
-    // records themselves is not used here: the mcap crate then sometimes allocates from a
-    // damaged length and the process aborts (see the note in reader.rs).
+    // length, start and end time, decompressed size, CRC, …).
     let summary = mcap::Summary::read(&good).unwrap().expect("a summary");
     let chunk = &summary.chunk_indexes[0];
     let mut bad = good.clone();
@@ -239,10 +237,22 @@ fn a_damaged_cut_short_missing_or_foreign_file_is_refused_by_reason() {
     let e = reader::read(&path).err().expect("refused");
     assert!(matches!(e, ReadError::Corrupt { .. }) && e.to_string().contains("decompressed size"), "{e}");
 
-    // Cut short, as a killed process leaves it.
-    std::fs::write(&path, &good[..good.len() / 2]).unwrap();
-    let e = reader::read(&path).err().expect("refused");
-    assert!(matches!(e, ReadError::Corrupt { .. }), "{e}");
+    // Cut short, as a killed process leaves it: read up to its last complete chunk, saying so.
+    std::fs::write(&path, &good).unwrap();
+    let whole = reader::read(&path).unwrap();
+    assert!(whole.cut_short.is_none());
+    // Cut one byte into the record after the first chunk: that chunk's messages are read.
+    let first_end = usize::try_from(chunk.chunk_start_offset + chunk.chunk_length).unwrap();
+    std::fs::write(&path, &good[..first_end + 1]).unwrap();
+    let part = reader::read(&path).expect("read up to the cut");
+    let says = part.cut_short.clone().expect("says it is cut short");
+    assert!(says.contains("no footer") && says.contains("agent-2.mcap"), "{says}");
+    assert!(says.contains(&format!("read up to offset {first_end}")), "{says}");
+    assert!(!part.messages.is_empty() && part.messages.len() <= whole.messages.len(), "{says}");
+    // Cut inside the first chunk: nothing complete to read, said so.
+    std::fs::write(&path, &good[..first_end - 10]).unwrap();
+    let none = reader::read(&path).expect("read up to the cut");
+    assert!(none.messages.is_empty() && none.cut_short.is_some());
 
     // Not an MCAP at all, and no file.
     std::fs::write(&path, b"telemetry, not a recording").unwrap();
@@ -250,5 +260,46 @@ fn a_damaged_cut_short_missing_or_foreign_file_is_refused_by_reason() {
     let e = reader::read(&dir.join("record/agent-9.mcap")).err().expect("refused");
     assert!(matches!(e, ReadError::Missing { .. }) && e.to_string().contains("--record"), "{e}");
 
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 36, defect 4: seeded one-byte flips anywhere in a recording, and many in its chunks'
+/// headers and zstd frame headers (where the mcap crate allocated from a damaged length and the
+/// process aborted), are each read or refused naming the file: never a panic or an abort.
+#[test]
+fn seeded_byte_flips_are_read_or_refused_never_an_abort() {
+    let dir = scratch("flips");
+    run(&dir, true);
+    let path = path_for(&dir, Proc::Agent(2));
+    let good = std::fs::read(&path).unwrap();
+    let summary = mcap::Summary::read(&good).unwrap().expect("a summary");
+    let chunks: Vec<usize> = summary.chunk_indexes.iter().map(|c| c.chunk_start_offset as usize).collect();
+    let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut next = move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x
+    };
+    let (mut read, mut refused) = (0, 0);
+    for n in 0..2000 {
+        let at = if n % 2 == 0 {
+            (next() % good.len() as u64) as usize
+        } else {
+            // The chunk record's header and the start of its zstd frame (byte +59 among them).
+            (chunks[(next() % chunks.len() as u64) as usize] + (next() % 96) as usize).min(good.len() - 1)
+        };
+        let mut bad = good.clone();
+        bad[at] ^= 1 << (next() % 8);
+        std::fs::write(&path, &bad).unwrap();
+        match reader::read(&path) {
+            Ok(_) => read += 1,
+            Err(e) => {
+                assert!(e.to_string().contains("agent-2.mcap"), "flip at {at}: {e}");
+                refused += 1;
+            }
+        }
+    }
+    assert!(refused > 500, "{read} read, {refused} refused");
     let _ = std::fs::remove_dir_all(&dir);
 }

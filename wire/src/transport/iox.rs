@@ -63,19 +63,110 @@ fn euid() -> u32 {
     unsafe { libc::geteuid() }
 }
 
-/// The parent of this user's run directories: `$XDG_RUNTIME_DIR/cohort` when that variable names
-/// an absolute directory, else `/dev/shm/cohort-<uid>` (`/tmp/cohort-<uid>` where there is no
-/// `/dev/shm`). Per user, so one user's runs never meet another's (a shared `/tmp/iceoryx2` let a
-/// second user neither run nor trust the sweep). On a memory file system because iceoryx2 writes
-/// and fsyncs a file for every service, port and node: on this project's ext4 disk that cost
-/// ≈ 9 ms per service (26 ms per agent for the orchestrator alone, and the plant opens three
-/// services per agent), against 0.25 ms on tmpfs — it was most of a large run's start-up.
-pub fn user_base() -> PathBuf {
+/// The environment variable by which an orchestrator (or a host daemon) gives its children the
+/// base directory it resolved, so that a fallback ([`user_base`]) is the same in every process
+/// of a run. It is checked like any base before use.
+pub const BASE_ENV: &str = "COHORT_RUN_BASE";
+
+/// The base this process resolved (see [`user_base`]); reset when it stops passing its check.
+static RESOLVED: std::sync::Mutex<Option<Resolved>> = std::sync::Mutex::new(None);
+
+#[derive(Clone)]
+struct Resolved {
+    base: PathBuf,
+    /// Why the usual base was not used, when it was not.
+    note: Option<String>,
+}
+
+/// The usual parent of this user's run directories: `$XDG_RUNTIME_DIR/cohort` when that
+/// variable names an absolute directory, else `/dev/shm/cohort-<uid>` (`/tmp/cohort-<uid>` where
+/// there is no `/dev/shm`). Per user, so one user's runs never meet another's (a shared
+/// `/tmp/iceoryx2` let a second user neither run nor trust the sweep). On a memory file system
+/// because iceoryx2 writes and fsyncs a file for every service, port and node: on this project's
+/// ext4 disk that cost ≈ 9 ms per service (26 ms per agent for the orchestrator alone, and the
+/// plant opens three services per agent), against 0.25 ms on tmpfs — it was most of a large
+/// run's start-up.
+pub fn usual_user_base() -> PathBuf {
     match std::env::var_os("XDG_RUNTIME_DIR").map(PathBuf::from) {
         Some(x) if x.is_absolute() && x.is_dir() => x.join("cohort"),
         _ if StdPath::new("/dev/shm").is_dir() => PathBuf::from(format!("/dev/shm/cohort-{}", euid())),
         _ => PathBuf::from(format!("/tmp/cohort-{}", euid())),
     }
+}
+
+/// The parent of this user's run directories: [`BASE_ENV`] when the parent process set it, else
+/// [`usual_user_base`] unless something there is not this user's private directory (another
+/// local user can create `/dev/shm/cohort-<uid>` first, since every run removes it at its end):
+/// then a fresh private directory beside it, `<usual>-<3 hex digits>`, created by this user (or
+/// one such already this user's, reused), and [`user_base_note`] says so. Short, because a run's
+/// root inside it must stay within [`MAX_ROOT_DIR_LEN`].
+pub fn user_base() -> PathBuf {
+    if let Some(b) = std::env::var_os(BASE_ENV).map(PathBuf::from).filter(|b| b.is_absolute()) {
+        return b;
+    }
+    let mut r = RESOLVED.lock().unwrap_or_else(|p| p.into_inner());
+    r.get_or_insert_with(resolve_base).base.clone()
+}
+
+/// Why this process's runs are not in [`usual_user_base`], and where they are, if they are not.
+pub fn user_base_note() -> Option<String> {
+    RESOLVED.lock().unwrap_or_else(|p| p.into_inner()).as_ref().and_then(|r| r.note.clone())
+}
+
+fn resolve_base() -> Resolved {
+    let usual = usual_user_base();
+    let why = match std::fs::symlink_metadata(&usual) {
+        Err(_) => return Resolved { base: usual, note: None },
+        Ok(_) => match check_private_dir(&usual) {
+            Ok(()) => return Resolved { base: usual, note: None },
+            Err(why) => why,
+        },
+    };
+    match fallback_base(&usual) {
+        Ok(base) => {
+            let note = format!(
+                "{why}; this user's runs use {} instead (remove {} to get the usual place back)",
+                base.display(),
+                usual.display()
+            );
+            Resolved { base, note: Some(note) }
+        }
+        // Nothing better: the usual base, whose check then fails with its reason.
+        Err(_) => Resolved { base: usual, note: None },
+    }
+}
+
+/// A private directory beside `usual`, named `<usual>-<3 hex digits>`: one of this user's that
+/// passes [`check_private_dir`] (the earliest by name), else one made now (mode 0700; `mkdir`
+/// fails on a name someone else took, so what it makes is this user's).
+fn fallback_base(usual: &StdPath) -> std::io::Result<PathBuf> {
+    use std::os::unix::fs::DirBuilderExt;
+    let parent = usual.parent().unwrap_or(StdPath::new("/"));
+    let stem = usual.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+    let is_ours = |name: &str| {
+        name.strip_prefix(&format!("{stem}-")).is_some_and(|h| h.len() == 3 && h.bytes().all(|b| b.is_ascii_hexdigit()))
+    };
+    let mut mine: Vec<PathBuf> = std::fs::read_dir(parent)?
+        .flatten()
+        .filter(|e| is_ours(&e.file_name().to_string_lossy()))
+        .map(|e| e.path())
+        .filter(|p| check_private_dir(p).is_ok())
+        .collect();
+    mine.sort();
+    if let Some(p) = mine.into_iter().next() {
+        return Ok(p);
+    }
+    let mut seed = monotonic_ns() ^ u64::from(std::process::id()).rotate_left(32);
+    for _ in 0..256 {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let dir = parent.join(format!("{stem}-{:03x}", (seed >> 52) & 0xfff));
+        match std::fs::DirBuilder::new().mode(0o700).create(&dir) {
+            Ok(()) => return Ok(dir),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(e),
+        }
+    }
+    Err(std::io::Error::other("every fallback name is taken"))
 }
 
 /// The longest run root directory whose iceoryx2 event sockets still fit a unix socket address
@@ -117,7 +208,15 @@ pub fn check_private_dir(path: &StdPath) -> Result<(), String> {
 /// Create this user's base directory (mode 0700) if absent, then check that it is a directory
 /// owned by this user that nobody else can enter. Returns it.
 pub fn ensure_user_base() -> Result<PathBuf, TransportError> {
-    ensure_private_dir(user_base())
+    match ensure_private_dir(user_base()) {
+        // Taken by someone else since it was resolved (it did not exist then): resolve again,
+        // once, unless a parent process chose it.
+        Err(_) if std::env::var_os(BASE_ENV).is_none() => {
+            *RESOLVED.lock().unwrap_or_else(|p| p.into_inner()) = None;
+            ensure_private_dir(user_base())
+        }
+        r => r,
+    }
 }
 
 /// Where a host daemon keeps its processes' run files until the orchestrator fetches them: on
