@@ -3,14 +3,13 @@
 //! collects at once ([`Algorithm::take_failure`]), so the run fails at that step naming the agent,
 //! the method and the exception's last line, the full traceback in the agent's log.
 
-use std::cell::RefCell;
-
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
 use crate::convert::{array, floats};
-use crate::interp::{last_line, traceback};
+use crate::failure::{Failure, columns, raised};
+use crate::interp::last_line;
 
 /// What the wrapper knows beside the object: sizes to check returns against, and names for errors.
 pub struct Shape {
@@ -36,7 +35,7 @@ pub struct PyAlgorithm {
     rng: Option<Py<PyAny>>,
     columns: Vec<String>,
     has_roster: bool,
-    failure: RefCell<Option<String>>,
+    failure: Failure,
 }
 
 impl PyAlgorithm {
@@ -50,7 +49,7 @@ impl PyAlgorithm {
             rng: None,
             columns: Vec::new(),
             has_roster: false,
-            failure: RefCell::new(Some(why)),
+            failure: Failure::with(why),
         }
     }
 
@@ -63,16 +62,14 @@ impl PyAlgorithm {
             methods: None,
             rng: Some(rng.unbind()),
             columns: Vec::new(),
-            failure: RefCell::new(None),
+            failure: Failure::default(),
         };
         let method = |m: &str| obj.getattr(m).map(Bound::unbind);
         match (method("share"), method("step"), method("row")) {
             (Ok(share), Ok(step), Ok(row)) => me.methods = Some(Methods { share, step, row }),
             _ => me.fail(format!("{} lacks one of share, step, row", me.shape.name)),
         }
-        match obj.call_method0("columns").map_err(|e| me.raised(py, "columns", &e)).and_then(|c| {
-            c.extract::<Vec<String>>().map_err(|_| format!("{}.columns(): expected a list of str", me.shape.name))
-        }) {
+        match columns(py, &obj, (&me.shape.name, "agent's")) {
             Ok(c) => me.columns = c,
             Err(e) => me.fail(e),
         }
@@ -81,16 +78,11 @@ impl PyAlgorithm {
     }
 
     fn fail(&self, why: String) {
-        let mut f = self.failure.borrow_mut();
-        if f.is_none() {
-            *f = Some(why);
-        }
+        self.failure.set(why);
     }
 
-    /// Words for an exception raised in `method`; the traceback goes to the log.
     fn raised(&self, py: Python<'_>, method: &str, e: &PyErr) -> String {
-        tracing::error!("{}.{method}() raised:\n{}", self.shape.name, traceback(py, e));
-        format!("Python {}.{method}() raised {} (traceback in the agent's log)", self.shape.name, last_line(py, e))
+        raised(py, (&self.shape.name, "agent's"), method, e)
     }
 
     fn call_share(&self, py: Python<'_>, m: &Methods, input: &AgentInput<'_>) -> Result<(Vec<f64>, Vec<f64>), String> {
@@ -231,12 +223,12 @@ impl Algorithm for PyAlgorithm {
 
     fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
         let Some(obj) = &self.obj else {
-            return Err(self.failure.borrow().clone().unwrap_or_else(|| "not built".into()));
+            return Err(self.failure.peek().unwrap_or_else(|| "not built".into()));
         };
         Python::attach(|py| self.call_restore(py, obj.bind(py), bytes))
     }
 
     fn take_failure(&mut self) -> Option<String> {
-        self.failure.get_mut().take()
+        self.failure.take()
     }
 }

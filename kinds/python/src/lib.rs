@@ -26,6 +26,7 @@
 mod algorithm;
 pub mod config;
 mod convert;
+mod failure;
 mod instance;
 mod interp;
 mod plant;

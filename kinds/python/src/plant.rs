@@ -3,14 +3,12 @@
 //! handed to `readings(agent, rng)` in agent order every step, so the draws are the same in every
 //! run mode. Failures are collected as for an algorithm (see `algorithm.rs`).
 
-use std::cell::RefCell;
-
 use cohort_runtime::model::PlantModel;
 use pyo3::prelude::*;
 use rand_chacha::ChaCha8Rng;
 
 use crate::convert::{array, floats};
-use crate::interp::{last_line, traceback};
+use crate::failure::{Failure, columns, raised};
 
 pub struct PyPlant {
     name: String,
@@ -20,7 +18,7 @@ pub struct PyPlant {
     n_readings: usize,
     command_len: usize,
     has_metrics: bool,
-    failure: RefCell<Option<String>>,
+    failure: Failure,
 }
 
 impl PyPlant {
@@ -33,7 +31,7 @@ impl PyPlant {
             n_readings,
             command_len: 0,
             has_metrics: false,
-            failure: RefCell::new(Some(why)),
+            failure: Failure::with(why),
         }
     }
 
@@ -52,11 +50,9 @@ impl PyPlant {
             columns: Vec::new(),
             n_readings,
             command_len,
-            failure: RefCell::new(None),
+            failure: Failure::default(),
         };
-        match obj.call_method0("columns").map_err(|e| me.raised(py, "columns", &e)).and_then(|c| {
-            c.extract::<Vec<String>>().map_err(|_| format!("{}.columns(): expected a list of str", me.name))
-        }) {
+        match columns(py, &obj, (&me.name, "plant's")) {
             Ok(c) => me.columns = c,
             Err(e) => me.fail(e),
         }
@@ -65,15 +61,11 @@ impl PyPlant {
     }
 
     fn fail(&self, why: String) {
-        let mut f = self.failure.borrow_mut();
-        if f.is_none() {
-            *f = Some(why);
-        }
+        self.failure.set(why);
     }
 
     fn raised(&self, py: Python<'_>, method: &str, e: &PyErr) -> String {
-        tracing::error!("{}.{method}() raised:\n{}", self.name, traceback(py, e));
-        format!("Python {}.{method}() raised {} (traceback in the plant's log)", self.name, last_line(py, e))
+        raised(py, (&self.name, "plant's"), method, e)
     }
 
     /// Call `method` with `args` and make nothing of the result; a failure is kept.
@@ -167,6 +159,6 @@ impl PlantModel for PyPlant {
     }
 
     fn take_failure(&mut self) -> Option<String> {
-        self.failure.get_mut().take()
+        self.failure.take()
     }
 }
