@@ -1092,7 +1092,8 @@ mod tests {
 
         let missing = out.0.join("nowhere");
         let msg = draw_comparison(&out.0, &[("aemc".to_string(), missing.clone())], None).unwrap_err();
-        assert!(msg.contains(&missing.join("telemetry/agent-1.csv").display().to_string()), "{msg}");
+        assert!(msg.contains(&missing.join("telemetry/agent-1.parquet").display().to_string()), "{msg}");
+        assert!(msg.contains("or .csv: neither exists"), "{msg}");
         let bad = out.0.join("bad");
         std::fs::create_dir_all(bad.join("telemetry")).unwrap();
         let agent = bad.join("telemetry/agent-1.csv");
