@@ -64,6 +64,12 @@ pub enum RunError {
     Model { step: u64, t_s: f64, who: &'static str, what: String },
 }
 
+/// A model's failure since the driver last asked ([`PlantModel::take_failure`]), as the error
+/// that ends the run at step `step`.
+fn failed(what: Option<String>, who: &'static str, step: u64, t_s: f64) -> Result<(), RunError> {
+    what.map_or(Ok(()), |what| Err(RunError::Model { step, t_s, who, what }))
+}
+
 impl RunError {
     /// The report's form of this error.
     pub fn to_report(&self) -> crate::record::ProcessError {
@@ -757,9 +763,7 @@ fn plant_loop<T: Transport + ?Sized>(
             for i in 1..=n_agents {
                 readings.clear();
                 model.readings(i, rng, &mut readings);
-                if let Some(what) = model.take_failure() {
-                    return Err(RunError::Model { step: k, t_s: p.t_s(k), who: "the plant model", what });
-                }
+                failed(model.take_failure(), "the plant model", k, p.t_s(k))?;
                 if !readings.iter().all(|x| x.is_finite()) {
                     let what = format!("reading for agent {i}");
                     return Err(RunError::Diverged { step: k, t_s: p.t_s(k), who: "the plant model", what });
@@ -857,9 +861,7 @@ fn plant_loop<T: Transport + ?Sized>(
             }
             let round_ns = monotonic_ns() - round_start;
             model.advance(p.dt_s);
-            if let Some(what) = model.take_failure() {
-                return Err(RunError::Model { step: k, t_s, who: "the plant model", what });
-            }
+            failed(model.take_failure(), "the plant model", k, t_s)?;
             if let Some(rate) = p.realtime_rate {
                 // Real-time pacing: step k+1 starts no earlier than (k+1)·dt/rate after step 0.
                 let due = paced_from + Duration::from_secs_f64((k + 1) as f64 * p.dt_s / rate);
@@ -1445,9 +1447,7 @@ fn agent_loop<T: Transport + ?Sized>(
                 }
                 for s in k..back_at {
                     advance(algo, &mut inbox, s.checked_sub(delay), report);
-                    if let Some(what) = algo.take_failure() {
-                        return Err(RunError::Model { step: s, t_s: p.t_s(s), who: "the algorithm", what });
-                    }
+                    failed(algo.take_failure(), "the algorithm", s, p.t_s(s))?;
                 }
                 report.faults.steps_missed += back_at - k;
                 k = back_at;
@@ -1470,9 +1470,7 @@ fn agent_loop<T: Transport + ?Sized>(
             out.command.clear();
             out.values.clear();
             algo.share(&AgentInput { k, t_s, readings: m.readings() }, &mut out);
-            if let Some(what) = algo.take_failure() {
-                return Err(RunError::Model { step: k, t_s, who: "the algorithm", what });
-            }
+            failed(algo.take_failure(), "the algorithm", k, t_s)?;
             if !out.command.iter().all(|x| x.is_finite()) {
                 return Err(RunError::Diverged { step: k, t_s, who: "the algorithm", what: "command".into() });
             }
@@ -1523,9 +1521,7 @@ fn agent_loop<T: Transport + ?Sized>(
                 row.clear();
                 row.push(t_s);
                 algo.row(&mut row);
-                if let Some(what) = algo.take_failure() {
-                    return Err(RunError::Model { step: k, t_s, who: "the algorithm", what });
-                }
+                failed(algo.take_failure(), "the algorithm", k, t_s)?;
                 tel.row(k, &row).map_err(io("agent telemetry"))?;
             }
 
@@ -1539,9 +1535,7 @@ fn agent_loop<T: Transport + ?Sized>(
 
             let step_start = monotonic_ns();
             advance(algo, &mut inbox, used, report);
-            if let Some(what) = algo.take_failure() {
-                return Err(RunError::Model { step: k, t_s, who: "the algorithm", what });
-            }
+            failed(algo.take_failure(), "the algorithm", k, t_s)?;
             compute_ns += monotonic_ns() - step_start;
             timing.row(k, &[inbox.meas_latency_ns, neighbour_wait_ns, compute_ns]).map_err(io("agent timing"))?;
             report.steps_completed = k + 1;

@@ -215,6 +215,22 @@ fn child_named(parent: u32, name: &str) -> Option<i32> {
     None
 }
 
+/// `launch RING --out RUN ARGS…` started, with every process under way.
+fn spawn_ring(run: &Path, args: &[&str], stdout: Stdio, stderr: Stdio) -> std::process::Child {
+    let child = orchestrator_command()
+        .arg("launch")
+        .args(args)
+        .arg("--out")
+        .arg(run)
+        .arg(ring())
+        .stdout(stdout)
+        .stderr(stderr)
+        .spawn()
+        .unwrap();
+    wait_until_running(run, 7);
+    child
+}
+
 /// Wait (generously) until `run` has its status directory and every process's log, the sign the
 /// processes are under way.
 fn wait_until_running(run: &Path, n_logs: usize) {
@@ -232,15 +248,12 @@ fn a_killed_plant_still_gives_the_steps_the_run_completed() {
     let _g = heavy();
     let dir = scratch_dir("plant-kill");
     let run = dir.join("run");
-    let child = orchestrator_command()
-        .args(["launch", "--duration", "600", "--no-plots", "--realtime", "--rate", "20", "--out"])
-        .arg(&run)
-        .arg(ring())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    wait_until_running(&run, 7);
+    let child = spawn_ring(
+        &run,
+        &["--duration", "600", "--no-plots", "--realtime", "--rate", "20"],
+        Stdio::null(),
+        Stdio::piped(),
+    );
     std::thread::sleep(Duration::from_secs(3));
     let plant = child_named(child.id(), "plant").expect("the plant process");
     // SAFETY: kill(2) on the run's plant.
@@ -440,15 +453,12 @@ fn salvage_turns_a_killed_runs_journals_into_files_past_a_damaged_one() {
     let _g = heavy();
     let dir = scratch_dir("salvage");
     let run = dir.join("run");
-    let mut child = orchestrator_command()
-        .args(["launch", "--duration", "600", "--no-plots", "--realtime", "--rate", "20", "--out"])
-        .arg(&run)
-        .arg(ring())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    wait_until_running(&run, 7);
+    let mut child = spawn_ring(
+        &run,
+        &["--duration", "600", "--no-plots", "--realtime", "--rate", "20"],
+        Stdio::null(),
+        Stdio::null(),
+    );
     std::thread::sleep(Duration::from_secs(3));
     child.kill().unwrap();
     child.wait().unwrap();
@@ -487,15 +497,7 @@ fn in_real_time_a_stalled_plant_drops_no_healthy_agent() {
     let _g = heavy();
     let dir = scratch_dir("plant-stall");
     let run = dir.join("run");
-    let child = orchestrator_command()
-        .args(["launch", "--realtime", "--no-plots", "--out"])
-        .arg(&run)
-        .arg(ring())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    wait_until_running(&run, 7);
+    let child = spawn_ring(&run, &["--realtime", "--no-plots"], Stdio::piped(), Stdio::piped());
     std::thread::sleep(Duration::from_secs(2));
     let plant = child_named(child.id(), "plant").expect("the plant process");
     // SAFETY: kill(2) on the run's plant.

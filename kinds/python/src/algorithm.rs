@@ -7,7 +7,7 @@ use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
-use crate::convert::{array, floats};
+use crate::convert::{array, extend_floats, zeros_from};
 use crate::failure::{Failure, columns, raised};
 use crate::interp::last_line;
 
@@ -67,25 +67,25 @@ impl PyAlgorithm {
         let method = |m: &str| obj.getattr(m).map(Bound::unbind);
         match (method("share"), method("step"), method("row")) {
             (Ok(share), Ok(step), Ok(row)) => me.methods = Some(Methods { share, step, row }),
-            _ => me.fail(format!("{} lacks one of share, step, row", me.shape.name)),
+            _ => me.failure.set(format!("{} lacks one of share, step, row", me.shape.name)),
         }
-        match columns(py, &obj, (&me.shape.name, "agent's")) {
-            Ok(c) => me.columns = c,
-            Err(e) => me.fail(e),
-        }
+        me.columns = me.failure.keep(columns(py, &obj, (&me.shape.name, "agent's"))).unwrap_or_default();
         me.obj = Some(obj.unbind());
         me
-    }
-
-    fn fail(&self, why: String) {
-        self.failure.set(why);
     }
 
     fn raised(&self, py: Python<'_>, method: &str, e: &PyErr) -> String {
         raised(py, (&self.shape.name, "agent's"), method, e)
     }
 
-    fn call_share(&self, py: Python<'_>, m: &Methods, input: &AgentInput<'_>) -> Result<(Vec<f64>, Vec<f64>), String> {
+    /// `share()`'s command and values, appended to `out`'s.
+    fn call_share(
+        &self,
+        py: Python<'_>,
+        m: &Methods,
+        input: &AgentInput<'_>,
+        out: &mut ShareOut,
+    ) -> Result<(), String> {
         let y = array(py, input.readings);
         let ret = m.share.bind(py).call1((input.k, input.t_s, y)).map_err(|e| self.raised(py, "share", &e))?;
         let name = &self.shape.name;
@@ -95,9 +95,8 @@ impl PyAlgorithm {
             .filter(|t| t.len() == 2)
             .ok_or_else(|| format!("{name}.share(): expected a tuple (command, values)"))?;
         let get = |i: usize| pair.get_item(i).map_err(|e| self.raised(py, "share", &e));
-        let command = floats(&get(0)?, self.shape.command_len, || format!("{name}.share() command"))?;
-        let values = floats(&get(1)?, self.shape.share_values, || format!("{name}.share() values"))?;
-        Ok((command, values))
+        extend_floats(&get(0)?, self.shape.command_len, || format!("{name}.share() command"), &mut out.command)?;
+        extend_floats(&get(1)?, self.shape.share_values, || format!("{name}.share() values"), &mut out.values)
     }
 
     fn call_step(&self, py: Python<'_>, m: &Methods, dt_s: f64, nb: &[Neighbour<'_>]) -> Result<(), String> {
@@ -109,9 +108,9 @@ impl PyAlgorithm {
         Ok(())
     }
 
-    fn call_row(&self, py: Python<'_>, m: &Methods) -> Result<Vec<f64>, String> {
+    fn call_row(&self, py: Python<'_>, m: &Methods, out: &mut Vec<f64>) -> Result<(), String> {
         let ret = m.row.bind(py).call0().map_err(|e| self.raised(py, "row", &e))?;
-        floats(&ret, self.columns.len(), || format!("{}.row() (one per column)", self.shape.name))
+        extend_floats(&ret, self.columns.len(), || format!("{}.row() (one per column)", self.shape.name), out)
     }
 
     /// The user's state, then the generator's, as one checkpoint: [u64 LE length][user][rng].
@@ -155,70 +154,46 @@ impl Algorithm for PyAlgorithm {
     }
 
     fn share(&mut self, input: &AgentInput<'_>, out: &mut ShareOut) {
-        let r = match &self.methods {
-            Some(m) => Python::attach(|py| self.call_share(py, m, input)),
-            None => Err(String::new()), // failed at build: the failure is already set
-        };
-        match r {
-            Ok((command, values)) => {
-                out.command.extend_from_slice(&command);
-                out.values.extend_from_slice(&values);
-            }
-            Err(e) => {
-                if !e.is_empty() {
-                    self.fail(e);
-                }
-                out.command.resize(self.shape.command_len, 0.0);
-                out.values.resize(self.shape.share_values, 0.0);
-            }
+        // Not built (its failure is kept already), or the call failed: zeros.
+        let done = self
+            .methods
+            .as_ref()
+            .and_then(|m| self.failure.keep(Python::attach(|py| self.call_share(py, m, input, out))));
+        if done.is_none() {
+            zeros_from(&mut out.command, 0, self.shape.command_len);
+            zeros_from(&mut out.values, 0, self.shape.share_values);
         }
     }
 
     fn step(&mut self, dt_s: f64, neighbours: &[Neighbour<'_>]) {
-        if let Some(m) = &self.methods
-            && let Err(e) = Python::attach(|py| self.call_step(py, m, dt_s, neighbours))
-        {
-            self.fail(e);
+        if let Some(m) = &self.methods {
+            self.failure.keep(Python::attach(|py| self.call_step(py, m, dt_s, neighbours)));
         }
     }
 
     fn row(&self, out: &mut Vec<f64>) {
-        let r = match &self.methods {
-            Some(m) => Python::attach(|py| self.call_row(py, m)),
-            None => Ok(Vec::new()),
-        };
-        match r {
-            Ok(v) => out.extend_from_slice(&v),
-            Err(e) => {
-                self.fail(e);
-                out.extend(std::iter::repeat_n(0.0, self.columns.len()));
-            }
+        let start = out.len();
+        if let Some(m) = &self.methods
+            && self.failure.keep(Python::attach(|py| self.call_row(py, m, out))).is_none()
+        {
+            zeros_from(out, start, self.columns.len());
         }
     }
 
     fn roster(&mut self, live: &[bool]) {
         if let (Some(obj), true) = (&self.obj, self.has_roster) {
-            let r = Python::attach(|py| {
+            self.failure.keep(Python::attach(|py| {
                 obj.bind(py)
                     .call_method1("roster", (live.to_vec(),))
                     .map(drop)
                     .map_err(|e| self.raised(py, "roster", &e))
-            });
-            if let Err(e) = r {
-                self.fail(e);
-            }
+            }));
         }
     }
 
     fn save_state(&self) -> Vec<u8> {
         let Some(obj) = &self.obj else { return Vec::new() };
-        match Python::attach(|py| self.call_save(py, obj.bind(py))) {
-            Ok(b) => b,
-            Err(e) => {
-                self.fail(e);
-                Vec::new()
-            }
-        }
+        self.failure.keep(Python::attach(|py| self.call_save(py, obj.bind(py)))).unwrap_or_default()
     }
 
     fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {

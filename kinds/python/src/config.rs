@@ -31,8 +31,7 @@ use std::sync::Arc;
 
 use cohort_runtime::model::{Algorithm, PlantModel};
 use cohort_runtime::paper::{
-    AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys, deep_checks, section_as,
-    table_of,
+    AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantKind, PlantSetup, Setup, deep_checks, section_as, table_of,
 };
 use cohort_scenario::{Checker, Scenario};
 use serde::{Deserialize, Serialize};
@@ -208,9 +207,7 @@ impl PlantKind for PythonPlantKind {
     }
     fn configure(&self, ctx: &ConfigureCtx<'_>, c: &mut Checker) -> Option<Arc<dyn PlantSetup>> {
         let s = ctx.scenario;
-        let p = section_as::<PythonPlant>(&s.plant.body, "plant", c);
-        let agents = agent_keys::<toml::Table>(s, c)?;
-        let p = p?;
+        let p = section_as::<PythonPlant>(&s.plant.body, "plant", c)?;
         names("plant.measurement", &p.measurement, c);
         names("plant.command", &p.command, c);
         let file = module_file(s, &p.module, "plant.module", c)?;
@@ -218,10 +215,11 @@ impl PlantKind for PythonPlantKind {
         if !ctx.ids_ok {
             return None;
         }
-        let order: Vec<usize> = (1..=s.n_agents()).filter_map(|id| s.agents.iter().position(|a| a.id == id)).collect();
+        // Any per-agent keys: the class reads them (ids are 1..=N here).
+        let agents = (1..=s.n_agents()).map(|id| s.agent(id).extra.clone()).collect();
         let mut config = p;
         config.module = file.display().to_string();
-        Some(Arc::new(PythonPlantSetup { config, file, agents: order.iter().map(|&k| agents[k].clone()).collect() }))
+        Some(Arc::new(PythonPlantSetup { config, file, agents }))
     }
 }
 

@@ -17,35 +17,62 @@ pub fn array<'py>(py: Python<'py>, x: &[f64]) -> Bound<'py, PyArray1<f64>> {
     a
 }
 
-/// A list's or tuple's items as floats (None if one is not a number).
+/// A list's or tuple's items as floats appended to `out` (None if one is not a number).
 fn items<'py>(mut it: impl Iterator<Item = Bound<'py, PyAny>>, out: &mut Vec<f64>) -> Option<()> {
     it.try_for_each(|x| x.extract::<f64>().ok().map(|v| out.push(v)))
 }
 
-/// A returned vector of floats: `what` names the method and the value (`share() command`; made
-/// only for an error), `expected` its length.
-pub fn floats(obj: &Bound<'_, PyAny>, expected: usize, what: impl Fn() -> String) -> Result<Vec<f64>, String> {
-    let mut v = Vec::with_capacity(expected);
+/// Append a returned vector of floats to `out`: `what` names the method and the value
+/// (`share() command`; made only for an error), `expected` its length. On an error `out` is as
+/// it was.
+pub fn extend_floats(
+    obj: &Bound<'_, PyAny>,
+    expected: usize,
+    what: impl Fn() -> String,
+    out: &mut Vec<f64>,
+) -> Result<(), String> {
+    let start = out.len();
+    let r = read_floats(obj, expected, &what, out);
+    if r.is_err() {
+        out.truncate(start);
+    }
+    r
+}
+
+fn read_floats(
+    obj: &Bound<'_, PyAny>,
+    expected: usize,
+    what: &dyn Fn() -> String,
+    out: &mut Vec<f64>,
+) -> Result<(), String> {
+    let start = out.len();
     // Lists and tuples first: the common returns, read without a failed conversion's cost.
     let ok = if let Ok(l) = obj.cast::<PyList>() {
-        items(l.iter(), &mut v)
+        items(l.iter(), out)
     } else if let Ok(t) = obj.cast::<PyTuple>() {
-        items(t.iter(), &mut v)
+        items(t.iter(), out)
     } else if let Ok(a) = obj.extract::<PyReadonlyArray1<'_, f64>>() {
-        v.extend(a.as_array().iter());
+        out.extend(a.as_array().iter());
         Some(())
     } else {
-        obj.extract::<Vec<f64>>().ok().map(|x| v = x)
+        obj.extract::<Vec<f64>>().ok().map(|x| out.extend(x))
     };
     if ok.is_none() {
         let ty = obj.get_type().name().map(|n| n.to_string()).unwrap_or_else(|_| "?".into());
         return Err(format!("{}: expected a sequence of {expected} floats, got a {ty}", what()));
     }
+    let v = &out[start..];
     if v.len() != expected {
         return Err(format!("{}: expected {expected} values, got {}", what(), v.len()));
     }
     if let Some(i) = v.iter().position(|x| !x.is_finite()) {
         return Err(format!("{}: value {i} is {} (not finite)", what(), v[i]));
     }
-    Ok(v)
+    Ok(())
+}
+
+/// `out` from `start` on replaced by `n` zeros: what a failed call leaves.
+pub fn zeros_from(out: &mut Vec<f64>, start: usize, n: usize) {
+    out.truncate(start);
+    out.resize(start + n, 0.0);
 }

@@ -27,6 +27,10 @@ impl Failure {
     pub fn peek(&self) -> Option<String> {
         self.0.borrow().clone()
     }
+    /// `r`'s value, or None with its error kept.
+    pub fn keep<T>(&self, r: Result<T, String>) -> Option<T> {
+        r.map_err(|e| self.set(e)).ok()
+    }
     pub fn take(&mut self) -> Option<String> {
         self.0.get_mut().take()
     }

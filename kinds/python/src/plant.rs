@@ -7,7 +7,7 @@ use cohort_runtime::model::PlantModel;
 use pyo3::prelude::*;
 use rand_chacha::ChaCha8Rng;
 
-use crate::convert::{array, floats};
+use crate::convert::{array, extend_floats, zeros_from};
 use crate::failure::{Failure, columns, raised};
 
 pub struct PyPlant {
@@ -52,16 +52,9 @@ impl PyPlant {
             command_len,
             failure: Failure::default(),
         };
-        match columns(py, &obj, (&me.name, "plant's")) {
-            Ok(c) => me.columns = c,
-            Err(e) => me.fail(e),
-        }
+        me.columns = me.failure.keep(columns(py, &obj, (&me.name, "plant's"))).unwrap_or_default();
         me.obj = Some(obj.unbind());
         me
-    }
-
-    fn fail(&self, why: String) {
-        self.failure.set(why);
     }
 
     fn raised(&self, py: Python<'_>, method: &str, e: &PyErr) -> String {
@@ -79,9 +72,7 @@ impl PyPlant {
             let args = args(py).map_err(|e| self.raised(py, method, &e))?;
             obj.bind(py).call_method1(method, args).map(drop).map_err(|e| self.raised(py, method, &e))
         });
-        if let Err(e) = r {
-            self.fail(e);
-        }
+        self.failure.keep(r);
     }
 }
 
@@ -91,31 +82,32 @@ impl PlantModel for PyPlant {
     }
 
     fn readings(&mut self, agent: u32, _rng: &mut ChaCha8Rng, out: &mut Vec<f64>) {
-        let r = match (&self.obj, &self.rng) {
-            (Some(obj), Some(rng)) => Python::attach(|py| {
-                let ret = obj
-                    .bind(py)
-                    .call_method1("readings", (agent, rng.bind(py)))
-                    .map_err(|e| self.raised(py, "readings", &e))?;
-                floats(&ret, self.n_readings, || format!("{}.readings({agent})", self.name))
-            }),
-            _ => Err(String::new()),
+        let start = out.len();
+        // Not built (its failure is kept already), or the call failed: zeros.
+        let (Some(obj), Some(rng)) = (&self.obj, &self.rng) else {
+            return zeros_from(out, start, self.n_readings);
         };
-        match r {
-            Ok(v) => out.extend_from_slice(&v),
-            Err(e) => {
-                if !e.is_empty() {
-                    self.fail(e);
-                }
-                out.extend(std::iter::repeat_n(0.0, self.n_readings));
-            }
+        let r = Python::attach(|py| {
+            let ret = obj
+                .bind(py)
+                .call_method1("readings", (agent, rng.bind(py)))
+                .map_err(|e| self.raised(py, "readings", &e))?;
+            extend_floats(&ret, self.n_readings, || format!("{}.readings({agent})", self.name), out)
+        });
+        if self.failure.keep(r).is_none() {
+            zeros_from(out, start, self.n_readings);
         }
     }
 
     fn apply_command(&mut self, agent: u32, command: &[f64]) {
         // An agent dead before it ever sent one holds an empty command: zeros, as the trait says.
-        let mut u = command.to_vec();
-        u.resize(self.command_len, 0.0);
+        let u = if command.len() == self.command_len {
+            std::borrow::Cow::Borrowed(command)
+        } else {
+            let mut u = command.to_vec();
+            u.resize(self.command_len, 0.0);
+            std::borrow::Cow::Owned(u)
+        };
         self.call("apply_command", |py| {
             pyo3::types::PyTuple::new(py, [agent.into_pyobject(py)?.into_any(), array(py, &u).into_any()])
         });
@@ -126,19 +118,14 @@ impl PlantModel for PyPlant {
     }
 
     fn row(&self, out: &mut Vec<f64>) {
-        let r = match &self.obj {
-            Some(obj) => Python::attach(|py| {
-                let ret = obj.bind(py).call_method0("row").map_err(|e| self.raised(py, "row", &e))?;
-                floats(&ret, self.columns.len(), || format!("{}.row() (one per column)", self.name))
-            }),
-            None => Ok(Vec::new()),
-        };
-        match r {
-            Ok(v) => out.extend_from_slice(&v),
-            Err(e) => {
-                self.fail(e);
-                out.extend(std::iter::repeat_n(0.0, self.columns.len()));
-            }
+        let Some(obj) = &self.obj else { return };
+        let start = out.len();
+        let r = Python::attach(|py| {
+            let ret = obj.bind(py).call_method0("row").map_err(|e| self.raised(py, "row", &e))?;
+            extend_floats(&ret, self.columns.len(), || format!("{}.row() (one per column)", self.name), out)
+        });
+        if self.failure.keep(r).is_none() {
+            zeros_from(out, start, self.columns.len());
         }
     }
 
@@ -150,7 +137,13 @@ impl PlantModel for PyPlant {
                 .map_err(|_| format!("{}.metrics(): expected a dict of str to float", self.name))
         });
         match r {
-            Ok(m) => m.into_iter().filter(|(_, v)| v.is_finite()).collect(),
+            Ok(m) => {
+                let (finite, not): (Vec<_>, Vec<_>) = m.into_iter().partition(|(_, v)| v.is_finite());
+                for (name, v) in not {
+                    tracing::warn!("{}.metrics(): {name} = {v} is not finite; left out of the summary", self.name);
+                }
+                finite
+            }
             Err(e) => {
                 tracing::warn!("{e}");
                 Vec::new()

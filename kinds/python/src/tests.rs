@@ -7,7 +7,13 @@ use cohort_runtime::model::{AgentInput, Neighbour, ShareOut};
 use cohort_runtime::paper::{Paper, Setup, load};
 use pyo3::prelude::*;
 
-use crate::convert::floats;
+use crate::convert::extend_floats;
+
+/// The conversion into a fresh vector.
+fn floats(obj: &Bound<'_, PyAny>, n: usize, what: impl Fn() -> String) -> Result<Vec<f64>, String> {
+    let mut v = Vec::new();
+    extend_floats(obj, n, what, &mut v).map(|_| v)
+}
 
 static KINDS: &[&dyn Paper] = &[&cohort_paper_common::Common, &crate::Python];
 
