@@ -6,6 +6,7 @@
 use std::path::Path;
 use std::process::Output;
 
+use cohort::OutputWithin;
 use cohort::{describe_output, heavy, orchestrator_command, repo_root, scratch_dir};
 
 /// `orchestrator [FLAGS] launch consensus-ring --duration 1` into `out`, with `RUST_LOG` set to
@@ -21,7 +22,7 @@ fn launch(out: &Path, flags: &[&str], rust_log: Option<&str>) -> Output {
         Some(v) => c.env("RUST_LOG", v),
         None => c.env_remove("RUST_LOG"),
     };
-    let o = c.output().expect("running the orchestrator");
+    let o = c.output_within(cohort::RUN_LIMIT, "a launch with a log level");
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
     assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"), "{}", describe_output(&o));
     o

@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use cohort::OutputWithin;
 use cohort::{bin_path, describe_output, heavy, processes_mentioning, repo_root, scratch_dir, summary, telemetry_bits};
 use serde_json::Value;
 
@@ -240,7 +241,7 @@ fn launch_on_a(net: &Net, run: &Path, extra: &[&str]) -> Output {
         .args(["launch", "topologies/fig1.toml", "--no-plots", "--duration", DURATION, "--transport", "zenoh", "--out"])
         .arg(run)
         .args(extra);
-    c.output().expect("running the orchestrator")
+    c.output_within(cohort::RUN_LIMIT, "fig1 launched from host a across three hosts")
 }
 
 fn launch_here(run: &Path, extra: &[&str]) -> Output {
@@ -323,7 +324,7 @@ fn fig1_across_three_hosts_is_bit_identical_survives_kills_and_host_loss_and_net
     // Let it run a little (paced at 4× real time: 20 s of simulation take 5 s), then kill b.
     std::thread::sleep(Duration::from_millis(2500));
     daemons.kill(1);
-    let o = run.wait_with_output().expect("the run ends");
+    let o = cohort::finish_within(run, cohort::RUN_LIMIT, "fig1 in real time across three hosts");
     assert_eq!(o.status.code(), Some(1), "a lost host is an unplanned loss:\n{}", describe_output(&o));
     let s = summary(&lost);
     assert_eq!(s["status"], "degraded", "{}", describe_output(&o));

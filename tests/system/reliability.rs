@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use cohort::OutputWithin;
 use cohort::{describe_output, heavy, orchestrator_command, repo_root, scratch_dir, summary};
 
 fn ring() -> PathBuf {
@@ -43,7 +44,10 @@ fn of_two_launches_into_one_out_one_runs_and_the_other_is_refused() {
                 .unwrap()
         };
         let (a, b) = (spawn(1), spawn(8));
-        let (a, b) = (a.wait_with_output().unwrap(), b.wait_with_output().unwrap());
+        let (a, b) = (
+            cohort::finish_within(a, cohort::RUN_LIMIT, "the first launch into one --out"),
+            cohort::finish_within(b, cohort::RUN_LIMIT, "the second launch into one --out"),
+        );
         let codes = [a.status.code(), b.status.code()];
         let (winner, loser) = match codes {
             [Some(0), Some(2)] => (&a, &b),
@@ -59,22 +63,6 @@ fn of_two_launches_into_one_out_one_runs_and_the_other_is_refused() {
         assert!(said.contains("done"), "round {round}: {said}");
     }
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// A spawned command's output, or a failure naming what it was waiting for if it has not ended
-/// within `limit` (then it is killed).
-fn output_within(mut cmd: Command, limit: Duration, what: &str) -> Output {
-    let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
-    let deadline = Instant::now() + limit;
-    while child.try_wait().unwrap().is_none() {
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let o = child.wait_with_output().unwrap();
-            panic!("{what}: still running after {limit:?} (killed)\n{}", describe_output(&o));
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    child.wait_with_output().unwrap()
 }
 
 /// Defect 3: a FIFO, a device and a file past the documented size are refused at once with exit 2
@@ -104,7 +92,7 @@ fn a_fifo_a_device_or_an_oversized_file_is_refused_at_once() {
         let what = args.join(" ");
         let mut cmd = orchestrator_command();
         cmd.args(&args).args(["--no-plots"].iter().filter(|_| args[0] == "launch"));
-        let o = output_within(cmd, Duration::from_secs(60), &what);
+        let o = cmd.output_within(Duration::from_secs(60), &what);
         assert_eq!(o.status.code(), Some(2), "{what}\n{}", describe_output(&o));
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains(says), "{what}: expected {says:?}\n{err}");
@@ -186,8 +174,7 @@ fn a_base_directory_squatted_by_another_user_is_replaced_by_a_private_one() {
             .args(["launch", "--duration", "2", "--no-plots", "--out"])
             .arg(&out)
             .arg(ring())
-            .output()
-            .unwrap();
+            .output_within(cohort::RUN_LIMIT, "a launch with a private XDG_RUNTIME_DIR");
         assert_eq!(o.status.code(), Some(0), "round {round}\n{}", describe_output(&o));
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains("belongs to uid 65534") && err.contains("this user's runs use"), "{err}");
@@ -258,7 +245,7 @@ fn a_killed_plant_still_gives_the_steps_the_run_completed() {
     let plant = child_named(child.id(), "plant").expect("the plant process");
     // SAFETY: kill(2) on the run's plant.
     unsafe { libc::kill(plant, libc::SIGKILL) };
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the run whose plant was killed");
     assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let s = summary(&run);
     let done = s["steps_completed"].as_u64().unwrap();
@@ -323,7 +310,7 @@ fn sigterm_while_drawing_the_plots_exits_143() {
     // SAFETY: kill(2) on the child we spawned.
     unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
     let started = Instant::now();
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the run sent SIGTERM while drawing its plots");
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(143), "{}", describe_output(&o));
     assert!(err.contains("while drawing the plots"), "{err}");
@@ -371,7 +358,7 @@ fn on_a_full_disk_with_empty_logs_the_error_gives_the_cause() {
 fn replay_agent_2(run: &Path, what: &str) -> Output {
     let mut cmd = orchestrator_command();
     cmd.arg("replay").arg(run).args(["--agent", "2"]);
-    output_within(cmd, Duration::from_secs(60), what)
+    cmd.output_within(Duration::from_secs(60), what)
 }
 
 /// Defect 4: 200 seeded one-byte flips of a recording — half anywhere, half in a chunk's header
@@ -470,7 +457,10 @@ fn salvage_turns_a_killed_runs_journals_into_files_past_a_damaged_one() {
     let tel = run.join("telemetry");
     assert!(tel.join("plant.rows").is_file() && !tel.join("plant.parquet").exists(), "only journals are left");
     std::fs::write(tel.join("agent-3.rows"), b"damaged").unwrap();
-    let o = orchestrator_command().arg("salvage").arg(&run).output().unwrap();
+    let o = orchestrator_command()
+        .arg("salvage")
+        .arg(&run)
+        .output_within(cohort::RUN_LIMIT, "salvage of an interrupted run");
     assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("agent-3.rows"), "{err}");
@@ -483,7 +473,8 @@ fn salvage_turns_a_killed_runs_journals_into_files_past_a_damaged_one() {
     assert!(s["steps_completed"].as_u64().unwrap() > 100, "{}", s["steps_completed"]);
     let rows = cohort::telemetry_table(&run, "plant").rows();
     assert!(rows > 100, "{rows} plant rows salvaged");
-    let o = orchestrator_command().arg("report").arg(&run).output().unwrap();
+    let o =
+        orchestrator_command().arg("report").arg(&run).output_within(cohort::QUICK_LIMIT, "report of a salvaged run");
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -505,7 +496,7 @@ fn in_real_time_a_stalled_plant_drops_no_healthy_agent() {
     std::thread::sleep(Duration::from_secs(11));
     // SAFETY: as above.
     unsafe { libc::kill(plant, libc::SIGCONT) };
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the real-time run whose plant was stalled");
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
     let s = summary(&run);
     assert_eq!(s["status"], "ok", "{}", s["timeline"]);
