@@ -523,3 +523,38 @@ fn in_real_time_a_stalled_plant_drops_no_healthy_agent() {
     assert!(log.contains("behind its real-time schedule"), "{log}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 36, item 9.2: a soak's report has every run's latency figures, read from the run's
+/// `timing/` histograms before the soak deletes that directory (its per-run latency plot read
+/// them after, and so found nothing). The runs' samples add up to the links' over all runs.
+#[test]
+fn a_soak_report_has_each_runs_latency_figures_though_its_timing_dir_is_gone() {
+    let _g = heavy();
+    let dir = scratch_dir("soak-timing");
+    let out = dir.join("soak");
+    let o = orchestrator_command()
+        .arg("soak")
+        .arg(ring())
+        .args(["--wall", "1s", "--seed", "7", "--out"])
+        .arg(&out)
+        .output()
+        .expect("running the orchestrator");
+    assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
+    let report = cohort::read_json(&out.join("soak.json"));
+    let runs = report["runs"].as_array().expect("soak.json: runs");
+    assert!(!runs.is_empty(), "no run in {report}");
+    let mut run_samples = 0;
+    for r in runs {
+        let l = &r["latency"];
+        let samples = l["samples"].as_u64().unwrap_or_else(|| panic!("run {}: no latency figures: {r}", r["run"]));
+        assert!(samples > 0 && l["p99_ns"].as_u64().is_some_and(|p| p > 0), "run {}: {l}", r["run"]);
+        assert!(l["max_ns"].as_u64() >= l["p99_ns"].as_u64(), "run {}: {l}", r["run"]);
+        assert!(!out.join(format!("run-{:03}", r["run"].as_u64().unwrap())).join("timing").exists());
+        run_samples += samples;
+    }
+    let link_samples: u64 = report["links"].as_object().unwrap().values().map(|l| l["samples"].as_u64().unwrap()).sum();
+    assert_eq!(run_samples, link_samples, "{report}");
+    let md = std::fs::read_to_string(out.join("soak.md")).unwrap();
+    assert!(md.contains("| latency p99 µs | latency max µs |"), "{md}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
