@@ -558,3 +558,27 @@ fn a_soak_report_has_each_runs_latency_figures_though_its_timing_dir_is_gone() {
     assert!(md.contains("| latency p99 µs | latency max µs |"), "{md}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 36, item 9.3: `bench --only X` builds the network-namespace lab only when a chosen case
+/// crosses it. A one-host ring case builds none (`lab_links` is null; as root, it was built for
+/// every bench). Under the network lab's lock, as the other lab users are.
+#[test]
+fn bench_only_a_one_host_case_builds_no_network_lab() {
+    let _g = heavy();
+    let dir = scratch_dir("bench-nolab");
+    let o = Command::new("flock")
+        .arg("/tmp/cohort-netlab.lock")
+        .arg(cohort::bin_path("orchestrator"))
+        .args(["bench", "--quick", "--only", "ring/N=6/event", "--out"])
+        .arg(&dir)
+        .current_dir(repo_root())
+        .output()
+        .expect("running flock and the orchestrator");
+    assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
+    let results = cohort::read_json(&dir.join("results.json"));
+    assert!(results["lab_links"].is_null(), "a lab was built for ring/N=6/event: {}", results["lab_links"]);
+    let keys: Vec<&str> = results["cases"].as_array().unwrap().iter().map(|c| c["key"].as_str().unwrap()).collect();
+    assert_eq!(keys, ["ring/N=6/event"]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not building it"), "{}", describe_output(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
