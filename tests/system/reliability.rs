@@ -582,3 +582,49 @@ fn bench_only_a_one_host_case_builds_no_network_lab() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("not building it"), "{}", describe_output(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 36, item 9.6: SIGTERM while a zenoh process waits for its peers (`ZenohPending::ready`)
+/// ends it at once with the stopped status (4), not after `run.startup_timeout_s` (here 300 s).
+/// The agent's peers (the plant, its readers, the orchestrator) never come.
+#[test]
+fn sigterm_ends_a_zenoh_process_waiting_for_peers_that_never_come() {
+    let _g = heavy();
+    let dir = scratch_dir("zenoh-pending-term");
+    let text = std::fs::read_to_string(ring()).unwrap().replace(
+        "[run]\nstep_timeout_s = 10.0\n",
+        "[run]\nstep_timeout_s = 10.0\ntransport = \"zenoh\"\nstartup_timeout_s = 300.0\n",
+    );
+    assert!(text.contains("transport = \"zenoh\""), "the ring's [run] table moved: {text}");
+    std::fs::write(dir.join("scenario.toml"), text).unwrap();
+    let mut child = Command::new(cohort::bin_path("agent"))
+        .args(["--id", "1", "--run-id", "0a5e", "--build-id", cohort_wire::BUILD_ID, "--zenoh-listen", "tcp/127.0.0.1:0"])
+        .arg("--run-dir")
+        .arg(&dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting an agent");
+    // Let it declare its endpoint and enter the wait (a loaded machine: generous).
+    std::thread::sleep(Duration::from_secs(3));
+    assert!(child.try_wait().unwrap().is_none(), "the agent ended before it was signalled");
+    // SAFETY: kill(2) on our own child's pid.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let signalled = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if signalled.elapsed() > Duration::from_secs(20) {
+            let _ = child.kill();
+            let o = child.wait_with_output().unwrap();
+            panic!("waited 20 s for the agent to end after SIGTERM; it was still waiting: {}", describe_output(&o));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(4), "the stopped status: {err}");
+    assert!(err.contains("stopped on request"), "{err}");
+    assert!(cohort::processes_mentioning(&dir.display().to_string()).is_empty(), "an orphan is left");
+    let _ = std::fs::remove_dir_all(&dir);
+}
