@@ -514,3 +514,109 @@ fn in_real_time_a_stalled_plant_drops_no_healthy_agent() {
     assert!(log.contains("behind its real-time schedule"), "{log}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 36, item 9.2: a soak's report has every run's latency figures, read from the run's
+/// `timing/` histograms before the soak deletes that directory (its per-run latency plot read
+/// them after, and so found nothing). The runs' samples add up to the links' over all runs.
+#[test]
+fn a_soak_report_has_each_runs_latency_figures_though_its_timing_dir_is_gone() {
+    let _g = heavy();
+    let dir = scratch_dir("soak-timing");
+    let out = dir.join("soak");
+    let o = orchestrator_command()
+        .arg("soak")
+        .arg(ring())
+        .args(["--wall", "1s", "--seed", "7", "--out"])
+        .arg(&out)
+        .output()
+        .expect("running the orchestrator");
+    assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
+    let report = cohort::read_json(&out.join("soak.json"));
+    let runs = report["runs"].as_array().expect("soak.json: runs");
+    assert!(!runs.is_empty(), "no run in {report}");
+    let mut run_samples = 0;
+    for r in runs {
+        let l = &r["latency"];
+        let samples = l["samples"].as_u64().unwrap_or_else(|| panic!("run {}: no latency figures: {r}", r["run"]));
+        assert!(samples > 0 && l["p99_ns"].as_u64().is_some_and(|p| p > 0), "run {}: {l}", r["run"]);
+        assert!(l["max_ns"].as_u64() >= l["p99_ns"].as_u64(), "run {}: {l}", r["run"]);
+        assert!(!out.join(format!("run-{:03}", r["run"].as_u64().unwrap())).join("timing").exists());
+        run_samples += samples;
+    }
+    let link_samples: u64 = report["links"].as_object().unwrap().values().map(|l| l["samples"].as_u64().unwrap()).sum();
+    assert_eq!(run_samples, link_samples, "{report}");
+    let md = std::fs::read_to_string(out.join("soak.md")).unwrap();
+    assert!(md.contains("| latency p99 µs | latency max µs |"), "{md}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 36, item 9.3: `bench --only X` builds the network-namespace lab only when a chosen case
+/// crosses it. A one-host ring case builds none (`lab_links` is null; as root, it was built for
+/// every bench). Under the network lab's lock, as the other lab users are.
+#[test]
+fn bench_only_a_one_host_case_builds_no_network_lab() {
+    let _g = heavy();
+    let dir = scratch_dir("bench-nolab");
+    let o = Command::new("flock")
+        .arg("/tmp/cohort-netlab.lock")
+        .arg(cohort::bin_path("orchestrator"))
+        .args(["bench", "--quick", "--only", "ring/N=6/event", "--out"])
+        .arg(&dir)
+        .current_dir(repo_root())
+        .output()
+        .expect("running flock and the orchestrator");
+    assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
+    let results = cohort::read_json(&dir.join("results.json"));
+    assert!(results["lab_links"].is_null(), "a lab was built for ring/N=6/event: {}", results["lab_links"]);
+    let keys: Vec<&str> = results["cases"].as_array().unwrap().iter().map(|c| c["key"].as_str().unwrap()).collect();
+    assert_eq!(keys, ["ring/N=6/event"]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not building it"), "{}", describe_output(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 36, item 9.6: SIGTERM while a zenoh process waits for its peers (`ZenohPending::ready`)
+/// ends it at once with the stopped status (4), not after `run.startup_timeout_s` (here 300 s).
+/// The agent's peers (the plant, its readers, the orchestrator) never come.
+#[test]
+fn sigterm_ends_a_zenoh_process_waiting_for_peers_that_never_come() {
+    let _g = heavy();
+    let dir = scratch_dir("zenoh-pending-term");
+    let text = std::fs::read_to_string(ring()).unwrap().replace(
+        "[run]\nstep_timeout_s = 10.0\n",
+        "[run]\nstep_timeout_s = 10.0\ntransport = \"zenoh\"\nstartup_timeout_s = 300.0\n",
+    );
+    assert!(text.contains("transport = \"zenoh\""), "the ring's [run] table moved: {text}");
+    std::fs::write(dir.join("scenario.toml"), text).unwrap();
+    let mut child = Command::new(cohort::bin_path("agent"))
+        .args(["--id", "1", "--run-id", "0a5e", "--build-id", cohort_wire::BUILD_ID])
+        .args(["--zenoh-listen", "tcp/127.0.0.1:0"])
+        .arg("--run-dir")
+        .arg(&dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting an agent");
+    // Let it declare its endpoint and enter the wait (a loaded machine: generous).
+    std::thread::sleep(Duration::from_secs(3));
+    assert!(child.try_wait().unwrap().is_none(), "the agent ended before it was signalled");
+    // SAFETY: kill(2) on our own child's pid.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let signalled = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if signalled.elapsed() > Duration::from_secs(20) {
+            let _ = child.kill();
+            let o = child.wait_with_output().unwrap();
+            panic!("waited 20 s for the agent to end after SIGTERM; it was still waiting: {}", describe_output(&o));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(4), "the stopped status: {err}");
+    assert!(err.contains("stopped on request"), "{err}");
+    assert!(cohort::processes_mentioning(&dir.display().to_string()).is_empty(), "an orphan is left");
+    let _ = std::fs::remove_dir_all(&dir);
+}
