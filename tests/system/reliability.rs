@@ -528,8 +528,7 @@ fn a_soak_report_has_each_runs_latency_figures_though_its_timing_dir_is_gone() {
         .arg(ring())
         .args(["--wall", "1s", "--seed", "7", "--out"])
         .arg(&out)
-        .output()
-        .expect("running the orchestrator");
+        .output_within(cohort::RUN_LIMIT, "a one-second soak of the ring");
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
     let report = cohort::read_json(&out.join("soak.json"));
     let runs = report["runs"].as_array().expect("soak.json: runs");
@@ -563,8 +562,7 @@ fn bench_only_a_one_host_case_builds_no_network_lab() {
         .args(["bench", "--quick", "--only", "ring/N=6/event", "--out"])
         .arg(&dir)
         .current_dir(repo_root())
-        .output()
-        .expect("running flock and the orchestrator");
+        .output_within(cohort::RUN_LIMIT, "bench --only ring/N=6/event under the network lab's lock");
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
     let results = cohort::read_json(&dir.join("results.json"));
     assert!(results["lab_links"].is_null(), "a lab was built for ring/N=6/event: {}", results["lab_links"]);
