@@ -599,21 +599,10 @@ fn sigterm_ends_a_zenoh_process_waiting_for_peers_that_never_come() {
     assert!(child.try_wait().unwrap().is_none(), "the agent ended before it was signalled");
     // SAFETY: kill(2) on our own child's pid.
     unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
-    let signalled = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if signalled.elapsed() > Duration::from_secs(20) {
-            let _ = child.kill();
-            let o = child.wait_with_output().unwrap();
-            panic!("waited 20 s for the agent to end after SIGTERM; it was still waiting: {}", describe_output(&o));
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    let mut err = String::new();
-    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
-    assert_eq!(status.code(), Some(4), "the stopped status: {err}");
+    let o =
+        cohort::finish_within(child, Duration::from_secs(20), "the agent, sent SIGTERM while it waited for its peers");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(4), "the stopped status: {err}");
     assert!(err.contains("stopped on request"), "{err}");
     assert!(cohort::processes_mentioning(&dir.display().to_string()).is_empty(), "an orphan is left");
     let _ = std::fs::remove_dir_all(&dir);

@@ -607,13 +607,14 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             )));
         }
     }
-    let (lab, veth_rtt) = if cases.iter().any(|c| c.lab.is_some()) {
+    let wants_lab = cases.iter().any(|c| c.lab.is_some());
+    let (lab, veth_rtt) = if wants_lab {
         start_lab()
     } else {
         tracing::info!("no chosen case crosses the network-namespace lab: not building it");
         (None, None)
     };
-    if lab.is_none() && cases.iter().any(|c| c.lab.is_some()) {
+    if lab.is_none() && wants_lab {
         cases.retain(|c| c.lab.is_none());
         if cases.is_empty() {
             return Err(BenchError::Failed(format!(
