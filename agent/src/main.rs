@@ -5,9 +5,11 @@
 use std::process::ExitCode;
 
 use clap::Parser;
-use cohort_runtime::checkpoint::{AgentState, Checkpoint, path_for};
+use cohort_runtime::checkpoint::{AgentState, Checkpoint, CheckpointError, path_for};
 use cohort_runtime::process::{CommonArgs, child_main};
 use cohort_runtime::record::{ErrorKind, ProcessError, ProcessReport};
+use cohort_runtime::recording::walk::Attachment;
+use cohort_runtime::recording::{CHECKPOINT_MEDIA_TYPE, RESTORED_FROM};
 use cohort_wire::transport::Proc;
 
 /// Cohort agent process (launched by `orchestrator launch`, not by hand).
@@ -29,17 +31,34 @@ struct Args {
 fn main() -> ExitCode {
     let a = Args::parse();
     let (id, restore_at) = (a.id, a.restore_at);
-    child_main(a.common.into_spec(Proc::Agent(id)), cohort_registry::PAPERS, |setup, transport, params| {
+    // A relaunched agent reads its checkpoint once, here: the bytes it resumes from are the ones
+    // its recording carries (`run.record`), so a replay of this incarnation starts from them too.
+    let raw = restore_at.map(|_| {
+        let path = path_for(&a.common.run_dir, id);
+        std::fs::read(&path).map_err(|e| format!("cannot restore: checkpoint {}: cannot read: {e}", path.display()))
+    });
+    let mut spec = a.common.into_spec(Proc::Agent(id));
+    if let Some(Ok(bytes)) = &raw {
+        spec.record_attachments.push(Attachment {
+            name: RESTORED_FROM.into(),
+            media_type: CHECKPOINT_MEDIA_TYPE.into(),
+            data: bytes.clone(),
+        });
+    }
+    child_main(spec, cohort_registry::PAPERS, |setup, transport, params| {
         let mut algo = setup.algorithm.build(setup, id);
         let neighbours = setup.agent(id).neighbours.clone();
-        let checkpoint = if let Some(at) = restore_at {
-            match load(
-                &params.dirs.root,
-                (params.run_id, id),
-                &params.algorithm_kind,
-                algo.as_mut(),
-                (at, params.n_steps),
-            ) {
+        let checkpoint = if let (Some(at), Some(raw)) = (restore_at, raw) {
+            match raw.and_then(|bytes| {
+                load(
+                    &bytes,
+                    &params.dirs.root,
+                    (params.run_id, id),
+                    &params.algorithm_kind,
+                    algo.as_mut(),
+                    (at, params.n_steps),
+                )
+            }) {
                 Ok(c) => Some(c),
                 Err(e) => return failed(id, e),
             }
@@ -50,10 +69,11 @@ fn main() -> ExitCode {
     })
 }
 
-/// Load and check the latest checkpoint, restore it, and leave evidence of both for the tests
-/// and the curious: the file as read (`agent-<id>.loaded.ckpt`) and the state as restored,
-/// encoded again from the live algorithm (`agent-<id>.restored.ckpt`).
+/// Check the latest checkpoint (`bytes`, the file as read), restore it, and leave evidence of both
+/// for the tests and the curious: the file as read (`agent-<id>.loaded.ckpt`) and the state as
+/// restored, encoded again from the live algorithm (`agent-<id>.restored.ckpt`).
 fn load(
+    bytes: &[u8],
     run_dir: &std::path::Path,
     (run_id, id): (u64, u32),
     kind: &str,
@@ -61,14 +81,15 @@ fn load(
     (relaunch_step, n_steps): (u64, u64),
 ) -> Result<Checkpoint, String> {
     let path = path_for(run_dir, id);
-    let c = Checkpoint::read(&path, run_id, id, kind).map_err(|e| format!("cannot restore: {e}"))?;
+    let c = Checkpoint::decode(bytes, run_id, id, kind)
+        .map_err(|reason| format!("cannot restore: {}", CheckpointError { path: path.clone(), reason }))?;
     c.check_resume(relaunch_step, n_steps)
         .map_err(|e| format!("cannot restore: checkpoint {}: {e}", path.display()))?;
     algo.restore_state(&c.state.algorithm)
         .map_err(|e| format!("cannot restore: checkpoint {}: algorithm state: {e}", path.display()))?;
     let dir = path.parent().expect("checkpoints live in a directory");
     let loaded = dir.join(format!("agent-{id}.loaded.ckpt"));
-    std::fs::copy(&path, &loaded).map_err(|e| format!("{}: {e}", loaded.display()))?;
+    std::fs::write(&loaded, bytes).map_err(|e| format!("{}: {e}", loaded.display()))?;
     let again =
         Checkpoint { state: AgentState { algorithm: algo.save_state(), held: c.state.held.clone() }, ..c.clone() };
     again.write(&dir.join(format!("agent-{id}.restored.ckpt"))).map_err(|e| format!("{}: {e}", dir.display()))?;

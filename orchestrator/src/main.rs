@@ -190,7 +190,12 @@ enum Cmd {
         /// The agent to replay (1..=N).
         #[arg(long)]
         agent: u32,
-        /// Where the replayed agent's telemetry goes; default RUN_DIR/replay/agent-<I>/.
+        /// Only this incarnation of the agent: 0 its first process, N its N-th relaunch by a
+        /// `restart` fault (recorded to agent-<I>.<N>.mcap). Default: every one it recorded.
+        #[arg(long)]
+        incarnation: Option<u32>,
+        /// Where the replayed agent's telemetry goes; default RUN_DIR/replay/agent-<I>/ (a
+        /// relaunch's, when every incarnation is replayed, beside it: <DIR>.<N>).
         #[arg(long)]
         out: Option<PathBuf>,
     },
@@ -533,7 +538,9 @@ fn generic(command: Cmd) -> ExitCode {
                 ExitCode::from(EXIT_FAILED)
             }
         },
-        Cmd::Replay { run_dir, agent, out } => replay::command(&run_dir, agent, out.as_deref()),
+        Cmd::Replay { run_dir, agent, incarnation, out } => {
+            replay::command(&run_dir, agent, incarnation, out.as_deref())
+        }
         Cmd::Salvage { run_dir } => salvage::command(&run_dir),
         Cmd::Report { run_dir } => match launcher::report(&run_dir) {
             Ok(files) => {

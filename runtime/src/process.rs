@@ -73,6 +73,7 @@ impl CommonArgs {
             key_fd: self.key_fd,
             zenoh_connect: self.zenoh_connect,
             zenoh_listen: self.zenoh_listen,
+            record_attachments: Vec::new(),
         }
     }
 }
@@ -88,6 +89,9 @@ pub struct ChildSpec {
     pub key_fd: Option<i32>,
     pub zenoh_connect: Vec<String>,
     pub zenoh_listen: Vec<String>,
+    /// With `run.record`: files the process's recording carries (a relaunched agent's: the
+    /// checkpoint it resumes from, so that its replay can resume from the same state).
+    pub record_attachments: Vec<crate::recording::walk::Attachment>,
 }
 
 /// Run one child process to its end. The run directory's resolved scenario is configured with
@@ -196,7 +200,8 @@ pub fn child_main(
     info!("ready ({} steps of {} s)", params.n_steps, params.dt_s);
     let report = if scenario.run.record && matches!(me, Proc::Agent(_)) {
         // `run.record`: this agent's messages to record/<proc>.mcap (see `recording`).
-        let meta = RecordMeta::from_setup(&scenario, run_id, me);
+        let mut meta = RecordMeta::from_setup(&scenario, run_id, me);
+        meta.attachments = spec.record_attachments.clone();
         match Recording::start(transport.as_mut(), &spec.run_dir, meta) {
             Ok(mut rec) => {
                 let mut report = run(&scenario, &mut rec, &params);

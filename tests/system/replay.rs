@@ -42,6 +42,11 @@ fn stderr(o: &Output) -> String {
 /// Rewrite an MCAP file with one byte of one message changed: byte `offset` of the share on
 /// `topic` whose header names `step` (the file stays a valid MCAP, so only the content differs).
 fn tamper(path: &Path, topic: &str, step: u64, offset: usize) {
+    rewrite(path, topic, step, offset, true);
+}
+
+/// [`tamper`], keeping the file's attachments or not.
+fn rewrite(path: &Path, topic: &str, step: u64, offset: usize, attachments: bool) {
     let buf = std::fs::read(path).unwrap();
     let summary = mcap::Summary::read(&buf).unwrap().expect("a summary");
     let tmp = path.with_extension("tampered");
@@ -50,6 +55,9 @@ fn tamper(path: &Path, topic: &str, step: u64, offset: usize) {
         let mut w = mcap::WriteOptions::new().compression(Some(mcap::Compression::Zstd)).create(file).unwrap();
         for i in &summary.metadata_indexes {
             w.write_metadata(&mcap::read::metadata(&buf, i).unwrap()).unwrap();
+        }
+        for i in summary.attachment_indexes.iter().filter(|_| attachments) {
+            w.attach(&mcap::read::attachment(&buf, i).unwrap()).unwrap();
         }
         let mut flipped = 0;
         for m in mcap::MessageStream::new(&buf).unwrap() {
@@ -64,6 +72,15 @@ fn tamper(path: &Path, topic: &str, step: u64, offset: usize) {
         w.finish().unwrap();
     }
     std::fs::rename(&tmp, path).unwrap();
+}
+
+/// The run of [`a_restarted_agent_replays_each_incarnation_from_its_own_recording`]: 8 s (800
+/// steps), agent 3 killed at 6 s and relaunched at 6.5 s from its latest checkpoint (step 500).
+fn launch_with_restart(run: &Path) {
+    let file = repo_root().join("topologies/fig1-fixed.toml");
+    let args = ["--duration", "8", "--record", "--fault", "restart:agent=3@t=6,for=0.5"];
+    let o = launch_scenario(&file, run, &args);
+    assert!(o.status.success(), "{}", describe_output(&o));
 }
 
 #[test]
@@ -128,5 +145,47 @@ fn a_reference_run_records_too_and_its_agent_replays_bit_for_bit() {
     assert_eq!(telemetry_bits(&rec), telemetry_bits(&plain), "--record --reference changed the telemetry");
     let o = replay(&rec, "3");
     assert!(stdout(&o).contains(&format!("all {STEPS} shares identical")), "{}", describe_output(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_restarted_agent_replays_each_incarnation_from_its_own_recording() {
+    let _g = heavy();
+    let dir = scratch_dir("replay-restart");
+    let run = dir.join("run");
+    launch_with_restart(&run);
+    let (first, relaunch) = (run.join("record/agent-3.mcap"), run.join("record/agent-3.1.mcap"));
+    assert!(first.is_file() && relaunch.is_file(), "one recording per incarnation");
+    // The relaunch's recording carries the checkpoint it resumed from, byte for byte.
+    let rec = cohort_runtime::recording::reader::read(&relaunch).unwrap();
+    let carried = &rec.attachment(cohort_runtime::recording::RESTORED_FROM).expect("the checkpoint").data;
+    assert_eq!(carried, &std::fs::read(run.join("checkpoints/agent-3.loaded.ckpt")).unwrap());
+    // Every incarnation by default: the first up to where its file stops (SIGKILLed), the
+    // relaunch from its checkpoint of step 500 over its 150 shares (steps 650..=799).
+    let o = replay(&run, "3");
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
+    assert!(out.contains("steps of agent 3: all "), "{}", describe_output(&o));
+    assert!(
+        out.contains("agent 3 (relaunch 1, resumed from its checkpoint of step 500): all 150 shares identical"),
+        "{}",
+        describe_output(&o)
+    );
+    assert!(run.join("replay/agent-3.1/telemetry").is_dir(), "the relaunch's replay beside the first's");
+    // A share of the relaunch tampered: exit 1 naming the relaunch and the step.
+    rewrite(&relaunch, "/share/agent-3", 700, std::mem::offset_of!(Share, values) + 4 * 8, true);
+    let o = orchestrator_command()
+        .arg("replay")
+        .arg(&run)
+        .args(["--agent", "3", "--incarnation", "1"])
+        .output_within(cohort::RUN_LIMIT, "replay of agent 3's relaunch");
+    assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
+    assert!(stdout(&o).contains("first mismatch: agent 3 (relaunch 1"), "{}", describe_output(&o));
+    assert!(stdout(&o).contains("share of step 700"), "{}", describe_output(&o));
+    // Without the checkpoint a relaunch cannot be replayed: exit 2 saying so.
+    rewrite(&relaunch, "/share/agent-3", 700, std::mem::offset_of!(Share, values) + 4 * 8, false);
+    let o = replay(&run, "3");
+    assert_eq!(o.status.code(), Some(2), "{}", describe_output(&o));
+    assert!(stderr(&o).contains("without the checkpoint it resumed from"), "{}", describe_output(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -42,6 +42,11 @@ use cohort_wire::transport::Proc;
 
 /// The `format` value of a recording's `cohort` metadata record; a reader refuses any other.
 pub const META_FORMAT: &str = "cohort-record-1";
+/// The attachment of a relaunched agent's recording (`restart` fault): the checkpoint file it
+/// resumed from, byte for byte, so that a replay resumes from the same state.
+pub const RESTORED_FROM: &str = "restored-from.ckpt";
+/// Its media type.
+pub const CHECKPOINT_MEDIA_TYPE: &str = "application/x-cohort-checkpoint";
 /// The name of the metadata record.
 pub const META_NAME: &str = "cohort";
 /// Message encoding of every channel (the bytes are ROS 1 serialisation of the `ros1msg` schema).
@@ -57,6 +62,21 @@ pub fn dir(run_dir: &std::path::Path) -> std::path::PathBuf {
 /// Where process `me`'s recording goes in a run directory.
 pub fn path_for(run_dir: &std::path::Path, me: Proc) -> std::path::PathBuf {
     dir(run_dir).join(format!("{}.mcap", me.name()))
+}
+
+/// Where incarnation `n` of process `me` records: `record/<proc>.mcap` for the first process
+/// (n = 0), `record/<proc>.<n>.mcap` for its n-th relaunch (`restart` fault).
+pub fn incarnation_path(run_dir: &std::path::Path, me: Proc, n: u32) -> std::path::PathBuf {
+    match n {
+        0 => path_for(run_dir, me),
+        n => dir(run_dir).join(format!("{}.{n}.mcap", me.name())),
+    }
+}
+
+/// The incarnations of `me` that left a recording in a run directory, in order (0, 1, …, up to
+/// the first missing one).
+pub fn incarnations(run_dir: &std::path::Path, me: Proc) -> Vec<u32> {
+    (0..).take_while(|&n| incarnation_path(run_dir, me, n).is_file()).collect()
 }
 
 /// Whether a message was received or sent by the recording process.

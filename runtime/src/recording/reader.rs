@@ -43,6 +43,8 @@ pub struct RecordingFile {
     pub messages: Vec<Recorded>,
     /// A file without its footer: where it stops, in words (its messages are those before).
     pub cut_short: Option<String>,
+    /// The file's attachments (a relaunched agent's: the checkpoint it resumed from).
+    pub attachments: Vec<walk::Attachment>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -71,6 +73,10 @@ impl RecordingFile {
     pub fn id(&self) -> Result<u32, ReadError> {
         let v = self.meta("id")?;
         v.parse().map_err(|_| self.foreign(format!("id {v:?} is not a process id")))
+    }
+    /// The attachment named `name`, if the file has one.
+    pub fn attachment(&self, name: &str) -> Option<&walk::Attachment> {
+        self.attachments.iter().find(|a| a.name == name)
     }
     fn foreign(&self, detail: String) -> ReadError {
         ReadError::Foreign { path: self.path.clone(), detail }
@@ -111,7 +117,7 @@ pub fn read(path: &Path) -> Result<RecordingFile, ReadError> {
             messages.len()
         )
     });
-    Ok(RecordingFile { path: path.to_path_buf(), meta, messages, cut_short })
+    Ok(RecordingFile { path: path.to_path_buf(), meta, messages, cut_short, attachments: walked.attachments })
 }
 
 /// Every message of the walk, decoded.

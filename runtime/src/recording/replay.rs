@@ -13,6 +13,11 @@
 //! opens to the next recorded message; when nothing is left, the replay ends there (a recording
 //! of an agent that stopped early ends so).
 //!
+//! **A relaunched agent** (`restart` fault) records to a file of its own, `agent-<i>.<n>.mcap`,
+//! carrying the checkpoint it resumed from as the attachment [`super::RESTORED_FROM`]. Its replay
+//! restores that state into a freshly built algorithm and hands it to the driver as the process
+//! did (`run_agent(.., Some(checkpoint))`), so every incarnation replays on its own.
+//!
 //! **Comparison.** Every share sent is compared with the recorded one at the same place, byte for
 //! byte over the whole wire payload except the header's `mac` (a tag under the run's key, which is
 //! never stored; the replay sends unsealed). Sent shares were recorded before the transport stamps
@@ -28,6 +33,7 @@ use cohort_wire::transport::{DataPath, Incoming, RunControlPort, TransportError}
 
 use super::Direction;
 use super::reader::{Msg, ReadError, Recorded, RecordingFile};
+use crate::checkpoint::Checkpoint;
 use crate::drive::{DriveParams, SpinPolicy, run_agent};
 use crate::model::Algorithm;
 use crate::paper::Setup;
@@ -75,6 +81,8 @@ pub struct ReplayOutcome {
     /// How the replayed agent ended when not by finishing every step or running out of recorded
     /// input (a timeout, a divergence).
     pub error: Option<String>,
+    /// A relaunched agent's recording: the step of the checkpoint the replay resumed from.
+    pub restored_from: Option<u64>,
 }
 
 impl ReplayOutcome {
@@ -92,6 +100,8 @@ pub enum ReplayError {
     NotThisAgent { path: std::path::PathBuf, who: String, want: u32 },
     #[error("{}: cannot create the replay's output directory: {source}", path.display())]
     Out { path: std::path::PathBuf, source: std::io::Error },
+    #[error("{}: its attachment {}: {reason}", path.display(), super::RESTORED_FROM)]
+    Checkpoint { path: std::path::PathBuf, reason: String },
 }
 
 /// Replay agent `id` of `setup` against `rec`; the replayed agent's telemetry, timing and
@@ -108,23 +118,34 @@ pub fn replay_agent(setup: &Setup, rec: &RecordingFile, id: u32, out: &RunDirs) 
     // The same construction as the agent process's (`agent/src/main.rs`).
     let mut algo = setup.algorithm.build(setup, id);
     let neighbours = setup.agent(id).neighbours.clone();
-    Ok(replay_with(algo.as_mut(), id, &neighbours, params, rec))
+    let restore = match rec.attachment(super::RESTORED_FROM) {
+        Some(a) => {
+            let bad = |reason: String| ReplayError::Checkpoint { path: rec.path.clone(), reason };
+            let c = Checkpoint::decode(&a.data, run_id, id, &params.algorithm_kind).map_err(bad)?;
+            algo.restore_state(&c.state.algorithm).map_err(|e| bad(format!("algorithm state: {e}")))?;
+            Some(c)
+        }
+        None => None,
+    };
+    Ok(replay_with(algo.as_mut(), id, &neighbours, params, rec, restore.as_ref()))
 }
 
 /// Replay agent `id` running `algo` with the settings `params` (its run id must be the
-/// recording's) against `rec`.
+/// recording's) against `rec`; `restore`: the checkpoint `algo` was restored from (a relaunched
+/// agent's recording), which the driver resumes after as the agent process does.
 pub fn replay_with(
     algo: &mut dyn Algorithm,
     id: u32,
     neighbours: &[u32],
     mut params: DriveParams,
     rec: &RecordingFile,
+    restore: Option<&Checkpoint>,
 ) -> ReplayOutcome {
     // Every wait that is not complete at once asks the transport for more (see `wait`).
     params.spin = SpinPolicy::Fixed(Duration::ZERO);
     params.key = None;
     let mut t = ReplayTransport::new(rec);
-    let report = run_agent(&mut t, algo, id, neighbours, &params, None);
+    let report = run_agent(&mut t, algo, id, neighbours, &params, restore);
     let error = match &report.error {
         Some(_) if t.exhausted && t.replayed_sent >= t.recorded_sent.len() => None,
         Some(e) => Some(e.to_string()),
@@ -137,6 +158,7 @@ pub fn replay_with(
         identical: t.identical,
         first: t.first,
         error,
+        restored_from: restore.map(|c| c.step),
     }
 }
 

@@ -86,6 +86,7 @@ fn meta(me: Proc) -> RecordMeta {
         readers: t.readers_of(i),
         scenario: "toy".into(),
         seed: 5,
+        attachments: Vec::new(),
     }
 }
 
@@ -190,13 +191,13 @@ fn a_recording_holds_every_message_and_replays_bit_for_bit_and_an_edit_is_named(
 
     // The same algorithm replays identically; its telemetry is the run's.
     let out = with.join("replay");
-    let same = replay_with(&mut Agent::new(0.7), 1, &[2, 4], params(&out), &rec);
+    let same = replay_with(&mut Agent::new(0.7), 1, &[2, 4], params(&out), &rec, None);
     assert!(same.identical(), "{same:?}");
     assert_eq!((same.steps, same.identical), (STEPS, STEPS as usize));
     assert_eq!(std::fs::read(out.join("telemetry/agent-1.csv")).unwrap(), tel.as_bytes());
 
     // An edited gain departs at the first step whose command uses a neighbour (step 1), in command[0].
-    let edited = replay_with(&mut Agent::new(0.8), 1, &[2, 4], params(&scratch("edited")), &rec);
+    let edited = replay_with(&mut Agent::new(0.8), 1, &[2, 4], params(&scratch("edited")), &rec, None);
     let m = edited.first.clone().expect("a mismatch");
     assert_eq!((m.step, m.index), (1, 1), "{m}");
     assert_eq!(m.field, "command[0]");
@@ -302,4 +303,35 @@ fn seeded_byte_flips_are_read_or_refused_never_an_abort() {
     }
     assert!(refused > 500, "{read} read, {refused} refused");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An MCAP file with one attachment of `data`, as the writer's mcap crate writes it.
+fn file_with_attachment(data: &[u8]) -> Vec<u8> {
+    let mut buf = std::io::Cursor::new(Vec::new());
+    let mut w = mcap::WriteOptions::new().create(&mut buf).unwrap();
+    let a = mcap::Attachment {
+        log_time: 0,
+        create_time: 0,
+        name: super::RESTORED_FROM.into(),
+        media_type: super::CHECKPOINT_MEDIA_TYPE.into(),
+        data: std::borrow::Cow::Borrowed(data),
+    };
+    w.attach(&a).unwrap();
+    w.finish().unwrap();
+    drop(w);
+    buf.into_inner()
+}
+
+#[test]
+fn an_attachment_is_read_back_whole_and_a_flipped_byte_of_it_is_damage() {
+    let data: Vec<u8> = (0..=255u8).cycle().take(3000).collect();
+    let good = file_with_attachment(&data);
+    let w = super::walk::walk(&good).unwrap();
+    assert_eq!(w.attachments.len(), 1);
+    assert_eq!((w.attachments[0].name.as_str(), &w.attachments[0].data), (super::RESTORED_FROM, &data));
+    let at = good.windows(16).position(|win| win == &data[..16]).expect("the data in the file");
+    let mut bad = good.clone();
+    bad[at + 100] ^= 0x01;
+    let e = super::walk::walk(&bad).expect_err("refused");
+    assert!(e.reason.contains("CRC mismatch") && e.reason.contains(super::RESTORED_FROM), "{e}");
 }

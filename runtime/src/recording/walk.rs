@@ -18,10 +18,11 @@ const OP_FOOTER: u8 = 0x02;
 const OP_CHANNEL: u8 = 0x04;
 const OP_MESSAGE: u8 = 0x05;
 const OP_CHUNK: u8 = 0x06;
+const OP_ATTACHMENT: u8 = 0x09;
 const OP_METADATA: u8 = 0x0C;
-/// Header, schema, message index, chunk index, attachment, attachment index, statistics, metadata
-/// index, summary offset, data end: checked for length only.
-const SKIPPED: &[u8] = &[0x01, 0x03, 0x07, 0x08, 0x09, 0x0A, 0x0B, 0x0D, 0x0E, 0x0F];
+/// Header, schema, message index, chunk index, attachment index, statistics, metadata index,
+/// summary offset, data end: checked for length only.
+const SKIPPED: &[u8] = &[0x01, 0x03, 0x07, 0x08, 0x0A, 0x0B, 0x0D, 0x0E, 0x0F];
 
 /// A channel record: its topic and metadata.
 #[derive(Debug, Clone)]
@@ -39,11 +40,21 @@ pub struct Message {
     pub data: Vec<u8>,
 }
 
+/// An attachment record: its name, media type and data (its CRC checked).
+#[derive(Debug, Clone)]
+pub struct Attachment {
+    pub name: String,
+    pub media_type: String,
+    pub data: Vec<u8>,
+}
+
 /// What a walk found.
 #[derive(Debug, Default)]
 pub struct Walk {
     /// Metadata records: name and map.
     pub metadata: Vec<(String, BTreeMap<String, String>)>,
+    /// Attachment records, in file order.
+    pub attachments: Vec<Attachment>,
     pub channels: HashMap<u16, Channel>,
     /// Every message, in file order.
     pub messages: Vec<Message>,
@@ -107,6 +118,7 @@ pub fn walk(buf: &[u8]) -> Result<Walk, Damage> {
                 let map = r.map().map_err(damage)?;
                 w.metadata.push((name, map));
             }
+            OP_ATTACHMENT => w.attachments.push(attachment(body).map_err(damage)?),
             OP_CHANNEL | OP_MESSAGE => record(op, body, at as u64, &mut w).map_err(damage)?,
             op if SKIPPED.contains(&op) => {}
             op => return Err(damage(format!("unknown record opcode 0x{op:02x}"))),
@@ -163,6 +175,28 @@ fn chunk(body: &[u8], at: u64, w: &mut Walk) -> Result<(), String> {
         i += 9 + body.len();
     }
     Ok(())
+}
+
+/// An attachment record's body: log and create time, name, media type, data, and a CRC-32 of all
+/// that precedes it (0: none computed).
+fn attachment(body: &[u8]) -> Result<Attachment, String> {
+    let mut r = Fields::new(body);
+    let _log_ns = r.u64()?;
+    let _create_ns = r.u64()?;
+    let name = r.string()?;
+    let media_type = r.string()?;
+    let n = r.u64()?;
+    let data = r.take(n)?.to_vec();
+    let covered = body.len() - r.rest().len();
+    let crc = r.u32()?;
+    if !r.rest().is_empty() {
+        return Err(format!("attachment {name:?}: {} bytes after its CRC", r.rest().len()));
+    }
+    let computed = crc32fast::hash(&body[..covered]);
+    if crc != 0 && crc != computed {
+        return Err(format!("attachment {name:?}: CRC mismatch (stored {crc:08x}, computed {computed:08x})"));
+    }
+    Ok(Attachment { name, media_type, data })
 }
 
 /// A channel or message record.

@@ -19,6 +19,7 @@ use cohort_wire::msg::{Measurement, PLANT_ID, RunControl, Share, Status};
 use cohort_wire::transport::{DataPath, Incoming, Proc, RunControlPort, Transport, TransportError};
 use mcap::records::{MessageHeader, Metadata};
 
+use super::walk::Attachment;
 use super::{Direction, MESSAGE_ENCODING, META_FORMAT, META_NAME, SCHEMA_ENCODING, path_for, proc_of};
 
 /// Messages the queue holds before the step path waits for the writer (≈ 4 MiB of shares).
@@ -36,6 +37,9 @@ pub struct RecordMeta {
     pub readers: Vec<u32>,
     pub scenario: String,
     pub seed: u64,
+    /// Files the recording carries, written before the first message (a relaunched agent's: the
+    /// checkpoint it resumes from, [`super::RESTORED_FROM`]).
+    pub attachments: Vec<Attachment>,
 }
 
 impl RecordMeta {
@@ -54,6 +58,7 @@ impl RecordMeta {
             readers,
             scenario: setup.scenario.name.clone(),
             seed: setup.scenario.seed,
+            attachments: Vec::new(),
         }
     }
 
@@ -235,6 +240,11 @@ impl RunControlPort for Recording<'_> {
 fn write_all(mut w: mcap::Writer<BufWriter<File>>, rx: Receiver<Item>, meta: &RecordMeta) -> Result<u64, String> {
     let e = |e: mcap::McapError| e.to_string();
     w.write_metadata(&meta.record()).map_err(e)?;
+    for a in &meta.attachments {
+        let data = std::borrow::Cow::Borrowed(a.data.as_slice());
+        let (name, media_type) = (a.name.clone(), a.media_type.clone());
+        w.attach(&mcap::Attachment { log_time: 0, create_time: 0, name, media_type, data }).map_err(e)?;
+    }
     let mut schema = HashMap::new();
     for p in [Payload::Measurement, Payload::Share] {
         let id = w.add_schema(p.ros1_name(), SCHEMA_ENCODING, layout::ros1_definition(p).as_bytes()).map_err(e)?;
