@@ -68,7 +68,7 @@ mod tests {
 
     /// 2π√(a³/μ) for a = 45 300 km, μ = 3.986004418e14 m³/s², to 40 digits (mpmath):
     /// 95952.93943589334535578561337179203473916 s.
-    const TABLE_D9_PERIOD_S: f64 = 95_952.939_435_893_345;
+    const TABLE_D9_PERIOD_S: f64 = 95_952.939_435_893_35;
 
     fn follow(given: Option<f64>, plant: &VtxoPlantConfig) -> (TimersConfig, Option<Problem>) {
         let mut t = TimersConfig { orbit_period_s: given, ..TimersConfig::default() };
