@@ -21,8 +21,9 @@
 //! ```
 //!
 //! Departures, and why: u1 is `handoff.stabilisation_s` instead of orbit period − 10 h − 3 min
-//! (80 820 s in the print; a short run is the point of this scenario), so the supervisor's
-//! `timers.orbit_period_s` is not read; the run starts in s1 (the mission's s0 → s4 → s2 prefix is
+//! (80 820 s in the print, 59 773 s on the plant's 26.65 h orbit; a short run is the point of this
+//! scenario), so the supervisor's `timers.orbit_period_s` is not read (it is still the plant's
+//! period, or refused when it disagrees, as in the mission: [`crate::mission_period`]); the run starts in s1 (the mission's s0 → s4 → s2 prefix is
 //! the discrete-event scenario's business). `transient_weights` is relative to the scenario file;
 //! without it the supervisor's fixed (k1, k2, T) answer. `science_weights`, also relative to the
 //! scenario file, is required by `science_gains = "dnn"`; when named it is loaded and checked
@@ -148,15 +149,23 @@ impl VtxoHandoffConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config_plant::VtxoPlantConfig;
+
+    /// The defaults with the supervisor's period taken from the default plant (as configuring does).
+    fn on_table_d9() -> VtxoHandoffConfig {
+        let mut c = VtxoHandoffConfig::default();
+        assert!(c.supervisor.timers.follow_plant("algorithm.supervisor", &VtxoPlantConfig::default()).is_none());
+        c
+    }
 
     #[test]
     fn defaults_are_valid_and_bad_values_are_reported_at_their_key_paths() {
-        let c = VtxoHandoffConfig::default();
+        let c = on_table_d9();
         assert!(c.validate("algorithm", 0.01).is_empty(), "{:?}", c.validate("algorithm", 0.01));
         assert_eq!(c.u1_ticks(0.01), 3000);
         let parsed: VtxoHandoffConfig = toml::from_str("").unwrap();
-        assert_eq!(parsed, c);
-        let mut c = VtxoHandoffConfig::default();
+        assert_eq!(parsed, VtxoHandoffConfig::default());
+        let mut c = on_table_d9();
         c.handoff.stabilisation_s = 30.005;
         c.handoff.object_id = 9;
         c.flight.mass_kg = -1.0;
@@ -177,8 +186,9 @@ mod tests {
         );
         assert!(toml::from_str::<VtxoHandoffConfig>("[handoff]\nstabilisation = 1.0").is_err());
         assert!(toml::from_str::<VtxoHandoffConfig>("[handoff]\nscience_gains = \"neural\"").is_err());
-        let dnn: VtxoHandoffConfig =
+        let mut dnn: VtxoHandoffConfig =
             toml::from_str("[handoff]\nscience_gains = \"dnn\"\nscience_weights = \"s.safetensors\"").unwrap();
+        dnn.supervisor = on_table_d9().supervisor;
         assert!(dnn.validate("algorithm", 0.01).is_empty());
         let mut nan = dnn.clone();
         nan.handoff.science_w_deg_per_j = f64::NAN;

@@ -4,7 +4,9 @@
 //! (agent 1) and the follower (agent 2, the supervisor master) each a [`HandoffAgent`].
 //!
 //! Configuring checks the section ([`VtxoHandoffConfig::validate`]), the pair with the plant
-//! (targets, [`crate::config::check_pair`], reported under `algorithm.flight.…`), the links (each
+//! (targets, [`crate::config::check_pair`], reported under `algorithm.flight.…`; the supervisor's
+//! orbit period, which this scenario does not read, is the plant's or agrees with it,
+//! [`crate::mission_period`]), the links (each
 //! agent lists the other), and loads the transient DNN named by `algorithm.handoff.transient_weights`
 //! (relative to the scenario file; the resolved scenario the processes read carries it absolute):
 //! a missing or malformed file is a problem at that key path naming the file. The science DNN
@@ -68,8 +70,12 @@ impl AlgorithmKind for VtxoHandoffKind {
             c,
         );
         let mut a = a?;
+        let plant = plant.and_then(|p| p.as_any().downcast_ref::<VtxoPlantConfig>());
+        if let Some(p) = plant {
+            c.problems.extend(a.supervisor.timers.follow_plant("algorithm.supervisor", p));
+        }
         c.problems.extend(a.validate("algorithm", ctx.scenario.scenario.dt_s));
-        if let Some(p) = plant.and_then(|p| p.as_any().downcast_ref::<VtxoPlantConfig>()) {
+        if let Some(p) = plant {
             for mut pr in crate::config::check_pair(p, &a.flight) {
                 pr.path = pr.path.replacen("algorithm.", "algorithm.flight.", 1);
                 c.problems.push(pr);
@@ -275,5 +281,22 @@ mod tests {
         let e = configured(&wrong).expect_err("transient weights as science weights");
         assert!(e.contains(SCIENCE_WEIGHTS_KEY) && e.contains("transient.safetensors"), "{e}");
         assert!(e.contains("holds no science DNN"), "{e}");
+    }
+
+    /// The supervisor's period (not read here) is the plant's, and a disagreeing one is refused
+    /// at `algorithm.supervisor.timers.orbit_period_s` naming the plant's orbit.
+    #[test]
+    fn the_supervisors_period_is_the_plants_or_refused() {
+        let text =
+            std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies/vtxo-handoff.toml"))
+                .unwrap();
+        let s = configured(&text).unwrap();
+        let want = s.plant_as::<VtxoPlantConfig>().unwrap().orbit_period_s();
+        assert_eq!(s.algorithm_as::<HandoffSetup>().unwrap().config.supervisor.timers.orbit_period_s, want);
+        let wrong = text
+            .replace("[algorithm.supervisor.timers]\n", "[algorithm.supervisor.timers]\norbit_period_s = 117000.0\n");
+        let e = configured(&wrong).expect_err("32.5 h over Table D.9's orbit");
+        assert!(e.contains("algorithm.supervisor.timers.orbit_period_s = 117000.000 s (32.5000 h)"), "{e}");
+        assert!(e.contains("plant.orbit.a_m") && e.contains("(26.6536 h)"), "{e}");
     }
 }

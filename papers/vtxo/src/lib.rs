@@ -46,6 +46,7 @@ pub mod mission;
 pub mod mission_config;
 pub mod mission_figure;
 pub mod mission_kind;
+pub mod mission_period;
 pub mod orbit;
 pub mod orbit_setup;
 pub mod plant;

@@ -1,7 +1,8 @@
 //! The whole VTXO mission, Id 0 → 9, as a discrete-event run of the supervisor of Sec. 8 of
 //! "Explainable AI-Enhanced Supervisory Control for High-Precision Spacecraft Formation"
 //! ([`crate::supervisor`], the corrected Tables 6–8) with the dynamics abstracted: each phase
-//! lasts what its timer says — u3(Id) of Table 6, u1 = 32.5 h − 10 h − 3 min, the 10 h science
+//! lasts what its timer says — u3(Id) of Table 6, u1 = orbit period − 10 h − 3 min (the plant's
+//! 26.65 h, [`crate::mission_period`]; the print's 32.5 h gives 22.45 h), the 10 h science
 //! window, u2 = T from the [`TransientPredictor`] of each spacecraft — and the formation event u4
 //! comes `reach` after an orbit switch (entry to s4). Pure: no files, no transport.
 //!
@@ -43,7 +44,9 @@ pub struct MissionParams {
 }
 
 impl MissionParams {
-    /// From a validated configuration (a value that is not whole ticks would round).
+    /// From a validated configuration (its period known). A value that is not whole ticks rounds
+    /// to the nearest tick: u1 always may (the orbit period is the plant's), the others are
+    /// validated whole.
     pub fn of(c: &VtxoMissionConfig, tick_s: f64) -> Self {
         let t = |x: f64| whole_ticks(x, tick_s).unwrap_or_else(|| (x / tick_s).round().max(1.0) as u64);
         Self {
@@ -292,9 +295,16 @@ mod tests {
         FixedTransient(TransientGains { k1: 0.085, k2: 0.25, t_s })
     }
 
+    /// Table 6 and the defaults on the default plant's orbit (Table D.9, 26.65 h), 10 ms ticks.
     fn paper() -> MissionParams {
-        MissionParams::of(&VtxoMissionConfig::default(), 0.01)
+        let mut c = VtxoMissionConfig::default();
+        assert!(c.timers.follow_plant("algorithm", &crate::config_plant::VtxoPlantConfig::default()).is_none());
+        MissionParams::of(&c, 0.01)
     }
+
+    /// u1 = 95 952.939 436 s (2π√(a³/μ) by hand, see mission_period) − 10 h − 3 min
+    /// = 59 772.939 436 s, to the nearest 10 ms tick.
+    const U1_TICKS: u64 = 5_977_294;
 
     #[test]
     fn the_paper_mission_reaches_s6_through_ids_0_to_9_without_a_zero_dwell() {
@@ -322,9 +332,14 @@ mod tests {
         // One stabilisation per window that does not finish its object: 68 − 8 = 60.
         assert_eq!(m.events.iter().filter(|e| e.sup.state == S1).count(), 60);
         // 60 d + 8 formations of 9 001 s + 68 transients of max(48, 30) s + 633.2 h of science
-        // + 60 × 80 820 s + 5 d.
-        let want_s = 5_184_000 + 8 * 9_001 + 68 * 48 + 2_279_520 + 60 * 80_820 + 432_000;
-        assert_eq!(m.end_tick, want_s * 100);
+        // + 60 × u1 + 5 d.
+        assert_eq!(p.u1, U1_TICKS);
+        let want_s = 5_184_000 + 8 * 9_001 + 68 * 48 + 2_279_520 + 432_000;
+        assert_eq!(m.end_tick, want_s * 100 + 60 * U1_TICKS);
+        // Each stabilisation lasts u1.
+        for w in m.events.windows(2).filter(|w| w[0].sup.state == S1) {
+            assert_eq!(w[1].tick - w[0].tick, U1_TICKS);
+        }
         assert_eq!(m.time_in(S3), 2_279_520 * 100);
         assert_eq!(m.time_in(S0), 5_184_000 * 100);
         assert_eq!(m.time_in(S5), 432_000 * 100);

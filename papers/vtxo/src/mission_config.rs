@@ -5,9 +5,10 @@
 //!
 //! ```toml
 //! [algorithm.timers]
-//! orbit_period_s = 117000.0      # 32.5 h (Sec. 2.5; Table D.9's orbit is 26.65 h, see README)
+//! # orbit_period_s: absent = the plant's 2π√(a³/μ), 95 952.939 s = 26.65 h for Table D.9; a
+//! # value given must agree with it to 1e-6 (crate::mission_period). Sec. 2.5 prints 32.5 h.
 //! science_window_s = 36000.0     # 10 h of science per orbit
-//! transient_max_s = 180.0        # 3 min: u1 = period − window − transient_max = 80 820 s
+//! transient_max_s = 180.0        # 3 min: u1 = period − window − transient_max = 59 772.94 s
 //! u3_h = [1440.0, 0.2, 1.5, 4.2, 4.9, 5.4, 19.0, 146.0, 452.0, 120.0]   # Table 6, Id 0..9
 //! [algorithm.formation]
 //! reach_s = 9001.0               # u4: time to the formation after an orbit switch
@@ -23,7 +24,9 @@
 //!
 //! `reach_s` default: the Sec. 7 case's sliding-mode reaching time |s_z(0)|/Z = 9 001 s (measured
 //! 9 001.05 s with the accelerometer bias off, README); the paper gives no value for u4.
-//! Every timer must be a whole number of scenario steps (the mission's tick).
+//! Every timer must be a whole number of scenario steps (the mission's tick), except the orbit
+//! period: it is the plant's, a physical quantity, so u1 = period − window − transient_max is
+//! rounded to the nearest tick (at most half a tick, 0.05 s at 0.1 s: 5e-7 of the period).
 
 use cohort_scenario::Problem;
 use serde::{Deserialize, Serialize};
@@ -44,7 +47,10 @@ pub struct VtxoMissionConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TimersConfig {
-    pub orbit_period_s: f64,
+    /// The orbit period, s: None in a scenario that leaves it to the plant, until configuring
+    /// takes it from the plant's orbit ([`TimersConfig::follow_plant`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orbit_period_s: Option<f64>,
     pub science_window_s: f64,
     pub transient_max_s: f64,
     pub u3_h: Vec<f64>,
@@ -52,12 +58,7 @@ pub struct TimersConfig {
 
 impl Default for TimersConfig {
     fn default() -> Self {
-        Self {
-            orbit_period_s: 117_000.0,
-            science_window_s: 36_000.0,
-            transient_max_s: 180.0,
-            u3_h: TABLE6_U3_H.to_vec(),
-        }
+        Self { orbit_period_s: None, science_window_s: 36_000.0, transient_max_s: 180.0, u3_h: TABLE6_U3_H.to_vec() }
     }
 }
 
@@ -108,9 +109,10 @@ pub fn whole_ticks(x_s: f64, tick_s: f64) -> Option<u64> {
 }
 
 impl TimersConfig {
-    /// u1 = orbit period − science window − transient maximum (Sec. 8), s.
+    /// u1 = orbit period − science window − transient maximum (Sec. 8), s; NaN while the period
+    /// is unknown (validation refuses that).
     pub fn u1_s(&self) -> f64 {
-        self.orbit_period_s - self.science_window_s - self.transient_max_s
+        self.orbit_period_s.unwrap_or(f64::NAN) - self.science_window_s - self.transient_max_s
     }
 
     /// The Id of the last science object (Table 6: 8).
@@ -134,21 +136,29 @@ impl VtxoMissionConfig {
             }
         };
         let t = &self.timers;
-        for (k, v) in [
-            ("orbit_period_s", t.orbit_period_s),
-            ("science_window_s", t.science_window_s),
-            ("transient_max_s", t.transient_max_s),
-        ] {
+        match t.orbit_period_s {
+            Some(period_s) => c.positive(&p("timers.orbit_period_s"), period_s),
+            None => c.fail(
+                &p("timers.orbit_period_s"),
+                None,
+                "is absent and the plant gives no orbit to take it from (plant.kind = \"vtxo\" with a valid plant.orbit.a_m)",
+            ),
+        }
+        for (k, v) in [("science_window_s", t.science_window_s), ("transient_max_s", t.transient_max_s)] {
             c.positive(&p(&format!("timers.{k}")), v);
             ticks(&mut c, &p(&format!("timers.{k}")), v);
         }
-        if t.u1_s().is_finite() && t.u1_s() <= 0.0 {
+        let period_s = t.orbit_period_s.unwrap_or(f64::NAN);
+        // A period that is no period is refused above; u1 is checked with a valid one.
+        if period_s > 0.0 && t.u1_s().is_finite() && t.u1_s() < tick_s {
             c.fail(
-                &p("timers.orbit_period_s"),
-                Some(format!("{:?}", t.orbit_period_s)),
+                &p("timers.science_window_s"),
+                Some(format!("{:?}", t.science_window_s)),
                 &format!(
-                    "must exceed science_window_s + transient_max_s = {} s (u1 = their difference must be > 0)",
-                    t.science_window_s + t.transient_max_s
+                    "must leave u1 = orbit period − science_window_s − transient_max_s ≥ one tick ({tick_s} s): \
+                     the orbit period is {period_s:.3} s = {:.4} h, transient_max_s {} s",
+                    period_s / 3600.0,
+                    t.transient_max_s
                 ),
             );
         }
@@ -203,24 +213,38 @@ impl VtxoMissionConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config_plant::VtxoPlantConfig;
+
+    /// The defaults on the default plant (Table D.9): the period taken from the orbit.
+    fn on_table_d9() -> VtxoMissionConfig {
+        let mut c = VtxoMissionConfig::default();
+        assert!(c.timers.follow_plant("algorithm", &VtxoPlantConfig::default()).is_none());
+        c
+    }
 
     fn paths(c: &VtxoMissionConfig) -> Vec<String> {
         c.validate("algorithm", 0.01).into_iter().map(|p| p.path).collect()
     }
 
     #[test]
-    fn defaults_are_valid_and_give_the_papers_u1() {
-        let c = VtxoMissionConfig::default();
+    fn defaults_on_the_plants_orbit_are_valid_and_give_u1_from_its_period() {
+        let c = on_table_d9();
         assert!(paths(&c).is_empty(), "{:?}", c.validate("algorithm", 0.01));
-        assert_eq!(c.timers.u1_s(), 80_820.0);
+        // u1 = 26.65 h − 10 h − 3 min (95 952.939 s by hand, mission_period's tests).
+        assert!((c.timers.u1_s() - 59_772.939).abs() < 1e-3, "{}", c.timers.u1_s());
         assert_eq!(c.timers.last_object(), 8);
         let parsed: VtxoMissionConfig = toml::from_str("").unwrap();
-        assert_eq!(parsed, c);
+        assert_eq!(parsed, VtxoMissionConfig::default());
+        assert_eq!(parsed.timers.orbit_period_s, None, "absent: the plant's");
+        // Without a period (no plant to take it from) the section is refused there, once.
+        assert_eq!(paths(&VtxoMissionConfig::default()), ["algorithm.timers.orbit_period_s"]);
+        // The period is not held to whole ticks (the plant's is not one): u1 is rounded.
+        assert!(c.validate("algorithm", 0.1).is_empty());
     }
 
     #[test]
     fn every_bad_value_is_reported_at_its_key_path() {
-        let mut c = VtxoMissionConfig::default();
+        let mut c = on_table_d9();
         c.timers.u3_h[3] = -1.0;
         c.timers.science_window_s = 200_000.0;
         c.formation.reach_s = 0.005;
@@ -229,17 +253,23 @@ mod tests {
         assert_eq!(
             paths(&c),
             vec![
-                "algorithm.timers.orbit_period_s",
+                "algorithm.timers.science_window_s",
                 "algorithm.timers.u3_h[3]",
                 "algorithm.formation.reach_s",
                 "algorithm.transient.k2",
                 "algorithm.transient.t_s",
             ]
         );
-        let mut c = VtxoMissionConfig::default();
+        let msg = c.validate("algorithm", 0.01)[0].to_string();
+        assert!(msg.contains("the orbit period is 95952.939") && msg.contains("26.6536 h"), "{msg}");
+        let mut c = on_table_d9();
         c.timers.u3_h = vec![1.0, 2.0];
         c.transient.t_max_s = 200.0;
-        assert_eq!(paths(&c), vec!["algorithm.timers.u3_h", "algorithm.transient.t_max_s"]);
+        c.timers.orbit_period_s = Some(-1.0);
+        assert_eq!(
+            paths(&c),
+            vec!["algorithm.timers.orbit_period_s", "algorithm.timers.u3_h", "algorithm.transient.t_max_s"]
+        );
         assert!(toml::from_str::<VtxoMissionConfig>("[timers]\nu3 = [1.0]").is_err());
     }
 

@@ -5,7 +5,8 @@
 //! [`crate::mission`] for why the fixed-step lockstep cannot carry it).
 //!
 //! The scenario is an ordinary one: `[plant] kind = "vtxo"` (validated; its dynamics are what the
-//! timers abstract), `[algorithm] kind = "vtxo-mission"` ([`crate::mission_config`]), the leader
+//! timers abstract, and its orbit gives their period, [`crate::mission_period`]),
+//! `[algorithm] kind = "vtxo-mission"` ([`crate::mission_config`]), the leader
 //! (agent 1) and the follower (agent 2) each listing the other (the supervisor's state and the
 //! leader's acknowledgement pass between them). `scenario.dt_s` is the mission's tick and
 //! `scenario.duration_s` its horizon: the run ends at s6 or there, whichever comes first
@@ -31,6 +32,7 @@ use cohort_runtime::paper::{
 use cohort_runtime::record::{CsvWriter, ErrorKind, ProcessError, ProcessReport, RunDirs};
 use cohort_scenario::{Checker, Scenario};
 
+use crate::config_plant::VtxoPlantConfig;
 use crate::kinds::check_pair_kind;
 use crate::mission::{Mission, MissionParams};
 use crate::mission_config::{PredictorKind, VtxoMissionConfig};
@@ -52,7 +54,7 @@ impl AlgorithmKind for VtxoMissionKind {
     fn configure(
         &self,
         ctx: &ConfigureCtx<'_>,
-        _plant: Option<&dyn PlantSetup>,
+        plant: Option<&dyn PlantSetup>,
         c: &mut Checker,
     ) -> Option<Arc<dyn AlgorithmSetup>> {
         let a = section_as::<VtxoMissionConfig>(&ctx.scenario.algorithm.body, "algorithm", c);
@@ -62,7 +64,10 @@ impl AlgorithmKind for VtxoMissionKind {
             "the supervisor's state (follower, the master) and the acknowledgement (leader) pass between them",
             c,
         );
-        let a = a?;
+        let mut a = a?;
+        if let Some(p) = plant.and_then(|p| p.as_any().downcast_ref::<VtxoPlantConfig>()) {
+            c.problems.extend(a.timers.follow_plant("algorithm", p));
+        }
         let dt = ctx.scenario.scenario.dt_s;
         let problems = a.validate("algorithm", dt);
         let valid = problems.is_empty();
@@ -255,4 +260,66 @@ pub fn metrics(p: &MissionParams, m: &Mission) -> BTreeMap<String, f64> {
     .into_iter()
     .map(|(k, v)| (k.to_string(), v))
     .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use cohort_runtime::paper::{Paper, configure};
+    use cohort_scenario::{Overrides, parse};
+
+    use super::*;
+
+    const PAPERS: &[&dyn Paper] = &[&crate::Vtxo];
+
+    fn shipped() -> String {
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies/vtxo-mission.toml"))
+            .unwrap()
+    }
+
+    fn configured(text: &str) -> Result<Setup, String> {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies");
+        let s = parse(text, &dir.join("x.toml"), &Overrides::default()).map_err(|e| e.to_string())?;
+        configure(s, PAPERS).map_err(|p| p.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n"))
+    }
+
+    /// The shipped mission takes its period from the plant's orbit and writes it into the resolved
+    /// scenario, which configures to itself; so does a plant on another orbit.
+    #[test]
+    fn the_shipped_mission_runs_on_the_plants_period_and_its_resolved_self_agrees() {
+        let s = configured(&shipped()).unwrap();
+        let a = s.algorithm_as::<VtxoMissionConfig>().unwrap();
+        let want = s.plant_as::<VtxoPlantConfig>().unwrap().orbit_period_s().unwrap();
+        assert_eq!(a.timers.orbit_period_s.map(f64::to_bits), Some(want.to_bits()));
+        assert!((want - 95_952.939).abs() < 1e-3, "{want}");
+        assert_eq!(MissionParams::of(a, 0.1).u1, 597_729, "(95 952.939 − 36 180) s at 0.1 s, rounded");
+        let resolved = s.to_toml().unwrap();
+        assert!(resolved.contains("orbit_period_s = 95952.939"), "{resolved}");
+        let again = configured(&resolved).unwrap();
+        assert_eq!(again.algorithm_as::<VtxoMissionConfig>().unwrap(), a);
+        let wider = shipped().replace("kind = \"vtxo\"\n", "kind = \"vtxo\"\n[plant.orbit]\na_m = 51703100.514\n");
+        let s = configured(&wider).unwrap();
+        let p = s.algorithm_as::<VtxoMissionConfig>().unwrap().timers.orbit_period_s.unwrap();
+        assert!((p - 117_000.0).abs() < 1e-3, "a = 51 703 km: the paper's 32.5 h, {p} s");
+    }
+
+    /// An explicit period is refused when it disagrees with the plant's (naming both key paths and
+    /// both values) and accepted as given when it agrees.
+    #[test]
+    fn an_explicit_period_must_agree_with_the_plants_orbit() {
+        let with =
+            |v: &str| shipped().replace("[algorithm.timers]\n", &format!("[algorithm.timers]\norbit_period_s = {v}\n"));
+        let e = configured(&with("117000.0")).expect_err("32.5 h over Table D.9's orbit");
+        for want in [
+            "algorithm.timers.orbit_period_s = 117000.000 s (32.5000 h)",
+            "plant.orbit.a_m = 45300000.0 m",
+            "95952.939 s (26.6536 h)",
+        ] {
+            assert!(e.contains(want), "{want:?} not in {e}");
+        }
+        assert_eq!(e.lines().count(), 1, "one problem: {e}");
+        let s = configured(&with("95952.9")).unwrap();
+        assert_eq!(s.algorithm_as::<VtxoMissionConfig>().unwrap().timers.orbit_period_s, Some(95_952.9));
+    }
 }

@@ -187,7 +187,7 @@ impl VtxoPlant {
             argp_rad: o.arg_periapsis_deg.to_radians(),
             true_anomaly_rad: o.true_anomaly_deg.to_radians(),
         };
-        let gravity = Gravity::earth(cfg.j2);
+        let gravity = cfg.gravity();
         let orbit = initial_pair(
             &leader,
             o.e_follower,

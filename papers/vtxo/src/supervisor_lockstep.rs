@@ -199,7 +199,7 @@ mod tests {
         c.transient.t_min_s = 1.0;
         c.transient.t_max_s = 5.0;
         c.timers.transient_max_s = 5.0;
-        c.timers.orbit_period_s = 115.0;
+        c.timers.orbit_period_s = Some(115.0);
         c
     }
 
