@@ -2,6 +2,17 @@
 //! gives them shared helpers.
 
 use std::path::PathBuf;
+use std::time::Duration;
+
+mod within;
+pub use within::{OutputWithin, finish_within};
+
+/// The longest a test waits for one launch (a whole run, on a loaded 2-core machine) before it
+/// fails naming what it waited for.
+pub const RUN_LIMIT: Duration = Duration::from_secs(600);
+/// The longest a test waits for a command that reads and checks but runs nothing (`check`,
+/// `report`, `replay`, a refused launch).
+pub const QUICK_LIMIT: Duration = Duration::from_secs(120);
 
 /// The workspace root (where `topologies/` lives), fixed at compile time.
 pub fn repo_root() -> PathBuf {
@@ -157,8 +168,7 @@ pub fn launch_scenario(file: &std::path::Path, out: &std::path::Path, extra: &[&
         .arg(out)
         .arg("--no-plots")
         .args(extra)
-        .output()
-        .expect("running the orchestrator")
+        .output_within(RUN_LIMIT, &format!("orchestrator launch {} {}", file.display(), extra.join(" ")))
 }
 
 /// A JSON file (a summary, a process report), parsed.

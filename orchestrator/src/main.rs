@@ -85,11 +85,12 @@ fn version() -> &'static str {
 struct Cli {
     #[command(subcommand)]
     command: Cmd,
-    /// More log lines: -v debug, -vv trace (the children log so too; RUST_LOG, when set, decides
-    /// instead).
+    /// More log lines: -v debug, -vv trace (the children log so too; wins over RUST_LOG, which
+    /// decides when neither -v nor -q is given).
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     verbose: u8,
-    /// Warnings and errors only, no progress bar (RUST_LOG, when set, decides the log lines).
+    /// Warnings and errors only, no progress bar (wins over RUST_LOG, which decides when neither
+    /// -v nor -q is given).
     #[arg(short, long, global = true, conflicts_with = "verbose")]
     quiet: bool,
 }
@@ -373,7 +374,10 @@ fn main() -> ExitCode {
     cohort_wire::limits::raise_nofile_to_hard();
     let matches = command_line().get_matches();
     let quiet = matches.get_flag("quiet");
-    cohort_runtime::logging::init_orchestrator(cohort_runtime::logging::level_of(matches.get_count("verbose"), quiet));
+    let verbose = matches.get_count("verbose");
+    // A flag typed on the command line wins over RUST_LOG from the environment.
+    let flagged = quiet || verbose > 0;
+    cohort_runtime::logging::init_orchestrator(cohort_runtime::logging::level_of(verbose, quiet), flagged);
     QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
     // Commands that run things stop them in order on Ctrl-C, SIGTERM or SIGHUP and exit 128 +
     // signal; `check` and `report` only read, `salvage` only converts files and `train` only

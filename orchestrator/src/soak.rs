@@ -94,6 +94,19 @@ struct LinkStats {
     max_ns: u64,
 }
 
+impl LinkStats {
+    /// The figures of `h`, or none when it holds no sample.
+    fn of(h: &LatencyHist) -> Option<Self> {
+        (!h.is_empty()).then(|| Self {
+            samples: h.len(),
+            p50_ns: h.quantile(0.5),
+            p99_ns: h.quantile(0.99),
+            p999_ns: h.quantile(0.999),
+            max_ns: h.max(),
+        })
+    }
+}
+
 #[derive(Debug, Serialize)]
 struct RunRecord {
     run: usize,
@@ -112,6 +125,9 @@ struct RunRecord {
     steps_missing: u64,
     unaccounted: Vec<String>,
     faults: Vec<String>,
+    /// The run's latency over all its links, read from its `timing/` histograms before the
+    /// soak deletes that directory (none: the run recorded no sample).
+    latency: Option<LinkStats>,
 }
 
 #[derive(Debug, Serialize)]
@@ -350,8 +366,13 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
         shm.extend(m);
         shm.push(ShmSample { wall_s: started.elapsed().as_secs_f64(), entries: shm_entries() });
         let plant = summary.processes.iter().find(|p| p.process == "plant");
+        // The histograms were read from `timing/` by the run's summary; the run's own figures
+        // are taken here, before that directory is deleted below.
+        let mut run_latency = LatencyHist::default();
         for ((from, to), b) in &summary.histograms {
-            links.entry(format!("{from} → {to}")).or_default().add(&LatencyHist::from_buckets(b));
+            let h = LatencyHist::from_buckets(b);
+            run_latency.add(&h);
+            links.entry(format!("{from} → {to}")).or_default().add(&h);
         }
         let record = RunRecord {
             run: index,
@@ -369,6 +390,7 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
             steps_missing: summary.processes.iter().flat_map(|p| p.faults.overrun.values()).sum(),
             unaccounted: summary.messages_unaccounted.clone(),
             faults: s.faults.iter().map(describe).collect(),
+            latency: LinkStats::of(&run_latency),
         };
         if outcome.status == "interrupted" {
             problems.push(format!("run {index} was interrupted"));
@@ -419,20 +441,8 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
             problems.push(format!("RSS of {process} grew steadily in run {run}: {a} kB → {b} kB over its second half"));
         }
     }
-    let link_stats: BTreeMap<String, LinkStats> = links
-        .iter()
-        .filter(|(_, h)| !h.is_empty())
-        .map(|(k, h)| {
-            let st = LinkStats {
-                samples: h.len(),
-                p50_ns: h.quantile(0.5),
-                p99_ns: h.quantile(0.99),
-                p999_ns: h.quantile(0.999),
-                max_ns: h.max(),
-            };
-            (k.clone(), st)
-        })
-        .collect();
+    let link_stats: BTreeMap<String, LinkStats> =
+        links.iter().filter_map(|(k, h)| LinkStats::of(h).map(|st| (k.clone(), st))).collect();
     let report = SoakReport {
         scenario: base.scenario.name.clone(),
         wall_budget_s: o.wall.as_secs_f64(),
@@ -482,10 +492,10 @@ fn markdown(r: &SoakReport) -> String {
         ));
     }
     s.push_str(&format!("\nDeadline misses (plant, real time): {}\n\n", r.deadline_misses));
-    s.push_str("## Runs\n\n| run | seed | status | steps | wall s | sent | received | rejected | held | steps missing (full queue or skipped) | deadline misses | faults |\n|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+    s.push_str("## Runs\n\n| run | seed | status | steps | wall s | sent | received | rejected | held | steps missing (full queue or skipped) | deadline misses | latency p99 µs | latency max µs | faults |\n|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     for x in &r.runs {
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             x.run,
             x.seed,
             x.status,
@@ -497,6 +507,8 @@ fn markdown(r: &SoakReport) -> String {
             x.shares_held,
             x.steps_missing,
             x.deadline_misses,
+            x.latency.as_ref().map_or("—".into(), |l| us(l.p99_ns)),
+            x.latency.as_ref().map_or("—".into(), |l| us(l.max_ns)),
             x.faults.join(" ")
         ));
     }
@@ -528,22 +540,15 @@ fn plots(out: &Path, rss: &[RssSample], shm: &[ShmSample], r: &SoakReport) -> Re
     // Per run: every link's p99 and the worst max, at the run's start time.
     let mut lat: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     let mut misses = Vec::new();
+    // (From the figures each run kept: its `timing/` directory is gone by now.)
     for run in &r.runs {
-        let root = out.join(format!("run-{:03}", run.run));
-        let Ok(hists) = cohort_runtime::record::read_latency_histograms(&root) else { continue };
-        let mut all = LatencyHist::default();
-        for b in hists.values() {
-            all.add(&LatencyHist::from_buckets(b));
-        }
-        if all.is_empty() {
-            continue;
-        }
-        for (i, (name, q)) in [("p50", 0.5), ("p99", 0.99), ("p99.9", 0.999), ("max", 1.0)].iter().enumerate() {
+        let Some(l) = &run.latency else { continue };
+        let figures = [("p50", l.p50_ns), ("p99", l.p99_ns), ("p99.9", l.p999_ns), ("max", l.max_ns)];
+        for (i, (name, v)) in figures.iter().enumerate() {
             if lat.len() <= i {
                 lat.push((name.to_string(), Vec::new()));
             }
-            let v = if *q >= 1.0 { all.max() } else { all.quantile(*q) };
-            lat[i].1.push((run.wall_start_s, v as f64 / 1e3));
+            lat[i].1.push((run.wall_start_s, *v as f64 / 1e3));
         }
         misses.push((run.wall_start_s, run.deadline_misses as f64));
     }

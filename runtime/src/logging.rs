@@ -2,8 +2,9 @@
 //! terminal) and one for the `plant` and `agent` children (their log files under the run's
 //! `logs/`), so that every line carries its level, and a child's its process name and time.
 //!
-//! - Filter: `RUST_LOG` when set (the `tracing-subscriber` directive syntax); otherwise the level
-//!   the orchestrator's `-q`/`-v`/`-vv` chose (warn, debug, trace; info by default) for Cohort's
+//! - Filter: the level the orchestrator's `-q`/`-v`/`-vv` chose when one is typed (a flag on the
+//!   command line is the nearer, more deliberate choice, so it wins over the environment); else
+//!   `RUST_LOG` when set (the `tracing-subscriber` directive syntax); else info, for Cohort's
 //!   own crates and nothing from the libraries beneath them (zenoh logs through `tracing` too,
 //!   and printed nothing before this module). Errors of Cohort's own crates are always written,
 //!   whatever the filter: a failed run's `error:` line is its root cause, never filtered away.
@@ -155,10 +156,11 @@ where
     let _ = tracing::subscriber::set_global_default(Registry::default().with(layer));
 }
 
-/// The orchestrator's logging: `level` from its flags unless `RUST_LOG` is set. Returns the
+/// The orchestrator's logging: `level` from its flags when one was typed (`flagged`: they win
+/// over `RUST_LOG`, which is then not read), else `RUST_LOG` when set, else `level`. Returns the
 /// warning about a bad `RUST_LOG` already logged, for tests.
-pub fn init_orchestrator(level: LevelFilter) -> Option<String> {
-    let choice = choose(std::env::var_os(FILTER_VAR), level);
+pub fn init_orchestrator(level: LevelFilter, flagged: bool) -> Option<String> {
+    let choice = choose(if flagged { None } else { std::env::var_os(FILTER_VAR) }, level);
     let _ = DIRECTIVES.set(choice.directives);
     RUN_T0_NS.store(unix_ns(SystemTime::now()), Ordering::Relaxed);
     install(choice.filter, TerminalFormat);

@@ -175,12 +175,16 @@ pub fn child_main(
             let timeout = Duration::from_secs_f64(scenario.run.startup_timeout_s);
             let run = ZenohRun::new(run_id).with_key(key);
             ZenohData::declare(&run, &topo, me, &spec.zenoh_listen, &spec.zenoh_connect)
-                .and_then(|p| p.ready(timeout))
+                .and_then(|p| p.ready_unless(timeout, &terminate))
                 .map(|t| Box::new(t) as _)
         }
     };
     let mut transport = match opened {
         Ok(t) => t,
+        Err(e @ cohort_wire::transport::TransportError::Stopped(_)) => {
+            info!("{e}");
+            return ExitCode::from(EXIT_STOPPED);
+        }
         Err(e) => {
             error!("cannot open the run's services: {e}");
             return ExitCode::from(EXIT_RUN_FAILED);

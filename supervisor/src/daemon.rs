@@ -10,7 +10,8 @@
 //! it serves and kills that run's children when the token goes (the orchestrator ended, was
 //! killed, or its network went), and the children run with `PR_SET_PDEATHSIG = SIGKILL`, so a
 //! daemon that dies takes them with it. A run's files live under the user's own base directory
-//! (`<base>/hosts/<name>/<run id>/`, 0700, as the orchestrator's runs) and are removed at the end.
+//! (`<base>/hosts/<name>/<run id>/`, 0700, as the orchestrator's runs) and are removed at the end;
+//! the daemon's own `<name>/` when it stops.
 //!
 //! Trust: whoever reaches the daemon's endpoint can make it start this build's plant and agent
 //! binaries (never anything else) with a scenario it sends; bind it to a network of your own, or
@@ -143,6 +144,12 @@ pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
             let ids: Vec<u64> = d.runs.keys().copied().collect();
             for id in ids {
                 d.end_run(id);
+            }
+            // Its per-host directory (and the per-user base, when no other daemon uses it) goes
+            // with it: `remove_dir` removes only an empty directory, never another's files.
+            let _ = std::fs::remove_dir(&d.base);
+            if let Some(parent) = d.base.parent() {
+                let _ = std::fs::remove_dir(parent);
             }
             return Ok(());
         }

@@ -2,6 +2,7 @@
 //! changed paper crate that it missed would let an old `plant` or `agent` binary pass the
 //! handshake. `cargo metadata` is the independent list.
 
+use cohort::OutputWithin;
 use std::path::Path;
 use std::process::Command;
 
@@ -11,8 +12,7 @@ fn the_build_id_covers_every_workspace_member() {
     let out = Command::new(env!("CARGO"))
         .args(["metadata", "--no-deps", "--format-version", "1", "--offline"])
         .current_dir(&root)
-        .output()
-        .expect("running cargo metadata");
+        .output_within(cohort::QUICK_LIMIT, "cargo metadata");
     assert!(out.status.success(), "cargo metadata: {}", String::from_utf8_lossy(&out.stderr));
     let meta: serde_json::Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
     let mut members: Vec<String> = meta["packages"]

@@ -12,6 +12,7 @@
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
+use cohort::OutputWithin;
 use cohort::{bin_path, repo_root};
 
 /// Invalid files with no `# expect:` line, mapped to the text their error must contain.
@@ -64,8 +65,7 @@ fn check(args: &[&str]) -> Run {
         .arg("check")
         .args(args)
         .current_dir(repo_root())
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {}: {e}", bin.display()));
+        .output_within(cohort::QUICK_LIMIT, "orchestrator check");
     Run {
         cmd: format!("(cd {} && {} check {})", repo_root().display(), bin.display(), args.join(" ")),
         code: out.status.code(),

@@ -3,10 +3,11 @@
 //!
 //! Run with `scripts/test`, which builds the release binaries first.
 
+use cohort::OutputWithin;
 use cohort::{describe_output, orchestrator_command, scratch_dir};
 
 fn stdout_of(args: &[&str]) -> String {
-    let o = orchestrator_command().args(args).output().expect("running the orchestrator");
+    let o = orchestrator_command().args(args).output_within(cohort::QUICK_LIMIT, "the orchestrator's command line");
     assert!(o.status.success(), "{args:?}: {}", describe_output(&o));
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
@@ -33,7 +34,9 @@ fn completions_and_man_pages_cover_every_command() {
     for cmd in ["launch", "check", "soak", "train", "report"] {
         assert!(bash.contains(cmd), "bash completion lacks {cmd}");
     }
-    let o = orchestrator_command().args(["completions", "no-such-shell"]).output().unwrap();
+    let o = orchestrator_command()
+        .args(["completions", "no-such-shell"])
+        .output_within(cohort::QUICK_LIMIT, "completions for an unknown shell");
     assert_eq!(o.status.code(), Some(2), "{}", describe_output(&o));
     let dir = scratch_dir("man-pages");
     stdout_of(&["man", "--out", dir.to_str().unwrap()]);

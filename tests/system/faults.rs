@@ -303,7 +303,7 @@ fn an_agent_killed_by_surprise_keeps_its_parquet_telemetry_up_to_a_step_close_to
     assert_eq!(agent3.len(), 1, "agent 3's process: {:?}", processes_mentioning(&needle));
     // SAFETY: a plain kill(2) of the agent process this test's run started.
     assert_eq!(unsafe { libc::kill(agent3[0] as i32, libc::SIGKILL) }, 0);
-    let o = child.wait_with_output().expect("waiting for the orchestrator");
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the run whose agent was killed by surprise");
     let s = summary(&run);
     assert_eq!(s["status"], "degraded", "{}", describe_output(&o));
     assert_eq!(s["steps_completed"], 1400);

@@ -7,12 +7,12 @@
 //!
 //! Heavy tests are serialised by [`cohort::heavy`]; every wait is generous.
 
-use std::io::Read;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use cohort::OutputWithin;
 use cohort::{
     describe_output, heavy, iceoryx2_leftovers, orchestrator_command, repo_root, scratch_dir, summary, telemetry_bits,
 };
@@ -78,7 +78,7 @@ fn bad_command_line_values_are_refused_without_a_panic() {
     .map(|(a, code, says)| (a.into_iter().map(String::from).collect(), code, says))
     .collect();
     for (args, code, says) in &table {
-        let o = orchestrator_command().args(args).output().unwrap();
+        let o = orchestrator_command().args(args).output_within(cohort::QUICK_LIMIT, "a refused command line");
         let what = args.join(" ");
         no_panic(&what, &o);
         assert_eq!(o.status.code(), Some(*code), "{what}\n{}", describe_output(&o));
@@ -103,9 +103,8 @@ fn a_closed_or_full_stdout_ends_quietly_with_the_runs_exit_code() {
         .spawn()
         .unwrap();
     drop(child.stdout.take());
-    let mut err = String::new();
-    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
-    let st = child.wait().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "a launch whose stdout was closed");
+    let (st, err) = (o.status, String::from_utf8_lossy(&o.stderr));
     assert_eq!(st.code(), Some(0), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     assert_clean(&dir.join("pipe"));
@@ -129,7 +128,7 @@ fn sighup_and_sigterm_stop_a_run_in_order() {
     let dir = scratch_dir("hup");
     for (sig, code) in [(libc::SIGHUP, 129), (libc::SIGTERM, 143)] {
         let out = dir.join(format!("sig{sig}"));
-        let mut child = orchestrator_command()
+        let child = orchestrator_command()
             .args(["launch", &ring(), "--duration", "600", "--no-plots", "--wait", "event", "--out"])
             .arg(&out)
             .stdout(Stdio::null())
@@ -145,9 +144,8 @@ fn sighup_and_sigterm_stop_a_run_in_order() {
         std::thread::sleep(Duration::from_millis(1500));
         // SAFETY: kill(2) on the child we spawned.
         unsafe { libc::kill(child.id() as i32, sig) };
-        let mut err = String::new();
-        child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
-        let st = child.wait().unwrap();
+        let o = cohort::finish_within(child, cohort::RUN_LIMIT, &format!("the run sent signal {sig}"));
+        let (st, err) = (o.status, String::from_utf8_lossy(&o.stderr));
         assert_eq!(st.code(), Some(code), "signal {sig}: {err}");
         assert!(!err.contains("panicked"), "{err}");
         assert_eq!(summary(&out)["status"], "interrupted", "signal {sig}");
@@ -174,7 +172,7 @@ fn a_run_too_large_for_the_open_file_limit_is_refused_up_front() {
         });
     }
     let started = Instant::now();
-    let o = cmd.output().unwrap();
+    let o = cmd.output_within(cohort::RUN_LIMIT, "a launch under ulimit -n 512");
     no_panic("ulimit -n 512", &o);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
@@ -207,8 +205,7 @@ fn a_long_runtime_dir_runs_or_is_refused_with_the_reason() {
             .args(["launch", &file.display().to_string(), "--no-plots", "--out"])
             .arg(&run)
             .env("XDG_RUNTIME_DIR", &xdg)
-            .output()
-            .unwrap();
+            .output_within(cohort::RUN_LIMIT, "a launch with a private XDG_RUNTIME_DIR");
         no_panic(&xdg, &o);
         if runs {
             assert!(o.status.success(), "XDG_RUNTIME_DIR={xdg}: {}", describe_output(&o));
@@ -238,8 +235,7 @@ fn a_one_step_run_loses_no_share() {
         let o = orchestrator_command()
             .args(["launch", &file.display().to_string(), "--no-plots", "--step-timeout", "20", "--out"])
             .arg(&run)
-            .output()
-            .unwrap();
+            .output_within(cohort::RUN_LIMIT, "one of the back-to-back launches");
         no_panic("one step", &o);
         assert!(o.status.success(), "{}", describe_output(&o));
         let s = summary(&run);
@@ -278,8 +274,7 @@ fn a_full_disk_is_reported_first_and_leaves_no_empty_json() {
         .args(["launch", &repo_root().join("topologies/fig1-fixed.toml").display().to_string(), "--duration", "30"])
         .args(["--no-plots", "--out"])
         .arg(mnt.join("run"))
-        .output()
-        .unwrap();
+        .output_within(cohort::RUN_LIMIT, "a launch onto a full file system");
     let mut empty = Vec::new();
     for d in [mnt.join("run"), mnt.join("run/status")] {
         for f in std::fs::read_dir(&d).into_iter().flatten().flatten() {
@@ -310,8 +305,7 @@ fn an_authenticated_run_has_the_same_telemetry_and_rejects_nothing() {
             .args(["launch", &ring(), "--duration", "5", "--no-plots", "--out"])
             .arg(&out)
             .args(extra)
-            .output()
-            .unwrap();
+            .output_within(cohort::RUN_LIMIT, "a ring launch");
         assert!(o.status.success(), "{}", describe_output(&o));
         out
     };
@@ -399,8 +393,7 @@ fn waiting_survives_two_cpu_hogs() {
         let o = orchestrator_command()
             .args(["launch", &ring(), "--duration", "5", "--no-plots", "--wait", wait, "--out"])
             .arg(&out)
-            .output()
-            .unwrap();
+            .output_within(cohort::RUN_LIMIT, "a launch with a --wait strategy");
         assert!(o.status.success(), "{}", describe_output(&o));
         summary(&out)["wall_s"].as_f64().unwrap()
     };

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use cohort::OutputWithin;
 use cohort::{
     bin_path, describe_output, heavy, iceoryx2_leftovers, launch_scenario, orchestrator_command, processes_mentioning,
     repo_root, scratch_dir, summary, telemetry_bits,
@@ -136,8 +137,8 @@ fn two_concurrent_launches_both_succeed_and_match() {
     let (a, b) = (dir.join("a"), dir.join("b"));
     let ca = spawn(&a);
     let cb = spawn(&b);
-    let oa = ca.wait_with_output().unwrap();
-    let ob = cb.wait_with_output().unwrap();
+    let oa = cohort::finish_within(ca, cohort::RUN_LIMIT, "the first of two concurrent launches");
+    let ob = cohort::finish_within(cb, cohort::RUN_LIMIT, "the second of two concurrent launches");
     assert!(oa.status.success(), "first run failed:\n{}", describe_output(&oa));
     assert!(ob.status.success(), "second run failed:\n{}", describe_output(&ob));
     assert_ne!(run_id(&a), run_id(&b), "the two runs shared a run id");
@@ -202,7 +203,7 @@ fn in_abort_mode_sigkill_of_an_agent_ends_the_run_cleanly_naming_it_and_the_step
     let killed_at = Instant::now();
     // SAFETY: kill(2) on a pid read from /proc just now.
     assert_eq!(unsafe { libc::kill(agent3 as i32, libc::SIGKILL) }, 0);
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the run whose agent was SIGKILLed (abort mode)");
     let took = killed_at.elapsed().as_secs_f64();
     // Detection (≤ step timeout) plus the shutdown ladder's grace (stop 3 s + term 2 s) + margin.
     assert!(took < step_timeout_s + 5.0 + 10.0, "took {took:.1} s to end the run");
@@ -231,7 +232,7 @@ fn sigint_to_the_orchestrator_stops_everything_with_130() {
     // SAFETY: kill(2) on our own child.
     assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
     let sent = Instant::now();
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the run sent SIGINT");
     assert!(sent.elapsed() < Duration::from_secs(20), "took {:?} to stop", sent.elapsed());
     assert_eq!(o.status.code(), Some(130), "{}", describe_output(&o));
     let s = summary(&out);
@@ -247,8 +248,7 @@ fn a_child_built_from_other_sources_refuses_to_run() {
         .args(["--id", "1", "--run-id", "00ff", "--build-id", "0.0.0-someotherbuild"])
         .arg("--run-dir")
         .arg(&dir)
-        .output()
-        .unwrap();
+        .output_within(cohort::QUICK_LIMIT, "an agent of another build");
     assert_eq!(o.status.code(), Some(3), "{}", describe_output(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("rebuild"), "{}", describe_output(&o));
     let _ = std::fs::remove_dir_all(&dir);
@@ -265,8 +265,7 @@ fn a_missing_child_binary_is_refused_with_a_clear_message() {
         .arg(ring())
         .arg("--out")
         .arg(dir.join("run"))
-        .output()
-        .unwrap();
+        .output_within(cohort::RUN_LIMIT, "a launch");
     assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("binary is missing") && err.contains("plant"), "{err}");
@@ -284,7 +283,7 @@ fn in_abort_mode_a_frozen_agent_ends_the_run_at_the_step_timeout_naming_it() {
     // SAFETY: kill(2) on a pid read from /proc just now.
     assert_eq!(unsafe { libc::kill(agent5 as i32, libc::SIGSTOP) }, 0);
     let frozen_at = Instant::now();
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the run with a frozen agent (abort mode)");
     let took = frozen_at.elapsed().as_secs_f64();
     assert!(took >= step_timeout_s * 0.9, "ended after {took:.2} s, before the step timeout");
     assert!(took < step_timeout_s + 5.0 + 15.0, "took {took:.1} s");
@@ -359,7 +358,14 @@ fn thirty_agents_run_multi_process_past_the_default_service_limits() {
     let file = dir.join("ring30.toml");
     std::fs::write(&file, toml).unwrap();
     let run = |out: &Path, extra: &[&str]| {
-        orchestrator().arg("launch").arg(&file).arg("--out").arg(out).arg("--no-plots").args(extra).output().unwrap()
+        orchestrator()
+            .arg("launch")
+            .arg(&file)
+            .arg("--out")
+            .arg(out)
+            .arg("--no-plots")
+            .args(extra)
+            .output_within(cohort::RUN_LIMIT, "a 30-agent ring launch")
     };
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
     let o = run(&mp, &[]);
@@ -385,7 +391,7 @@ fn in_degrade_mode_an_unplanned_sigkill_is_survived_named_and_fails_the_exit_cod
     let agent3 = pid_of(&out, "agent --id 3 ");
     // SAFETY: kill(2) on a pid read from /proc just now.
     assert_eq!(unsafe { libc::kill(agent3 as i32, libc::SIGKILL) }, 0);
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the run whose agent was SIGKILLed (degrade mode)");
     assert_eq!(o.status.code(), Some(1), "an unplanned loss must fail the exit code:\n{}", describe_output(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("agent-3") && err.contains("SIGKILL"), "{err}");
@@ -418,7 +424,7 @@ fn killing_the_plant_ends_the_run_cleanly_naming_it() {
     let plant = pid_of(&out, "plant --run-dir");
     // SAFETY: kill(2) on a pid read from /proc just now.
     assert_eq!(unsafe { libc::kill(plant as i32, libc::SIGKILL) }, 0);
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the run whose plant was killed");
     assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("plant") && err.contains("SIGKILL"), "the plant (the clock) must be named:\n{err}");

@@ -1,11 +1,13 @@
 //! Logging (issue 17, item 5): `RUST_LOG`, `-v` and `-q` choose the orchestrator's and the
 //! children's log lines; every child log line carries its run time, level and process name; a
-//! bad `RUST_LOG` is named and ignored, never a panic. Short consensus-ring runs (1 s of sim time,
+//! bad `RUST_LOG` is named and ignored, never a panic; `-v`/`-q` typed on the command line win
+//! over `RUST_LOG` (issue 36, item 9.1). Short consensus-ring runs (1 s of sim time,
 //! 100 steps), serialised by [`cohort::heavy`].
 
 use std::path::Path;
 use std::process::Output;
 
+use cohort::OutputWithin;
 use cohort::{describe_output, heavy, orchestrator_command, repo_root, scratch_dir};
 
 /// `orchestrator [FLAGS] launch consensus-ring --duration 1` into `out`, with `RUST_LOG` set to
@@ -21,7 +23,7 @@ fn launch(out: &Path, flags: &[&str], rust_log: Option<&str>) -> Output {
         Some(v) => c.env("RUST_LOG", v),
         None => c.env_remove("RUST_LOG"),
     };
-    let o = c.output().expect("running the orchestrator");
+    let o = c.output_within(cohort::RUN_LIMIT, "a launch with a log level");
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
     assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"), "{}", describe_output(&o));
     o
@@ -118,5 +120,31 @@ fn a_bad_rust_log_is_named_and_ignored() {
     // The children log at the fallback level, without a warning of their own.
     let levels = child_levels(&log(&run, "plant"), "plant");
     assert!(levels.iter().any(|l| l == "INFO") && !levels.iter().any(|l| l == "WARN"), "{levels:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn v_and_q_typed_on_the_command_line_win_over_rust_log() {
+    let _g = heavy();
+    let dir = scratch_dir("log-flags-win");
+    // `-v` over `RUST_LOG=warn`: debug lines, in the orchestrator and the children.
+    let run = dir.join("v");
+    let o = launch(&run, &["-v"], Some("warn"));
+    let err = stderr(&o);
+    assert!(err.lines().any(|l| l.starts_with("debug: run ")), "-v over RUST_LOG=warn: {err}");
+    let levels = child_levels(&log(&run, "agent-2"), "agent-2");
+    assert!(levels.iter().any(|l| l == "DEBUG"), "-v over RUST_LOG=warn, agent-2: {levels:?}");
+    // `-q` over `RUST_LOG=debug`: warnings and errors only.
+    let run = dir.join("q");
+    let o = launch(&run, &["-q"], Some("debug"));
+    let err = stderr(&o);
+    assert!(!err.lines().any(|l| l.starts_with("info:") || l.starts_with("debug:")), "-q over RUST_LOG=debug: {err}");
+    let levels = child_levels(&log(&run, "plant"), "plant");
+    assert!(levels.iter().all(|l| l == "WARN" || l == "ERROR"), "-q over RUST_LOG=debug, plant: {levels:?}");
+    // Without a flag, `RUST_LOG` still decides.
+    let run = dir.join("env");
+    let o = launch(&run, &[], Some("warn"));
+    let err = stderr(&o);
+    assert!(!err.lines().any(|l| l.starts_with("info:")), "RUST_LOG=warn alone: {err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

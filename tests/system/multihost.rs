@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use cohort::OutputWithin;
 use cohort::{bin_path, describe_output, heavy, processes_mentioning, repo_root, scratch_dir, summary, telemetry_bits};
 use serde_json::Value;
 
@@ -240,7 +241,7 @@ fn launch_on_a(net: &Net, run: &Path, extra: &[&str]) -> Output {
         .args(["launch", "topologies/fig1.toml", "--no-plots", "--duration", DURATION, "--transport", "zenoh", "--out"])
         .arg(run)
         .args(extra);
-    c.output().expect("running the orchestrator")
+    c.output_within(cohort::RUN_LIMIT, "fig1 launched from host a across three hosts")
 }
 
 fn launch_here(run: &Path, extra: &[&str]) -> Output {
@@ -323,7 +324,7 @@ fn fig1_across_three_hosts_is_bit_identical_survives_kills_and_host_loss_and_net
     // Let it run a little (paced at 4× real time: 20 s of simulation take 5 s), then kill b.
     std::thread::sleep(Duration::from_millis(2500));
     daemons.kill(1);
-    let o = run.wait_with_output().expect("the run ends");
+    let o = cohort::finish_within(run, cohort::RUN_LIMIT, "fig1 in real time across three hosts");
     assert_eq!(o.status.code(), Some(1), "a lost host is an unplanned loss:\n{}", describe_output(&o));
     let s = summary(&lost);
     assert_eq!(s["status"], "degraded", "{}", describe_output(&o));
@@ -510,5 +511,40 @@ fn twenty_agents_over_zenoh_start_every_time() {
         let id = summary(&run)["run_id"].as_str().unwrap().to_string();
         assert!(processes_mentioning(&id).is_empty(), "{:?}", processes_mentioning(&id));
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 36, item 9.4: a host daemon that stops (SIGTERM) leaves no empty per-host directory
+/// (`<tmp>/cohort-<uid>-hosts/<name>/`, made at its start) behind, nor an empty base. Under its
+/// own temp dir, so other daemons' directories are not in the way.
+#[test]
+fn a_stopped_host_daemon_leaves_no_empty_per_host_directory() {
+    let dir = scratch_dir("multihost-hostdir");
+    let port = 40_000 + (std::process::id() % 20_000) as u16;
+    let mut c = Command::new(bin_path("orchestrator"))
+        .args(["host", "--listen", &format!("tcp/127.0.0.1:{port}"), "--name", "tidy"])
+        .env("TMPDIR", &dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start a host daemon");
+    let mut err = std::io::BufReader::new(c.stderr.take().expect("piped"));
+    let mut line = String::new();
+    std::io::BufRead::read_line(&mut err, &mut line).expect("the daemon's first line");
+    assert!(line.contains("listening on"), "daemon: {line}");
+    let base = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| p.file_name().is_some_and(|n| n.to_string_lossy().ends_with("-hosts")))
+        .unwrap_or_else(|| panic!("no per-user hosts base under {}", dir.display()));
+    assert!(base.join("tidy").is_dir(), "the daemon's directory while it runs");
+    // SAFETY: kill(2) on a child of this test.
+    unsafe { libc::kill(c.id() as i32, libc::SIGTERM) };
+    let status = c.wait().unwrap();
+    assert!(status.code().is_some(), "the daemon ends by itself on SIGTERM, not by the signal: {status:?}");
+    assert!(!base.join("tidy").exists(), "{} left behind", base.join("tidy").display());
+    assert!(!base.exists(), "{} left behind, empty", base.display());
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+use cohort::OutputWithin;
 use cohort::{
     describe_output, heavy, launch_scenario, orchestrator_command, repo_root, scratch_dir, summary, telemetry_bits,
 };
@@ -133,14 +134,20 @@ fn check_names_each_mistake_in_a_python_module_at_its_key_path() {
     ];
     for (module, class, key, expect) in cases {
         let file = fixture_scenario(&dir, module, class);
-        let o = orchestrator_command().arg("check").arg(&file).output().unwrap();
+        let o = orchestrator_command()
+            .arg("check")
+            .arg(&file)
+            .output_within(cohort::QUICK_LIMIT, "check of a faulty Python module");
         assert_eq!(o.status.code(), Some(2), "{module}:{class}\n{}", describe_output(&o));
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains(key) && err.contains(expect), "{module}:{class}: expected {key} … {expect}:\n{err}");
         assert!(err.contains(&file.display().to_string()), "names the scenario file:\n{err}");
     }
     let ok = fixture_scenario(&dir, "faulty.py", "Fine");
-    let o = orchestrator_command().arg("check").arg(&ok).output().unwrap();
+    let o = orchestrator_command()
+        .arg("check")
+        .arg(&ok)
+        .output_within(cohort::QUICK_LIMIT, "check of a sound Python module");
     assert!(o.status.success(), "{}", describe_output(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -202,7 +209,11 @@ fn a_recorded_python_agent_replays_and_an_edit_is_named_at_its_first_differing_s
     let run = dir.join("run");
     launch_ok(&file, &run, &["--record"]);
     let replay = |what: &str| {
-        let o = orchestrator_command().args(["replay"]).arg(&run).args(["--agent", "3"]).output().unwrap();
+        let o = orchestrator_command()
+            .args(["replay"])
+            .arg(&run)
+            .args(["--agent", "3"])
+            .output_within(cohort::RUN_LIMIT, "replay of a Python agent");
         (o.status.code(), format!("{what}:\n{}", describe_output(&o)))
     };
     let (code, out) = replay("as recorded");
@@ -237,7 +248,10 @@ fn the_tutorials_class_and_scenario_fly_as_written() {
     };
     std::fs::write(dir.join("damper.py"), block("python")).unwrap();
     std::fs::write(dir.join("damper.toml"), block("toml")).unwrap();
-    let o = orchestrator_command().arg("check").arg(dir.join("damper.toml")).output().unwrap();
+    let o = orchestrator_command()
+        .arg("check")
+        .arg(dir.join("damper.toml"))
+        .output_within(cohort::QUICK_LIMIT, "check of the tutorial's scenario");
     assert!(o.status.success(), "{}", describe_output(&o));
     let run = dir.join("run");
     launch_ok(&dir.join("damper.toml"), &run, &["--duration", "10"]);

@@ -5,6 +5,7 @@
 
 use std::process::Command;
 
+use cohort::OutputWithin;
 use cohort::{describe_output, repo_root};
 
 fn python_with_pyarrow() -> Result<(), String> {
@@ -28,8 +29,7 @@ fn unittest(dir: &str, tests: usize) -> Option<String> {
     let o = Command::new("python3")
         .args(["-m", "unittest", "discover", "-v", "-s", dir, "-p", "test_*.py"])
         .current_dir(repo_root())
-        .output()
-        .expect("running python3");
+        .output_within(cohort::RUN_LIMIT, "the Python loader's unit tests");
     assert!(o.status.success(), "{}", describe_output(&o));
     let err = String::from_utf8_lossy(&o.stderr).to_string();
     // The release binaries are built before the tests (scripts/test): the run tests must have run.

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use cohort::OutputWithin;
 use cohort::{describe_output, heavy, orchestrator_command, repo_root, scratch_dir, summary};
 
 fn ring() -> PathBuf {
@@ -43,7 +44,10 @@ fn of_two_launches_into_one_out_one_runs_and_the_other_is_refused() {
                 .unwrap()
         };
         let (a, b) = (spawn(1), spawn(8));
-        let (a, b) = (a.wait_with_output().unwrap(), b.wait_with_output().unwrap());
+        let (a, b) = (
+            cohort::finish_within(a, cohort::RUN_LIMIT, "the first launch into one --out"),
+            cohort::finish_within(b, cohort::RUN_LIMIT, "the second launch into one --out"),
+        );
         let codes = [a.status.code(), b.status.code()];
         let (winner, loser) = match codes {
             [Some(0), Some(2)] => (&a, &b),
@@ -59,22 +63,6 @@ fn of_two_launches_into_one_out_one_runs_and_the_other_is_refused() {
         assert!(said.contains("done"), "round {round}: {said}");
     }
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// A spawned command's output, or a failure naming what it was waiting for if it has not ended
-/// within `limit` (then it is killed).
-fn output_within(mut cmd: Command, limit: Duration, what: &str) -> Output {
-    let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
-    let deadline = Instant::now() + limit;
-    while child.try_wait().unwrap().is_none() {
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let o = child.wait_with_output().unwrap();
-            panic!("{what}: still running after {limit:?} (killed)\n{}", describe_output(&o));
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    child.wait_with_output().unwrap()
 }
 
 /// Defect 3: a FIFO, a device and a file past the documented size are refused at once with exit 2
@@ -104,7 +92,7 @@ fn a_fifo_a_device_or_an_oversized_file_is_refused_at_once() {
         let what = args.join(" ");
         let mut cmd = orchestrator_command();
         cmd.args(&args).args(["--no-plots"].iter().filter(|_| args[0] == "launch"));
-        let o = output_within(cmd, Duration::from_secs(60), &what);
+        let o = cmd.output_within(Duration::from_secs(60), &what);
         assert_eq!(o.status.code(), Some(2), "{what}\n{}", describe_output(&o));
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains(says), "{what}: expected {says:?}\n{err}");
@@ -186,8 +174,7 @@ fn a_base_directory_squatted_by_another_user_is_replaced_by_a_private_one() {
             .args(["launch", "--duration", "2", "--no-plots", "--out"])
             .arg(&out)
             .arg(ring())
-            .output()
-            .unwrap();
+            .output_within(cohort::RUN_LIMIT, "a launch with a private XDG_RUNTIME_DIR");
         assert_eq!(o.status.code(), Some(0), "round {round}\n{}", describe_output(&o));
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains("belongs to uid 65534") && err.contains("this user's runs use"), "{err}");
@@ -258,7 +245,7 @@ fn a_killed_plant_still_gives_the_steps_the_run_completed() {
     let plant = child_named(child.id(), "plant").expect("the plant process");
     // SAFETY: kill(2) on the run's plant.
     unsafe { libc::kill(plant, libc::SIGKILL) };
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the run whose plant was killed");
     assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let s = summary(&run);
     let done = s["steps_completed"].as_u64().unwrap();
@@ -323,7 +310,7 @@ fn sigterm_while_drawing_the_plots_exits_143() {
     // SAFETY: kill(2) on the child we spawned.
     unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
     let started = Instant::now();
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the run sent SIGTERM while drawing its plots");
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(143), "{}", describe_output(&o));
     assert!(err.contains("while drawing the plots"), "{err}");
@@ -371,7 +358,7 @@ fn on_a_full_disk_with_empty_logs_the_error_gives_the_cause() {
 fn replay_agent_2(run: &Path, what: &str) -> Output {
     let mut cmd = orchestrator_command();
     cmd.arg("replay").arg(run).args(["--agent", "2"]);
-    output_within(cmd, Duration::from_secs(60), what)
+    cmd.output_within(Duration::from_secs(60), what)
 }
 
 /// Defect 4: 200 seeded one-byte flips of a recording — half anywhere, half in a chunk's header
@@ -470,7 +457,10 @@ fn salvage_turns_a_killed_runs_journals_into_files_past_a_damaged_one() {
     let tel = run.join("telemetry");
     assert!(tel.join("plant.rows").is_file() && !tel.join("plant.parquet").exists(), "only journals are left");
     std::fs::write(tel.join("agent-3.rows"), b"damaged").unwrap();
-    let o = orchestrator_command().arg("salvage").arg(&run).output().unwrap();
+    let o = orchestrator_command()
+        .arg("salvage")
+        .arg(&run)
+        .output_within(cohort::RUN_LIMIT, "salvage of an interrupted run");
     assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("agent-3.rows"), "{err}");
@@ -483,7 +473,8 @@ fn salvage_turns_a_killed_runs_journals_into_files_past_a_damaged_one() {
     assert!(s["steps_completed"].as_u64().unwrap() > 100, "{}", s["steps_completed"]);
     let rows = cohort::telemetry_table(&run, "plant").rows();
     assert!(rows > 100, "{rows} plant rows salvaged");
-    let o = orchestrator_command().arg("report").arg(&run).output().unwrap();
+    let o =
+        orchestrator_command().arg("report").arg(&run).output_within(cohort::QUICK_LIMIT, "report of a salvaged run");
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -505,7 +496,7 @@ fn in_real_time_a_stalled_plant_drops_no_healthy_agent() {
     std::thread::sleep(Duration::from_secs(11));
     // SAFETY: as above.
     unsafe { libc::kill(plant, libc::SIGCONT) };
-    let o = child.wait_with_output().unwrap();
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "the real-time run whose plant was stalled");
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
     let s = summary(&run);
     assert_eq!(s["status"], "ok", "{}", s["timeline"]);
@@ -521,5 +512,98 @@ fn in_real_time_a_stalled_plant_drops_no_healthy_agent() {
     assert!(said.contains("real time: "), "{said}");
     let log = std::fs::read_to_string(run.join("logs/plant.log")).unwrap();
     assert!(log.contains("behind its real-time schedule"), "{log}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 36, item 9.2: a soak's report has every run's latency figures, read from the run's
+/// `timing/` histograms before the soak deletes that directory (its per-run latency plot read
+/// them after, and so found nothing). The runs' samples add up to the links' over all runs.
+#[test]
+fn a_soak_report_has_each_runs_latency_figures_though_its_timing_dir_is_gone() {
+    let _g = heavy();
+    let dir = scratch_dir("soak-timing");
+    let out = dir.join("soak");
+    let o = orchestrator_command()
+        .arg("soak")
+        .arg(ring())
+        .args(["--wall", "1s", "--seed", "7", "--out"])
+        .arg(&out)
+        .output_within(cohort::RUN_LIMIT, "a one-second soak of the ring");
+    assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
+    let report = cohort::read_json(&out.join("soak.json"));
+    let runs = report["runs"].as_array().expect("soak.json: runs");
+    assert!(!runs.is_empty(), "no run in {report}");
+    let mut run_samples = 0;
+    for r in runs {
+        let l = &r["latency"];
+        let samples = l["samples"].as_u64().unwrap_or_else(|| panic!("run {}: no latency figures: {r}", r["run"]));
+        assert!(samples > 0 && l["p99_ns"].as_u64().is_some_and(|p| p > 0), "run {}: {l}", r["run"]);
+        assert!(l["max_ns"].as_u64() >= l["p99_ns"].as_u64(), "run {}: {l}", r["run"]);
+        assert!(!out.join(format!("run-{:03}", r["run"].as_u64().unwrap())).join("timing").exists());
+        run_samples += samples;
+    }
+    let link_samples: u64 = report["links"].as_object().unwrap().values().map(|l| l["samples"].as_u64().unwrap()).sum();
+    assert_eq!(run_samples, link_samples, "{report}");
+    let md = std::fs::read_to_string(out.join("soak.md")).unwrap();
+    assert!(md.contains("| latency p99 µs | latency max µs |"), "{md}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 36, item 9.3: `bench --only X` builds the network-namespace lab only when a chosen case
+/// crosses it. A one-host ring case builds none (`lab_links` is null; as root, it was built for
+/// every bench). Under the network lab's lock, as the other lab users are.
+#[test]
+fn bench_only_a_one_host_case_builds_no_network_lab() {
+    let _g = heavy();
+    let dir = scratch_dir("bench-nolab");
+    let o = Command::new("flock")
+        .arg("/tmp/cohort-netlab.lock")
+        .arg(cohort::bin_path("orchestrator"))
+        .args(["bench", "--quick", "--only", "ring/N=6/event", "--out"])
+        .arg(&dir)
+        .current_dir(repo_root())
+        .output_within(cohort::RUN_LIMIT, "bench --only ring/N=6/event under the network lab's lock");
+    assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
+    let results = cohort::read_json(&dir.join("results.json"));
+    assert!(results["lab_links"].is_null(), "a lab was built for ring/N=6/event: {}", results["lab_links"]);
+    let keys: Vec<&str> = results["cases"].as_array().unwrap().iter().map(|c| c["key"].as_str().unwrap()).collect();
+    assert_eq!(keys, ["ring/N=6/event"]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not building it"), "{}", describe_output(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 36, item 9.6: SIGTERM while a zenoh process waits for its peers (`ZenohPending::ready`)
+/// ends it at once with the stopped status (4), not after `run.startup_timeout_s` (here 300 s).
+/// The agent's peers (the plant, its readers, the orchestrator) never come.
+#[test]
+fn sigterm_ends_a_zenoh_process_waiting_for_peers_that_never_come() {
+    let _g = heavy();
+    let dir = scratch_dir("zenoh-pending-term");
+    let text = std::fs::read_to_string(ring()).unwrap().replace(
+        "[run]\nstep_timeout_s = 10.0\n",
+        "[run]\nstep_timeout_s = 10.0\ntransport = \"zenoh\"\nstartup_timeout_s = 300.0\n",
+    );
+    assert!(text.contains("transport = \"zenoh\""), "the ring's [run] table moved: {text}");
+    std::fs::write(dir.join("scenario.toml"), text).unwrap();
+    let mut child = Command::new(cohort::bin_path("agent"))
+        .args(["--id", "1", "--run-id", "0a5e", "--build-id", cohort_wire::BUILD_ID])
+        .args(["--zenoh-listen", "tcp/127.0.0.1:0"])
+        .arg("--run-dir")
+        .arg(&dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting an agent");
+    // Let it declare its endpoint and enter the wait (a loaded machine: generous).
+    std::thread::sleep(Duration::from_secs(3));
+    assert!(child.try_wait().unwrap().is_none(), "the agent ended before it was signalled");
+    // SAFETY: kill(2) on our own child's pid.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let o =
+        cohort::finish_within(child, Duration::from_secs(20), "the agent, sent SIGTERM while it waited for its peers");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(4), "the stopped status: {err}");
+    assert!(err.contains("stopped on request"), "{err}");
+    assert!(cohort::processes_mentioning(&dir.display().to_string()).is_empty(), "an orphan is left");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -7,6 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
+use cohort::OutputWithin;
 use cohort::{describe_output, heavy, launch_scenario, orchestrator_command, repo_root, scratch_dir, telemetry_bits};
 use cohort_wire::layout;
 use cohort_wire::msg::Share;
@@ -23,7 +24,11 @@ fn launch(out: &Path, extra: &[&str]) {
 }
 
 fn replay(run_dir: &Path, agent: &str) -> Output {
-    orchestrator_command().arg("replay").arg(run_dir).args(["--agent", agent]).output().expect("running replay")
+    orchestrator_command()
+        .arg("replay")
+        .arg(run_dir)
+        .args(["--agent", agent])
+        .output_within(cohort::RUN_LIMIT, "replay of an agent")
 }
 
 fn stdout(o: &Output) -> String {

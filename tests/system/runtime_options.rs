@@ -6,10 +6,11 @@ use std::path::Path;
 use std::process::Output;
 use std::time::Instant;
 
+use cohort::OutputWithin;
 use cohort::{heavy, launch_scenario, orchestrator_command, scratch_dir};
 
 fn orchestrator(args: &[&str]) -> Output {
-    orchestrator_command().args(args).output().expect("running the orchestrator")
+    orchestrator_command().args(args).output_within(cohort::RUN_LIMIT, "the orchestrator")
 }
 
 fn launch(out: &Path, extra: &[&str]) -> Output {
@@ -110,8 +111,7 @@ fn bench_quick_writes_its_results() {
     let o = orchestrator_command()
         .args(["bench", "--quick", "--out", dir.to_str().unwrap()])
         .env("TMPDIR", &tmp)
-        .output()
-        .expect("running the orchestrator");
+        .output_within(cohort::RUN_LIMIT, "bench --quick");
     assert!(o.status.success(), "{}\n{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
     let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().map(|e| e.unwrap().file_name()).collect();
     let _ = std::fs::remove_dir_all(&tmp);

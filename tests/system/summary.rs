@@ -7,6 +7,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use cohort::OutputWithin;
 use cohort::{describe_output, heavy, orchestrator_command, read_json, scratch_dir, summary};
 use serde_json::Value;
 
@@ -48,8 +49,7 @@ fn a_short_fig1_run_has_a_small_summary_its_histograms_a_verdict_and_json_on_std
     let o = orchestrator_command()
         .args(["launch", "topologies/fig1.toml", "--duration", "2", "--no-plots", "--json", "--out"])
         .arg(&run)
-        .output()
-        .expect("running the orchestrator");
+        .output_within(cohort::RUN_LIMIT, "a launch with --json");
     assert!(o.status.success(), "{}", describe_output(&o));
     // --json: stdout is the summary and nothing else.
     let printed: Value = serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{e}\n{}", describe_output(&o)));
@@ -177,8 +177,7 @@ fn a_csv_fig1_run_writes_its_timing_as_csv_and_the_summary_reads_it() {
     let o = orchestrator_command()
         .args(["launch", "topologies/fig1.toml", "--duration", "2", "--no-plots", "--telemetry", "csv", "--out"])
         .arg(&run)
-        .output()
-        .expect("running the orchestrator");
+        .output_within(cohort::RUN_LIMIT, "a launch with csv telemetry");
     assert!(o.status.success(), "{}", describe_output(&o));
     status_and_timing(&run, "csv", 200);
     let s = summary(&run);
@@ -196,8 +195,7 @@ fn dai_and_nr_main_scenarios_get_a_verdict_with_pass_or_fail() {
         let o = orchestrator_command()
             .args(["launch", file, "--no-plots", "--out"])
             .arg(&run)
-            .output()
-            .expect("running the orchestrator");
+            .output_within(cohort::RUN_LIMIT, "a launch of a shipped scenario");
         assert!(o.status.success(), "{file}: {}", describe_output(&o));
         let s = summary(&run);
         let verdict = s["verdict"].as_array().unwrap_or_else(|| panic!("{file}: no verdict"));

@@ -593,9 +593,10 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     // Declared before the lab, so dropped after it (the lab writes under the scratch directory
     // until it is torn down), whichever way this function returns.
     let _scratch_guard = RemoveOnDrop(scratch.clone());
-    let (lab, veth_rtt) = start_lab();
+    // The cases are listed as if the lab were there, so that `--only` decides whether it is
+    // built at all (it takes root, namespaces and seconds): only when a chosen case crosses it.
     let lab_dir = scratch.join("lab");
-    let mut cases = cases(quick, &repo, lab.as_ref().map(|_| lab_dir.as_path()), &scratch)?;
+    let mut cases = cases(quick, &repo, Some(lab_dir.as_path()), &scratch)?;
     if let Some(prefix) = only {
         let all: Vec<String> = cases.iter().map(|c| c.key.clone()).collect();
         cases.retain(|c| c.key.starts_with(prefix));
@@ -603,6 +604,22 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             return Err(BenchError::Invalid(format!(
                 "--only {prefix:?}: no case key starts with it (keys: {})",
                 all.join(", ")
+            )));
+        }
+    }
+    let wants_lab = cases.iter().any(|c| c.lab.is_some());
+    let (lab, veth_rtt) = if wants_lab {
+        start_lab()
+    } else {
+        tracing::info!("no chosen case crosses the network-namespace lab: not building it");
+        (None, None)
+    };
+    if lab.is_none() && wants_lab {
+        cases.retain(|c| c.lab.is_none());
+        if cases.is_empty() {
+            return Err(BenchError::Failed(format!(
+                "--only {:?}: every chosen case crosses the network-namespace lab, which cannot be made here",
+                only.unwrap_or("")
             )));
         }
     }

@@ -84,6 +84,9 @@ pub enum TransportError {
     Iox { what: String, detail: String },
     #[error("{0}")]
     Other(String),
+    /// Stopped on request (a signal) while opening, before any step: not a failure.
+    #[error("stopped on request while {0}")]
+    Stopped(String),
 }
 
 impl TransportError {

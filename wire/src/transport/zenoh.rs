@@ -296,8 +296,21 @@ impl ZenohPending {
     /// its reader's, reached over a direct connection — and the status publisher the
     /// orchestrator's.
     pub fn ready(self, timeout: Duration) -> Result<ZenohTransport, TransportError> {
+        self.ready_unless(timeout, &std::sync::atomic::AtomicBool::new(false))
+    }
+
+    /// [`Self::ready`], or [`TransportError::Stopped`] as soon as `stop` is set (a SIGTERM's
+    /// flag): a process whose peers never come must still end at once when told to.
+    pub fn ready_unless(
+        self,
+        timeout: Duration,
+        stop: &std::sync::atomic::AtomicBool,
+    ) -> Result<ZenohTransport, TransportError> {
         let started = Instant::now();
         loop {
+            if stop.load(std::sync::atomic::Ordering::SeqCst) {
+                return Err(TransportError::Stopped(format!("{} waited for its zenoh peers", self.t.data.me.name())));
+            }
             let unmatched: Vec<String> = self
                 .t
                 .data
