@@ -14,18 +14,21 @@
 #[cfg(all(feature = "uring", target_os = "linux"))]
 use std::os::fd::RawFd;
 use std::{
-    cell::UnsafeCell,
     convert::TryInto,
     fmt::{self, Debug},
+    future::poll_fn,
+    io,
     net::SocketAddr,
-    sync::Arc,
+    pin::Pin,
+    sync::{Arc, Mutex as SyncMutex},
+    task::{Context, Poll},
     time::Duration,
 };
 
 use async_trait::async_trait;
 use time::OffsetDateTime;
 use tokio::{
-    io::{AsyncReadExt, AsyncWriteExt},
+    io::{AsyncRead, AsyncWrite, ReadBuf},
     net::{TcpListener, TcpStream},
     sync::Mutex as AsyncMutex,
 };
@@ -55,15 +58,18 @@ use crate::{
 pub struct TlsCommonName(String);
 
 pub struct LinkUnicastTls {
-    // The underlying socket as returned from the async-rustls library
-    // NOTE: TlsStream requires &mut for read and write operations. This means
-    //       that concurrent reads and writes are not possible. To achieve that,
-    //       we use an UnsafeCell for interior mutability. Using an UnsafeCell
-    //       is safe in our case since the transmission and reception logic
-    //       already ensures that no concurrent reads or writes can happen on
-    //       the same stream: there is only one task at the time that writes on
-    //       the stream and only one task at the time that reads from the stream.
-    inner: UnsafeCell<TlsStream<TcpStream>>,
+    // The underlying socket as returned from the async-rustls library.
+    // COHORT PATCH (see vendor/README.md): upstream keeps the stream in an
+    // UnsafeCell and lets the RX task read while the TX task writes, each
+    // through its own `&mut`. Both halves share one rustls connection: while
+    // `process_new_packets` decrypts what the reader received, it parks the
+    // connection's state as `Err(HandshakeNotComplete)`, and a write at that
+    // moment fails with "handshake not complete", which closes the link
+    // (eclipse-zenoh/zenoh#2557; a data race besides). Here every poll of
+    // the stream, read or write, holds this (synchronous) lock, never across
+    // an await: the RX task still waits for data without blocking the TX
+    // task, as with tokio::io::split.
+    inner: SyncMutex<TlsStream<TcpStream>>,
     // The source socket address of this link (address used on the local host)
     src_addr: SocketAddr,
     src_locator: Locator,
@@ -78,8 +84,6 @@ pub struct LinkUnicastTls {
     expiration_manager: Option<LinkCertExpirationManager>,
 }
 
-unsafe impl Send for LinkUnicastTls {}
-unsafe impl Sync for LinkUnicastTls {}
 
 impl LinkUnicastTls {
     fn new(
@@ -138,7 +142,7 @@ impl LinkUnicastTls {
 
         // Build the Tls object
         LinkUnicastTls {
-            inner: UnsafeCell::new(socket),
+            inner: SyncMutex::new(socket),
             src_addr,
             src_locator: Locator::new(TLS_LOCATOR_PREFIX, src_addr.to_string(), "").unwrap(),
             dst_addr,
@@ -151,24 +155,48 @@ impl LinkUnicastTls {
         }
     }
 
-    // NOTE: It is safe to suppress Clippy warning since no concurrent reads
-    //       or concurrent writes will ever happen. The read_mtx and write_mtx
-    //       are respectively acquired in any read and write operation.
-    #[allow(clippy::mut_from_ref)]
-    fn get_mut_socket(&self) -> &mut TlsStream<TcpStream> {
-        unsafe { &mut *self.inner.get() }
+    // COHORT PATCH: one poll of the stream under the lock (see `inner`).
+    async fn poll_stream<R>(
+        &self,
+        mut f: impl FnMut(&mut TlsStream<TcpStream>, &mut Context<'_>) -> Poll<io::Result<R>>,
+    ) -> io::Result<R> {
+        poll_fn(|cx| {
+            let mut stream = self.inner.lock().unwrap_or_else(|e| e.into_inner());
+            f(&mut stream, cx)
+        })
+        .await
+    }
+
+    // COHORT PATCH
+    async fn write_some(&self, buffer: &[u8]) -> io::Result<usize> {
+        self.poll_stream(|s, cx| Pin::new(s).poll_write(cx, buffer))
+            .await
+    }
+
+    // COHORT PATCH
+    async fn read_some(&self, buffer: &mut [u8]) -> io::Result<usize> {
+        self.poll_stream(|s, cx| {
+            let mut rb = ReadBuf::new(&mut *buffer);
+            match Pin::new(s).poll_read(cx, &mut rb) {
+                Poll::Ready(Ok(())) => Poll::Ready(Ok(rb.filled().len())),
+                Poll::Ready(Err(e)) => Poll::Ready(Err(e)),
+                Poll::Pending => Poll::Pending,
+            }
+        })
+        .await
     }
 
     async fn close(&self) -> ZResult<()> {
         tracing::trace!("Closing TLS link: {}", self);
         // Flush the TLS stream
         let _guard = zasynclock!(self.write_mtx);
-        let tls_stream = self.get_mut_socket();
-        let res = tls_stream.flush().await;
+        // COHORT PATCH: flush and shutdown through locked polls (see `inner`).
+        let res = self.poll_stream(|s, cx| Pin::new(s).poll_flush(cx)).await;
         tracing::trace!("TLS link flush {}: {:?}", self, res);
         // Close the underlying TCP stream
-        let (tcp_stream, _) = tls_stream.get_mut();
-        let res = tcp_stream.shutdown().await;
+        let res = self
+            .poll_stream(|s, cx| Pin::new(s.get_mut().0).poll_shutdown(cx))
+            .await;
         tracing::trace!("TLS link shutdown {}: {:?}", self, res);
         res.map_err(|e| zerror!(e).into())
     }
@@ -193,7 +221,7 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn write(&self, buffer: &[u8], _priority: Option<Priority>) -> ZResult<usize> {
         let _guard = zasynclock!(self.write_mtx);
-        self.get_mut_socket().write(buffer).await.map_err(|e| {
+        self.write_some(buffer).await.map_err(|e| {
             tracing::trace!("Write error on TLS link {}: {}", self, e);
             zerror!(e).into()
         })
@@ -201,15 +229,27 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn write_all(&self, buffer: &[u8], _priority: Option<Priority>) -> ZResult<()> {
         let _guard = zasynclock!(self.write_mtx);
-        self.get_mut_socket().write_all(buffer).await.map_err(|e| {
-            tracing::trace!("Write error on TLS link {}: {}", self, e);
-            zerror!(e).into()
-        })
+        // COHORT PATCH: `write_all` over locked polls (see `inner`).
+        let mut written = 0;
+        while written < buffer.len() {
+            match self.write_some(&buffer[written..]).await {
+                Ok(0) => {
+                    tracing::trace!("Write error on TLS link {}: wrote zero bytes", self);
+                    bail!("TLS link {}: wrote zero bytes", self);
+                }
+                Ok(n) => written += n,
+                Err(e) => {
+                    tracing::trace!("Write error on TLS link {}: {}", self, e);
+                    return Err(zerror!(e).into());
+                }
+            }
+        }
+        Ok(())
     }
 
     async fn read(&self, buffer: &mut [u8], _priority: Option<Priority>) -> ZResult<usize> {
         let _guard = zasynclock!(self.read_mtx);
-        self.get_mut_socket().read(buffer).await.map_err(|e| {
+        self.read_some(buffer).await.map_err(|e| {
             tracing::trace!("Read error on TLS link {}: {}", self, e);
             zerror!(e).into()
         })
@@ -217,14 +257,21 @@ impl LinkUnicastTrait for LinkUnicastTls {
 
     async fn read_exact(&self, buffer: &mut [u8], _priority: Option<Priority>) -> ZResult<()> {
         let _guard = zasynclock!(self.read_mtx);
-        let _ = self
-            .get_mut_socket()
-            .read_exact(buffer)
-            .await
-            .map_err(|e| {
-                tracing::trace!("Read error on TLS link {}: {}", self, e);
-                zerror!(e)
-            })?;
+        // COHORT PATCH: `read_exact` over locked polls (see `inner`).
+        let mut filled = 0;
+        while filled < buffer.len() {
+            match self.read_some(&mut buffer[filled..]).await {
+                Ok(0) => {
+                    tracing::trace!("Read error on TLS link {}: early eof", self);
+                    bail!("TLS link {}: early eof", self);
+                }
+                Ok(n) => filled += n,
+                Err(e) => {
+                    tracing::trace!("Read error on TLS link {}: {}", self, e);
+                    return Err(zerror!(e).into());
+                }
+            }
+        }
         Ok(())
     }
 
@@ -287,9 +334,12 @@ impl LinkWithCertExpiration for LinkUnicastTls {
 impl Drop for LinkUnicastTls {
     fn drop(&mut self) {
         // Close the underlying TCP stream
-        let (tcp_stream, _) = self.get_mut_socket().get_mut();
-        let _ = zenoh_runtime::ZRuntime::Acceptor
-            .block_in_place(async move { tcp_stream.shutdown().await });
+        // COHORT PATCH: `&mut self`, so no lock is needed to reach the stream.
+        let stream = self.inner.get_mut().unwrap_or_else(|e| e.into_inner());
+        let (tcp_stream, _) = stream.get_mut();
+        let _ = zenoh_runtime::ZRuntime::Acceptor.block_in_place(poll_fn(
+            move |cx| Pin::new(&mut *tcp_stream).poll_shutdown(cx),
+        ));
     }
 }
 
