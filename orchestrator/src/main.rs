@@ -30,6 +30,7 @@ mod reference;
 mod replay;
 mod rundir;
 mod salvage;
+mod security_args;
 mod soak;
 mod summary;
 mod sweep_report;
@@ -103,7 +104,8 @@ enum Cmd {
         files: Vec<PathBuf>,
     },
     /// Validate a scenario, run it, and write its run directory.
-    Launch(LaunchArgs),
+    // Boxed: with the security flags it is by far the largest variant (clippy's large_enum_variant).
+    Launch(Box<LaunchArgs>),
     /// Run a scenario multi-process again and again for a wall-clock budget, watching latency
     /// per link, deadline misses, message counts, RSS and iceoryx2 entries (exit 1 when one of
     /// them goes wrong; see soak.md in the output directory).
@@ -158,12 +160,15 @@ enum Cmd {
     /// watches this machine's plant and agent processes for an orchestrator (see the README's
     /// "Multi-host" section). Stops on Ctrl-C or SIGTERM, killing what it started.
     Host {
-        /// The zenoh endpoint to listen on, tcp/<address>:<port> (e.g. tcp/0.0.0.0:7447).
+        /// The zenoh endpoint to listen on, tcp/<address>:<port> (e.g. tcp/0.0.0.0:7447), or
+        /// tls/<address>:<port> with --tls-ca/--tls-cert/--tls-key.
         #[arg(long)]
         listen: String,
         /// The name scenarios give this machine in [[hosts]] (default: the host name).
         #[arg(long)]
         name: Option<String>,
+        #[command(flatten)]
+        security: security_args::SecurityArgs,
     },
     /// (bench) Echo zenoh pings, listening on an endpoint.
     #[command(hide = true)]
@@ -245,6 +250,8 @@ struct LaunchArgs {
     /// transport (the bit-identical reference of the multi-process run).
     #[arg(long)]
     reference: bool,
+    #[command(flatten)]
+    security: security_args::SecurityArgs,
     /// Do not draw the plots after a successful run.
     #[arg(long)]
     no_plots: bool,
@@ -439,7 +446,7 @@ fn finish(result: Result<String, CommandError>) -> ExitCode {
 fn generic(command: Cmd) -> ExitCode {
     match command {
         Cmd::Check { files } => check(&files),
-        Cmd::Launch(a) => launch_command(a),
+        Cmd::Launch(a) => launch_command(*a),
         Cmd::Sweep { file, args } => sweep(&file, &args),
         Cmd::Soak { file, wall, realtime, rate, faults, out, seed } => {
             let wall = match soak::parse_wall(&wall) {
@@ -511,16 +518,18 @@ fn generic(command: Cmd) -> ExitCode {
                 ExitCode::from(EXIT_FAILED)
             }
         },
-        Cmd::Host { listen, name } => match daemon::run(&listen, name) {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(e) => {
-                error!("{e}");
-                ExitCode::from(match e {
-                    daemon::DaemonError::Invalid(_) => EXIT_INVALID,
-                    daemon::DaemonError::Failed(_) => EXIT_FAILED,
-                })
+        Cmd::Host { listen, name, security } => {
+            match security.install().map_err(daemon::DaemonError::Invalid).and_then(|()| daemon::run(&listen, name)) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    error!("{e}");
+                    ExitCode::from(match e {
+                        daemon::DaemonError::Invalid(_) => EXIT_INVALID,
+                        daemon::DaemonError::Failed(_) => EXIT_FAILED,
+                    })
+                }
             }
-        },
+        }
         Cmd::ZenohEcho { listen } => match zping::echo(&listen) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -581,6 +590,10 @@ fn load_or_exit(file: &Path, o: &Overrides) -> Result<Setup, ExitCode> {
 }
 
 fn launch_command(a: LaunchArgs) -> ExitCode {
+    if let Err(e) = a.security.install() {
+        error!("{e}");
+        return ExitCode::from(EXIT_INVALID);
+    }
     let mut faults = Vec::new();
     for (k, f) in a.fault.iter().enumerate() {
         match cohort_scenario::faults::FaultSpec::parse_cli(f) {

@@ -8,8 +8,9 @@
 //! scenario's too. Its own problems name the file and their key path in it.
 //!
 //! The checks ([`check`]), before anything starts: hosts need `run.transport = "zenoh"`; names
-//! are unique words; endpoints are `tcp/<address>:<port>`; every agent names a host of the list
-//! (when there is one), the plant's host is on the list, and every host is named by a process.
+//! are unique words; endpoints are `tcp/<address>:<port>` or `tls/<address>:<port>` (which of the
+//! two the run's security settings allow is checked where they are known, before any link opens);
+//! every agent names a host of the list (when there is one), the plant's host is on the list, and every host is named by a process.
 
 use std::path::{Path, PathBuf};
 
@@ -168,11 +169,14 @@ pub fn unplaced_ids(h: &HostsFile, s: &Scenario) -> Vec<Problem> {
 /// Whether `e` is a zenoh TCP endpoint `tcp/<address>:<port>` (an IPv4 or IPv6 address in
 /// brackets, or a host name), port 1..=65535.
 pub fn endpoint_problem(e: &str) -> Option<String> {
-    let Some(rest) = e.strip_prefix("tcp/") else {
-        return Some("must be a zenoh TCP endpoint, tcp/<address>:<port> (e.g. tcp/192.0.2.2:7447)".into());
+    let Some(rest) = e.strip_prefix("tcp/").or_else(|| e.strip_prefix("tls/")) else {
+        return Some(
+            "must be a zenoh TCP or TLS endpoint, tcp/<address>:<port> or tls/<address>:<port> (e.g. tcp/192.0.2.2:7447)"
+                .into(),
+        );
     };
     let Some((addr, port)) = rest.rsplit_once(':') else {
-        return Some("has no port: tcp/<address>:<port>".into());
+        return Some("has no port: tcp/<address>:<port> (or tls/…)".into());
     };
     if addr.is_empty() || addr.contains(['/', '?', '#', ' ']) {
         return Some(format!("address {addr:?} is not an address or host name"));
@@ -262,6 +266,7 @@ mod tests {
         assert_eq!(endpoint_problem("tcp/192.0.2.2:7447"), None);
         assert_eq!(endpoint_problem("tcp/[::1]:7447"), None);
         assert_eq!(endpoint_problem("tcp/box-b:7447"), None);
+        assert_eq!(endpoint_problem("tls/192.0.2.2:7447"), None);
         for bad in [
             "udp/192.0.2.2:7447",
             "tcp/192.0.2.2",
@@ -269,6 +274,8 @@ mod tests {
             "tcp/192.0.2.2:0",
             "tcp/192.0.2.2:70000",
             "192.0.2.2:7447",
+            "tls/192.0.2.2",
+            "quic/192.0.2.2:7447",
         ] {
             assert!(endpoint_problem(bad).is_some(), "{bad}");
         }

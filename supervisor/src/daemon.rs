@@ -14,7 +14,9 @@
 //! the daemon's own `<name>/` when it stops.
 //!
 //! Trust: whoever reaches the daemon's endpoint can make it start this build's plant and agent
-//! binaries (never anything else) with a scenario it sends; bind it to a network of your own.
+//! binaries (never anything else) with a scenario it sends; bind it to a network of your own, or
+//! give it `--tls-*` (mutual TLS: only holders of a certificate of your CA get a session) and
+//! `--auth-file` ([`cohort_wire::transport::zenoh_security`]). Its children inherit those settings.
 
 use std::collections::HashMap;
 use std::io::{BufRead, Write};
@@ -106,6 +108,10 @@ pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
     }
     if let Some(why) = cohort_scenario::hosts::endpoint_problem(listen) {
         return Err(DaemonError::Invalid(format!("--listen {listen:?}: {why}")));
+    }
+    let security = cohort_wire::transport::zenoh_security::current().map_err(DaemonError::Invalid)?;
+    if let Some(why) = security.endpoint_problem("--listen", listen) {
+        return Err(DaemonError::Invalid(why));
     }
     for bin in ["plant", "agent"] {
         sibling_binary(bin).map_err(DaemonError::Failed)?;
@@ -233,6 +239,8 @@ impl Daemon {
         let (reader, writer) = std::io::pipe().map_err(|e| format!("output pipe: {e}"))?;
         let writer2 = writer.try_clone().map_err(|e| format!("output pipe: {e}"))?;
         let mut cmd = Command::new(&bin);
+        // The child's sessions use this daemon's TLS and authentication settings.
+        cmd.envs(cohort_wire::transport::zenoh_security::current()?.to_env());
         if let Some(id) = r.proc_name.strip_prefix("agent-") {
             cmd.arg("--id").arg(id);
         }

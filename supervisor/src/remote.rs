@@ -34,9 +34,17 @@ fn unrouted(asked: Instant, deadline: Instant) -> bool {
     asked.elapsed() < UNROUTED && Instant::now() + ROUTE_RETRY < deadline
 }
 
-/// The address of a `tcp/<address>:<port>` endpoint.
+/// The address of a `tcp/<address>:<port>` (or `tls/…`) endpoint that this process's security
+/// settings allow (with TLS configured, only `tls/`).
 fn endpoint_addr(endpoint: &str) -> Result<SocketAddr, String> {
-    let rest = endpoint.strip_prefix("tcp/").ok_or_else(|| format!("{endpoint}: not a tcp/ endpoint"))?;
+    let security = cohort_wire::transport::zenoh_security::current()?;
+    if let Some(why) = security.endpoint_problem("endpoint", endpoint) {
+        return Err(why);
+    }
+    let rest = endpoint
+        .strip_prefix("tcp/")
+        .or_else(|| endpoint.strip_prefix("tls/"))
+        .ok_or_else(|| format!("{endpoint}: not a tcp/ or tls/ endpoint"))?;
     rest.to_socket_addrs()
         .map_err(|e| format!("{endpoint}: cannot resolve: {e}"))?
         .next()
@@ -64,7 +72,7 @@ pub fn preflight(hosts: &[HostSpec]) -> Result<(), String> {
         }
         let session = zenoh::open(cfg).wait().map_err(|e| {
             format!(
-                "{at}: unreachable: {e} (is `orchestrator host --listen {} --name {}` running there?)",
+                "{at}: unreachable: {e} (is `orchestrator host --listen {} --name {}` running there, with the same --tls-*/--auth-file settings?)",
                 h.endpoint, h.name
             )
         })?;

@@ -296,6 +296,8 @@ fn spawn(
         .map_err(|e| format!("{}: {e}", log_path.display()))?;
     let log2 = log.try_clone().map_err(|e| format!("{}: {e}", log_path.display()))?;
     let mut cmd = Command::new(bin);
+    // Its zenoh sessions use this orchestrator's TLS and authentication settings.
+    cmd.envs(cohort_wire::transport::zenoh_security::current()?.to_env());
     if let Proc::Agent(id) = p {
         cmd.arg("--id").arg(id.to_string());
     }

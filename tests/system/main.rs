@@ -21,3 +21,4 @@ mod reliability;
 mod replay;
 mod runtime_options;
 mod summary;
+mod zenoh_tls;

@@ -14,6 +14,7 @@ pub mod iox;
 pub mod memory;
 pub mod udp;
 pub mod zenoh;
+pub mod zenoh_security;
 
 use std::time::Duration;
 

@@ -89,6 +89,11 @@ pub fn session_config(listen: &[String], connect: &[String]) -> Result<Config, T
     ] {
         c.insert_json5(key, &value).map_err(|e| TransportError::Other(format!("zenoh config {key} = {value}: {e}")))?;
     }
+    // TLS and user/password authentication, the same for every session of the run.
+    let security = super::zenoh_security::current().map_err(TransportError::Other)?;
+    for (key, value) in security.config_entries() {
+        c.insert_json5(key, &value).map_err(|e| TransportError::Other(format!("zenoh config {key}: {e}")))?;
+    }
     Ok(c)
 }
 
@@ -104,11 +109,13 @@ pub fn open_session(listen: &[String], connect: &[String]) -> Result<Session, Tr
     ::zenoh::open(session_config(listen, connect)?).wait().map_err(err("open session"))
 }
 
-/// `tcp/<ip>:<port>` (IPv6 in brackets).
+/// `tcp/<ip>:<port>` (IPv6 in brackets), or `tls/…` when this process's sessions use TLS
+/// ([`super::zenoh_security`]).
 pub fn tcp_endpoint(ip: std::net::IpAddr, port: u16) -> String {
+    let scheme = super::zenoh_security::current().map(|s| s.scheme()).unwrap_or("tcp");
     match ip {
-        std::net::IpAddr::V4(a) => format!("tcp/{a}:{port}"),
-        std::net::IpAddr::V6(a) => format!("tcp/[{a}]:{port}"),
+        std::net::IpAddr::V4(a) => format!("{scheme}/{a}:{port}"),
+        std::net::IpAddr::V6(a) => format!("{scheme}/[{a}]:{port}"),
     }
 }
 
