@@ -1,6 +1,6 @@
 //! Computes `COHORT_BUILD_ID`: a hash of the package version and of every source file of every
 //! workspace member (read from the root `Cargo.toml`'s `[workspace] members`, globs expanded, so a
-//! new paper is covered without an edit here). The orchestrator refuses to launch a `plant` or
+//! new paper is covered without an edit here) and of every patched crate in `vendor/`. The orchestrator refuses to launch a `plant` or
 //! `agent` binary whose build id differs from its own, so a stale binary left beside a fresh
 //! orchestrator is caught in the handshake instead of producing a run with mismatched message
 //! layouts or algorithms. `COHORT_BUILD_ID_MEMBERS` lists the member directories it covered (a
@@ -49,7 +49,10 @@ fn main() {
     let text = std::fs::read_to_string(&root_manifest).unwrap_or_default();
     let mut files = Vec::new();
     let mut covered = Vec::new();
-    for member in members(&text) {
+    // The patched third-party crates of `vendor/` (`[patch.crates-io]`) are built into the
+    // binaries as much as a member is: an edit to one is a different build.
+    let vendored = std::iter::once("vendor/*".to_string());
+    for member in members(&text).into_iter().chain(vendored) {
         if let Some(parent) = member.strip_suffix("/*") {
             // A new paper folder changes the expansion.
             println!("cargo:rerun-if-changed={}", root.join(parent).display());
