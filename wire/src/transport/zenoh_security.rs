@@ -225,8 +225,13 @@ pub fn current() -> Result<&'static Security, String> {
 mod tests {
     use super::*;
 
+    /// This test process's scratch directory (removed at the test's end).
+    fn key_dir() -> PathBuf {
+        std::env::temp_dir().join(format!("cohort-zsec-{}", std::process::id()))
+    }
+
     fn tmp(name: &str, text: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("cohort-zsec-{}", std::process::id()));
+        let d = key_dir();
         std::fs::create_dir_all(&d).unwrap();
         let p = d.join(name);
         std::fs::write(&p, text).unwrap();
@@ -259,6 +264,7 @@ mod tests {
         for (k, v) in cfg {
             c.insert_json5(k, &v).unwrap_or_else(|e| panic!("{k} = {v}: {e}"));
         }
+        let _ = std::fs::remove_dir_all(key_dir());
     }
 
     #[test]
