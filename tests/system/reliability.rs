@@ -551,20 +551,26 @@ fn a_soak_report_has_each_runs_latency_figures_though_its_timing_dir_is_gone() {
 
 /// Issue 36, item 9.3: `bench --only X` builds the network-namespace lab only when a chosen case
 /// crosses it. A one-host ring case builds none (`lab_links` is null; as root, it was built for
-/// every bench). Under the network lab's lock, as the other lab users are.
+/// every bench). Nor does it load the Python rows: here `import numpy` fails (a stand-in on
+/// PYTHONPATH that raises ImportError), which failed every bench before. Under the network lab's
+/// lock, as the other lab users are.
 #[test]
 fn bench_only_a_one_host_case_builds_no_network_lab() {
     let _g = heavy();
     let dir = scratch_dir("bench-nolab");
+    let no_numpy = dir.join("no-numpy");
+    std::fs::create_dir_all(no_numpy.join("numpy")).unwrap();
+    std::fs::write(no_numpy.join("numpy/__init__.py"), "raise ImportError('no numpy in this test')\n").unwrap();
     let o = Command::new("flock")
+        .env("PYTHONPATH", &no_numpy)
         .arg("/tmp/cohort-netlab.lock")
         .arg(cohort::bin_path("orchestrator"))
         .args(["bench", "--quick", "--only", "ring/N=6/event", "--out"])
-        .arg(&dir)
+        .arg(dir.join("bench"))
         .current_dir(repo_root())
         .output_within(cohort::RUN_LIMIT, "bench --only ring/N=6/event under the network lab's lock");
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
-    let results = cohort::read_json(&dir.join("results.json"));
+    let results = cohort::read_json(&dir.join("bench/results.json"));
     assert!(results["lab_links"].is_null(), "a lab was built for ring/N=6/event: {}", results["lab_links"]);
     let keys: Vec<&str> = results["cases"].as_array().unwrap().iter().map(|c| c["key"].as_str().unwrap()).collect();
     assert_eq!(keys, ["ring/N=6/event"]);

@@ -193,7 +193,15 @@ fn ring(n: u32, steps: u64, r: RingRun<'_>) -> Result<Setup, String> {
         .map_err(|problems| cohort_scenario::ScenarioError { file, problems }.to_string())
 }
 
-fn cases(quick: bool, repo: &Path, lab_dir: Option<&Path>, scratch: &Path) -> Result<Vec<Case>, String> {
+/// Every case; the Python rows only when `only` may choose one of them (building them imports
+/// their modules, numpy included, so a Rust case must not need a Python environment).
+fn cases(
+    quick: bool,
+    repo: &Path,
+    lab_dir: Option<&Path>,
+    scratch: &Path,
+    only: Option<&str>,
+) -> Result<Vec<Case>, String> {
     let ns: &[u32] = if quick { &[6, 20] } else { &[6, 20, 50, 100] };
     let steps = if quick { 500 } else { 2000 };
     let mut out = Vec::new();
@@ -263,7 +271,9 @@ fn cases(quick: bool, repo: &Path, lab_dir: Option<&Path>, scratch: &Path) -> Re
     let idle = ring(6, if quick { 20 } else { 50 }, RingRun { dt_s: 0.1, realtime: true, ..RING })?;
     push("idle", 6, "10Hz", "idle", idle, false);
     out.extend(zenoh_cases(quick, repo, lab_dir)?);
-    out.extend(python::cases(quick, repo, scratch)?);
+    if only.is_none_or(python::may_choose) {
+        out.extend(python::cases(quick, repo, scratch)?);
+    }
     Ok(out)
 }
 
@@ -596,9 +606,12 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     // The cases are listed as if the lab were there, so that `--only` decides whether it is
     // built at all (it takes root, namespaces and seconds): only when a chosen case crosses it.
     let lab_dir = scratch.join("lab");
-    let mut cases = cases(quick, &repo, Some(lab_dir.as_path()), &scratch)?;
+    let mut cases = cases(quick, &repo, Some(lab_dir.as_path()), &scratch, only)?;
     if let Some(prefix) = only {
-        let all: Vec<String> = cases.iter().map(|c| c.key.clone()).collect();
+        let mut all: Vec<String> = cases.iter().map(|c| c.key.clone()).collect();
+        if !python::may_choose(prefix) {
+            all.push(format!("{}…", python::KEY_PREFIX));
+        }
         cases.retain(|c| c.key.starts_with(prefix));
         if cases.is_empty() {
             return Err(BenchError::Invalid(format!(

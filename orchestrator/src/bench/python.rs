@@ -35,6 +35,14 @@ fn section(module: &Path, class: &str, share_values: usize, params: &str) -> Str
     )
 }
 
+/// How every Python row's key starts.
+pub(super) const KEY_PREFIX: &str = "python/";
+
+/// Whether `--only prefix` may choose a Python row.
+pub(super) fn may_choose(prefix: &str) -> bool {
+    prefix.starts_with(KEY_PREFIX) || KEY_PREFIX.starts_with(prefix)
+}
+
 pub(super) fn cases(quick: bool, repo: &Path, scratch: &Path) -> Result<Vec<Case>, String> {
     let dir = scratch.join("python");
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
