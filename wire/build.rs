@@ -43,7 +43,10 @@ fn expand(root: &Path, member: &str) -> Vec<PathBuf> {
 }
 
 fn main() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    // Read when the script runs, not when it was compiled: a target directory moved to another
+    // checkout must not hash the old one.
+    let manifest_dir = std::env::var_os("CARGO_MANIFEST_DIR").map(PathBuf::from).unwrap_or_default();
+    let root = manifest_dir.join("..");
     let root_manifest = root.join("Cargo.toml");
     println!("cargo:rerun-if-changed={}", root_manifest.display());
     let text = std::fs::read_to_string(&root_manifest).unwrap_or_default();
