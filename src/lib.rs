@@ -195,3 +195,17 @@ pub fn scenario_text_with_absolute_paths(file: &str) -> String {
     let text = std::fs::read_to_string(repo_root().join("topologies").join(file)).unwrap();
     text.replace("\"../", &format!("\"{}/", repo_root().display()))
 }
+
+/// Run a command of the network lab's setup (`ip netns …`, `openssl …`): Ok, or an error with
+/// the command line and its stderr.
+pub fn sh(args: &[&str]) -> Result<(), String> {
+    let o = std::process::Command::new(args[0])
+        .args(&args[1..])
+        .output()
+        .map_err(|e| format!("{}: {e}", args.join(" ")))?;
+    if o.status.success() {
+        Ok(())
+    } else {
+        Err(format!("{}: {}", args.join(" "), String::from_utf8_lossy(&o.stderr).trim()))
+    }
+}

@@ -22,7 +22,9 @@ use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use cohort::OutputWithin;
-use cohort::{bin_path, describe_output, heavy, processes_mentioning, repo_root, scratch_dir, summary, telemetry_bits};
+use cohort::{
+    bin_path, describe_output, heavy, processes_mentioning, repo_root, scratch_dir, sh, summary, telemetry_bits,
+};
 use serde_json::Value;
 
 use cohort_supervisor::linkemu;
@@ -30,15 +32,6 @@ use cohort_supervisor::linkemu;
 /// fig1, shortened: 1.5 s of simulated time, 150 lockstep steps.
 const DURATION: &str = "1.5";
 const NAMES: [&str; 3] = ["a", "b", "c"];
-
-fn sh(args: &[&str]) -> Result<(), String> {
-    let o = Command::new(args[0]).args(&args[1..]).output().map_err(|e| format!("{}: {e}", args.join(" ")))?;
-    if o.status.success() {
-        Ok(())
-    } else {
-        Err(format!("{}: {}", args.join(" "), String::from_utf8_lossy(&o.stderr).trim()))
-    }
-}
 
 /// Three namespaces on a bridge, or nothing (the loopback fallback).
 struct Net {

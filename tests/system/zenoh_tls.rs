@@ -25,7 +25,7 @@ use std::process::{Child, Command, Output, Stdio};
 
 use cohort::{
     OutputWithin, QUICK_LIMIT, RUN_LIMIT, bin_path, describe_output, heavy, processes_mentioning, repo_root,
-    scratch_dir, summary, telemetry_bits,
+    scratch_dir, sh, summary, telemetry_bits,
 };
 
 /// 500 lockstep steps of fig1: long enough that the unpatched TLS link lost an agent in nearly
@@ -33,15 +33,6 @@ use cohort::{
 const DURATION: &str = "5";
 const OUR_ADDR: &str = "198.18.79.1";
 const DAEMON_ADDR: &str = "198.18.79.2";
-
-fn sh(args: &[&str]) -> Result<(), String> {
-    let o = Command::new(args[0]).args(&args[1..]).output().map_err(|e| format!("{}: {e}", args.join(" ")))?;
-    if o.status.success() {
-        Ok(())
-    } else {
-        Err(format!("{}: {}", args.join(" "), String::from_utf8_lossy(&o.stderr).trim()))
-    }
-}
 
 /// The daemon's namespace and its veth pair, or nothing (the loopback fallback).
 struct Lab {
