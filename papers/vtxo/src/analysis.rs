@@ -15,7 +15,7 @@
 //!
 //! The headline metrics of the issue (time to |r_rel − r_f| < 1 m, transverse RMS/max over the
 //! last 15 s, range error, thrust peak, impulse, Δv, attitude error mean/P99, energy E) are not
-//! recomputed here: the plant accumulates them at every step ([`crate::metrics`]), which stays
+//! recomputed here: the plant accumulates them at every step ([`crate::model::metrics`]), which stays
 //! exact when `run.telemetry_every_steps` thins the rows (a sign-law run switches every step, so
 //! Δv from every tenth row would be wrong). The joins here use the rows there are: with a stride
 //! the consistency fraction is a sample of every n-th step.
@@ -25,8 +25,8 @@ use std::collections::{BTreeMap, HashMap};
 use cohort_report::Table;
 use cohort_runtime::record::{CsvWriter, RunDirs};
 
-use crate::metrics::mekf_error_rad;
-use crate::quaternion::{Quat, V3};
+use crate::model::metrics::mekf_error_rad;
+use crate::model::quaternion::{Quat, V3};
 
 /// Where the joined series go, relative to the run directory.
 pub const DERIVED_FILE: &str = "derived/vtxo.csv";

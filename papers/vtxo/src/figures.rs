@@ -27,7 +27,7 @@ use cohort_report::chart::{
 use cohort_report::{FigureSource, PaperFigure, ReportError, Table, Telemetry};
 
 use crate::analysis::{DERIVED_FILE, ROLES};
-use crate::config_plant::VtxoPlantConfig;
+use crate::model::config::VtxoPlantConfig;
 
 const LOG_MAX_DECADES: i32 = 9;
 const PANEL_CAPTION_SIZE: u32 = 19;

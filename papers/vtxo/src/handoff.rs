@@ -1,5 +1,5 @@
-//! One spacecraft of the hand-off scenario: its flight agent ([`crate::leader::Leader`] or
-//! [`crate::follower::Follower`]: MEKF, relative navigation and relative law) with the Sec. 8
+//! One spacecraft of the hand-off scenario: its flight agent ([`crate::flight::leader::Leader`] or
+//! [`crate::flight::follower::Follower`]: MEKF, relative navigation and relative law) with the Sec. 8
 //! supervisor of "Explainable AI-Enhanced Supervisory Control for High-Precision Spacecraft
 //! Formation" (arXiv:2509.13331) riding along ([`crate::supervisor_lockstep::SupervisorAgent`]:
 //! the follower is the master, the leader adopts the master's location one step later), and the
@@ -33,15 +33,15 @@ use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
-use crate::acs::Acs;
-use crate::attitude::gravity_gradient;
-use crate::attitude_control::AttitudeLaw;
-use crate::follower::Follower;
+use crate::flight::acs::Acs;
+use crate::flight::attitude_control::AttitudeLaw;
+use crate::flight::follower::Follower;
+use crate::flight::leader::Leader;
+use crate::flight::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
 use crate::handoff_science::{self, ScienceChoice};
 pub use crate::handoff_science::{ConfiguredScience, SciencePredictor};
-use crate::leader::Leader;
-use crate::quaternion::{self, V3};
-use crate::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
+use crate::model::attitude::gravity_gradient;
+use crate::model::quaternion::{self, V3};
 use crate::supervisor::{S2, S3};
 use crate::supervisor_lockstep::SupervisorAgent;
 use crate::transient_gains::{MeasuredState, TransientPredictor};

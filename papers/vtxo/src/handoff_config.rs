@@ -38,7 +38,7 @@ use cohort_scenario::Problem;
 use serde::{Deserialize, Serialize};
 
 use crate::config::Checker;
-use crate::config_algorithm::VtxoAlgorithmConfig;
+use crate::flight::config::VtxoAlgorithmConfig;
 use crate::mission_config::{VtxoMissionConfig, whole_ticks};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
@@ -149,7 +149,7 @@ impl VtxoHandoffConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config_plant::VtxoPlantConfig;
+    use crate::model::config::VtxoPlantConfig;
 
     /// The defaults with the supervisor's period taken from the default plant (as configuring does).
     fn on_table_d9() -> VtxoHandoffConfig {

@@ -23,13 +23,13 @@ use cohort_runtime::model::Algorithm;
 use cohort_runtime::paper::{AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantSetup, Setup, section_as, table_of};
 use cohort_scenario::{Checker, Scenario};
 
-use crate::config_algorithm::{Phase, VtxoAlgorithmConfig};
-use crate::config_plant::VtxoPlantConfig;
+use crate::flight::config::{Phase, VtxoAlgorithmConfig};
+use crate::formation::kinds::check_pair_kind;
 use crate::handoff::{ConfiguredScience, Flight, HandoffAgent, SUPERVISOR_OFFSET, SciencePredictor};
 use crate::handoff_config::{ScienceGainsSource, VtxoHandoffConfig};
 use crate::handoff_science::DnnScience;
-use crate::kinds::check_pair_kind;
 use crate::mission_kind::MISSION_KIND;
+use crate::model::config::VtxoPlantConfig;
 use crate::science_dnn::ScienceDnn;
 use crate::supervisor::S1;
 use crate::supervisor_exec::Supervisor;
@@ -157,11 +157,11 @@ impl AlgorithmSetup for HandoffSetup {
         let f = &self.config.flight;
         // Validated: the ids are 1 and 2.
         let flight = match id {
-            1 => Flight::Leader(crate::build_leader(f)),
-            _ => Flight::Follower(crate::build_follower(f)),
+            1 => Flight::Leader(crate::formation::build_leader(f)),
+            _ => Flight::Follower(crate::formation::build_follower(f)),
         };
         let sup = self.supervisor(setup.scenario.dt_s, id);
-        Box::new(HandoffAgent::new(flight, sup, crate::orbit::MU_EARTH_M3PS2, self.transient(), self.science()))
+        Box::new(HandoffAgent::new(flight, sup, crate::model::orbit::MU_EARTH_M3PS2, self.transient(), self.science()))
     }
     fn labels(&self) -> BTreeMap<String, String> {
         let science = VtxoAlgorithmConfig { phase: Phase::Science, ..self.config.flight.clone() };
@@ -188,8 +188,8 @@ mod tests {
     use cohort_scenario::{Overrides, parse};
 
     use super::*;
-    use crate::plant::VtxoPlant;
-    use crate::sim::Sim;
+    use crate::formation::sim::Sim;
+    use crate::model::plant::VtxoPlant;
 
     const PAPERS: &[&dyn Paper] = &[&crate::Vtxo];
 

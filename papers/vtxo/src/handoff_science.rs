@@ -26,7 +26,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::attitude_control::AttitudeLaw;
+use crate::flight::attitude_control::AttitudeLaw;
 use crate::science_dnn::{ScienceDnn, ScienceGainPredictor};
 use crate::science_sim::ScienceLaw;
 use crate::transient_gains::MeasuredState;

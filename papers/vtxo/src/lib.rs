@@ -21,39 +21,22 @@
 // Axis loops (`for i in 0..3`) read like the equations they implement.
 #![allow(clippy::needless_range_loop)]
 
-pub mod acs;
-pub mod actuators;
 pub mod analysis;
-pub mod attitude;
-pub mod attitude_control;
 pub mod config;
-pub mod config_algorithm;
-pub mod config_plant;
-pub mod ecrv;
 pub mod figures;
-pub mod follower;
+pub mod flight;
+pub mod formation;
 pub mod handoff;
 pub mod handoff_analysis;
 pub mod handoff_config;
 pub mod handoff_kind;
 pub mod handoff_science;
-pub mod kinds;
-pub mod layout;
-pub mod leader;
-pub mod mekf;
-pub mod metrics;
 pub mod mission;
 pub mod mission_config;
 pub mod mission_figure;
 pub mod mission_kind;
 pub mod mission_period;
-pub mod orbit;
-pub mod orbit_setup;
-pub mod plant;
-pub mod plant_row;
-pub mod quaternion;
-pub mod relative_control;
-pub mod relative_nav;
+pub mod model;
 pub mod science_data;
 pub mod science_dnn;
 pub mod science_moga;
@@ -62,9 +45,6 @@ pub mod science_stats;
 pub mod science_train;
 pub mod science_trainer;
 pub mod sec7;
-pub mod sensors;
-pub mod share;
-pub mod sim;
 pub mod supervisor;
 pub mod supervisor_check;
 pub mod supervisor_exec;
@@ -86,14 +66,10 @@ use std::path::{Path, PathBuf};
 
 use clap::{FromArgMatches, Parser, Subcommand};
 use cohort_host::{CommandError, FigureSource, Launcher, Metrics, PaperHost, RunView};
-use cohort_runtime::model::Algorithm;
 use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind, Setup};
-use cohort_scenario::Problem;
 
-use acs::Acs;
-use config_algorithm::VtxoAlgorithmConfig;
-use config_plant::VtxoPlantConfig;
-use quaternion::{Quat, V3};
+use flight::config::VtxoAlgorithmConfig;
+use model::config::VtxoPlantConfig;
 
 /// The paper (see the crate docs).
 pub struct Vtxo;
@@ -103,10 +79,10 @@ impl Paper for Vtxo {
         "vtxo"
     }
     fn plants(&self) -> &'static [&'static dyn PlantKind] {
-        &[&kinds::VtxoPlantKind]
+        &[&formation::kinds::VtxoPlantKind]
     }
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
-        &[&kinds::VtxoFormationKind, &mission_kind::VtxoMissionKind, &handoff_kind::VtxoHandoffKind]
+        &[&formation::kinds::VtxoFormationKind, &mission_kind::VtxoMissionKind, &handoff_kind::VtxoHandoffKind]
     }
 }
 
@@ -208,74 +184,6 @@ impl PaperHost for Vtxo {
         let p = setup.plant_as::<VtxoPlantConfig>()?;
         Some(Box::new(figures::VtxoFigures::of(p)))
     }
-}
-
-/// The plant of a scenario, or every problem with its key path.
-pub fn build_plant(
-    cfg: &VtxoPlantConfig,
-    n_agents: u32,
-    dt_s: f64,
-    seed: u64,
-) -> Result<plant::VtxoPlant, Vec<Problem>> {
-    let problems = cfg.validate("plant", n_agents, dt_s);
-    if !problems.is_empty() {
-        return Err(problems);
-    }
-    Ok(plant::VtxoPlant::new(cfg, dt_s, seed))
-}
-
-/// Agent `id`'s algorithm (1 leader, 2 follower), or every problem with its key path.
-pub fn build_agent(cfg: &VtxoAlgorithmConfig, id: u32) -> Result<Box<dyn Algorithm>, Vec<Problem>> {
-    let mut problems = cfg.validate("algorithm");
-    if id != 1 && id != 2 {
-        problems.push(Problem::new(
-            "agents[].id",
-            Some(id.to_string()),
-            "vtxo has agent 1 (leader) and agent 2 (follower)",
-        ));
-    }
-    if !problems.is_empty() {
-        return Err(problems);
-    }
-    Ok(match id {
-        1 => Box::new(build_leader(cfg)),
-        _ => Box::new(build_follower(cfg)),
-    })
-}
-
-fn acs_of(cfg: &VtxoAlgorithmConfig, id: u32) -> Acs {
-    Acs::new(
-        cfg.mekf.variant,
-        cfg.mekf.model(id, cfg.inertia_kg_m2),
-        cfg.attitude_law(),
-        Quat::from(cfg.attitude.q_target_body_eci),
-    )
-}
-
-/// The leader of a validated configuration.
-pub fn build_leader(cfg: &VtxoAlgorithmConfig) -> leader::Leader {
-    let r = &cfg.relative;
-    leader::Leader::new(
-        acs_of(cfg, 1),
-        cfg.leader_law(),
-        cfg.mass_kg,
-        orbit::MU_EARTH_M3PS2,
-        V3::from(r.r_target_eci_m),
-        V3::from(r.v_target_eci_mps),
-    )
-}
-
-/// The follower of a validated configuration.
-pub fn build_follower(cfg: &VtxoAlgorithmConfig) -> follower::Follower {
-    let r = &cfg.relative;
-    follower::Follower::new(
-        acs_of(cfg, 2),
-        cfg.relative_law(),
-        cfg.mass_kg,
-        orbit::MU_EARTH_M3PS2,
-        V3::from(r.r_target_eci_m),
-        V3::from(r.v_target_eci_mps),
-    )
 }
 
 #[cfg(test)]

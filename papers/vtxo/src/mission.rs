@@ -298,7 +298,7 @@ mod tests {
     /// Table 6 and the defaults on the default plant's orbit (Table D.9, 26.65 h), 10 ms ticks.
     fn paper() -> MissionParams {
         let mut c = VtxoMissionConfig::default();
-        assert!(c.timers.follow_plant("algorithm", &crate::config_plant::VtxoPlantConfig::default()).is_none());
+        assert!(c.timers.follow_plant("algorithm", &crate::model::config::VtxoPlantConfig::default()).is_none());
         MissionParams::of(&c, 0.01)
     }
 

@@ -213,7 +213,7 @@ impl VtxoMissionConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config_plant::VtxoPlantConfig;
+    use crate::model::config::VtxoPlantConfig;
 
     /// The defaults on the default plant (Table D.9): the period taken from the orbit.
     fn on_table_d9() -> VtxoMissionConfig {

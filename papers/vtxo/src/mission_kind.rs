@@ -32,10 +32,10 @@ use cohort_runtime::paper::{
 use cohort_runtime::record::{CsvWriter, ErrorKind, ProcessError, ProcessReport, RunDirs};
 use cohort_scenario::{Checker, Scenario};
 
-use crate::config_plant::VtxoPlantConfig;
-use crate::kinds::check_pair_kind;
+use crate::formation::kinds::check_pair_kind;
 use crate::mission::{Mission, MissionParams};
 use crate::mission_config::{PredictorKind, VtxoMissionConfig};
+use crate::model::config::VtxoPlantConfig;
 use crate::supervisor::{Automaton, S1, S2, S3};
 use crate::supervisor_lockstep::SupervisorAgent;
 use crate::supervisor_share::{LEADER_SHARE_LEN, MASTER_SHARE_LEN};

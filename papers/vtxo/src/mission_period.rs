@@ -20,8 +20,8 @@
 
 use cohort_scenario::Problem;
 
-use crate::config_plant::VtxoPlantConfig;
 use crate::mission_config::TimersConfig;
+use crate::model::config::VtxoPlantConfig;
 
 /// How far, relative, an explicit `timers.orbit_period_s` may lie from the plant's period.
 pub const PERIOD_REL_TOLERANCE: f64 = 1e-6;

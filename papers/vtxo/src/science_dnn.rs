@@ -28,8 +28,8 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::attitude_control::AttitudeLaw;
-use crate::quaternion::{Quat, V3};
+use crate::flight::attitude_control::AttitudeLaw;
+use crate::model::quaternion::{Quat, V3};
 use crate::science_sim::{K_MAX, K_MIN, ScienceLaw};
 use crate::transient_gains::MeasuredState;
 use crate::weights_file;

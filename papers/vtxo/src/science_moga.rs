@@ -143,7 +143,7 @@ pub fn pareto(start: &Start, env: &Environment, law: ScienceLaw, s: &Settings, r
                     let d = b - a;
                     let mut x = rng.random_range(a - 0.25 * d..=b + 0.25 * d);
                     if rng.random::<f64>() < 1.0 / n as f64 {
-                        x += 0.1 * (hi - lo) * crate::ecrv::normal(rng);
+                        x += 0.1 * (hi - lo) * crate::model::ecrv::normal(rng);
                     }
                     x.clamp(lo, hi)
                 })

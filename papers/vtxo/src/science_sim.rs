@@ -2,9 +2,9 @@
 //! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
 //!
 //! One science-phase attitude flight for the Pareto data of Sec. 3.1/3.2.2: the rigid body
-//! (13)–(14) with J = J̄ + δJ(t) (the plant's own integrator, [`crate::attitude`]) under the PD law
+//! (13)–(14) with J = J̄ + δJ(t) (the plant's own integrator, [`crate::model::attitude`]) under the PD law
 //! (54) as corrected, k̂ = [k_P, k_D], or the SMC (58)–(60), k̂ = [z, k_SMC, ε] (63) (the agents'
-//! own [`crate::attitude_control::torque`]), held over each 10 ms step as in flight, from the
+//! own [`crate::flight::attitude_control::torque`]), held over each 10 ms step as in flight, from the
 //! science start (84) to the end of the phase, and the two objectives of the vector loss (72):
 //!
 //! - E = Σᵢ ∫ |τᵢ ωᵢ| dt of the applied wheel torque, J ((74) with the absolute value per axis, as
@@ -38,11 +38,11 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-use crate::actuators::{Actuator, ErrorModel};
-use crate::attitude::{AttitudeState, TorqueInputs};
-use crate::attitude_control::{self, AttitudeLaw};
-use crate::ecrv::white;
-use crate::quaternion::{self, Quat, V3};
+use crate::flight::attitude_control::{self, AttitudeLaw};
+use crate::model::actuators::{Actuator, ErrorModel};
+use crate::model::attitude::{AttitudeState, TorqueInputs};
+use crate::model::ecrv::white;
+use crate::model::quaternion::{self, Quat, V3};
 use crate::transient_sim::INERTIA;
 
 /// The flight step, s: the scenarios' 10 ms, over which the command is held.

@@ -17,7 +17,7 @@
 
 use std::path::Path;
 
-use crate::quaternion::{Quat, V3};
+use crate::model::quaternion::{Quat, V3};
 use crate::transient_sim::{self, DT_S, Start};
 use crate::transient_stats::{percentile, read_columns};
 

@@ -7,7 +7,7 @@
 //! keeping its own run directory (summary, telemetry one row per 0.1 s, plots).
 //!
 //! The transverse statistics are the plant's, over the last 15 s at every step
-//! ([`crate::metrics`]).
+//! ([`crate::model::metrics`]).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -16,8 +16,8 @@ use cohort_host::{Launcher, Mode, RunOptions, RunResult};
 use cohort_runtime::paper::Setup;
 use cohort_scenario::Overrides;
 
-use crate::config_algorithm::{RelativeController, VtxoAlgorithmConfig};
-use crate::relative_control::Switching;
+use crate::flight::config::{RelativeController, VtxoAlgorithmConfig};
+use crate::flight::relative_control::Switching;
 
 /// The scenario files, in table order.
 const FILES: [&str; 3] = ["vtxo-sec7.toml", "vtxo-sec7-sat.toml", "vtxo-sec7-pd.toml"];

@@ -16,7 +16,7 @@
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use serde::{Deserialize, Serialize};
 
-use crate::layout::{COMMAND_LEN, Readings};
+use crate::flight::layout::{COMMAND_LEN, Readings};
 use crate::mission::MissionParams;
 use crate::mission_config::VtxoMissionConfig;
 use crate::supervisor::{Automaton, S2, S4};

@@ -29,7 +29,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-use crate::quaternion::{Quat, V3};
+use crate::model::quaternion::{Quat, V3};
 use crate::transient_sa::{self, Optimum};
 use crate::transient_sim::Start;
 

@@ -21,7 +21,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::quaternion::{Quat, V3};
+use crate::model::quaternion::{Quat, V3};
 use crate::transient_sim::{K_MAX, K_MIN, T_MAX_S, T_MIN_S};
 use crate::weights_file;
 

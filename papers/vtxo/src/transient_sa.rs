@@ -82,7 +82,7 @@ mod tests {
     use rand::SeedableRng;
 
     use super::*;
-    use crate::quaternion::{Quat, V3};
+    use crate::model::quaternion::{Quat, V3};
 
     #[test]
     fn annealing_improves_on_the_start_and_is_reproducible() {

@@ -30,8 +30,8 @@
 //!   only, so q₀ is the attitude relative to the target.
 //! - The quaternion is integrated by RK4 on (13) and renormalised after each step.
 
-use crate::attitude::Inertia;
-use crate::quaternion::{self, Quat, V3, sign_nonzero};
+use crate::model::attitude::Inertia;
+use crate::model::quaternion::{self, Quat, V3, sign_nonzero};
 
 /// J̄ and δJ amplitudes of (E.1)–(E.2), kg·m².
 pub const INERTIA: Inertia =

@@ -15,7 +15,7 @@
 
 use cohort_host::{Criterion, VerdictInput, VerdictLine};
 
-use crate::config_algorithm::{Phase, RelativeController, VtxoAlgorithmConfig};
+use crate::flight::config::{Phase, RelativeController, VtxoAlgorithmConfig};
 
 /// The Sec. 7 case's length, s: the sign SMC's reaching time |s_z(0)|/Z = 9 001 s and 300 s more.
 pub const SEC7_DURATION_S: f64 = 9300.0;

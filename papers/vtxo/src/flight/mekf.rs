@@ -28,8 +28,8 @@
 use nalgebra::{Matrix3, SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
-use crate::ecrv::Ecrv;
-use crate::quaternion::{self, Quat, V3, skew};
+use crate::model::ecrv::Ecrv;
+use crate::model::quaternion::{self, Quat, V3, skew};
 
 /// Per-sample (white) and stationary (bias) standard deviations the filter assumes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -324,7 +324,7 @@ impl Mekf {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::quaternion::from_rotation_vector;
+    use crate::model::quaternion::from_rotation_vector;
 
     fn follower_model() -> FilterModel {
         let mas = (1e-3 / 3600.0f64).to_radians();

@@ -24,7 +24,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::quaternion::{Quat, V3};
+use crate::model::quaternion::{Quat, V3};
 
 pub const LEADER_SHARE_LEN: usize = 20;
 pub const FOLLOWER_SHARE_LEN: usize = 10;

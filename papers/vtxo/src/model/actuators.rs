@@ -17,8 +17,8 @@ use nalgebra::Matrix3;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::ecrv::{Ecrv, white};
-use crate::quaternion::{V3, skew};
+use crate::model::ecrv::{Ecrv, white};
+use crate::model::quaternion::{V3, skew};
 
 /// The 3σ values of one actuator's errors.
 #[derive(Debug, Clone, Copy, PartialEq)]

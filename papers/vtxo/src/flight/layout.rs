@@ -21,7 +21,7 @@
 //! | 0..3 | τ̂_in, reaction-wheel torque | N·m, body |
 //! | 3..6 | F̂_in = m û_in, thrust | N, ECI |
 
-use crate::quaternion::{Quat, V3};
+use crate::model::quaternion::{Quat, V3};
 
 pub const READINGS_LEN: usize = 20;
 pub const COMMAND_LEN: usize = 6;

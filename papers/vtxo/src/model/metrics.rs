@@ -17,7 +17,7 @@ use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
-use crate::quaternion::{self, Quat, V3};
+use crate::model::quaternion::{self, Quat, V3};
 
 const DECADES_LO: f64 = -9.0;
 const BINS_PER_DECADE: f64 = 1000.0;

@@ -17,7 +17,7 @@
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
-use crate::quaternion::{self, Quat, V3, sign_nonzero};
+use crate::model::quaternion::{self, Quat, V3, sign_nonzero};
 
 /// One attitude control law with its gains.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -54,7 +54,7 @@ pub fn torque(law: &AttitudeLaw, q_hat: &Quat, omega_hat: &V3, q_target: &Quat, 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::attitude::{AttitudeState, Inertia, TorqueInputs};
+    use crate::model::attitude::{AttitudeState, Inertia, TorqueInputs};
 
     const J: Inertia = Inertia { nominal_kg_m2: [0.1383, 0.1577, 0.1039], error_amplitude_kg_m2: [0.0; 3] };
 

@@ -16,9 +16,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::orbit::{point_mass_accel, rk4_point_mass};
-use crate::quaternion::V3;
-use crate::share::LeaderShare;
+use crate::flight::share::LeaderShare;
+use crate::model::orbit::{point_mass_accel, rk4_point_mass};
+use crate::model::quaternion::V3;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RelativeNav {

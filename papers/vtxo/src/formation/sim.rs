@@ -10,9 +10,9 @@ use cohort_scenario::Problem;
 use cohort_wire::transport::Proc;
 use rand_chacha::ChaCha8Rng;
 
-use crate::config_algorithm::VtxoAlgorithmConfig;
-use crate::config_plant::VtxoPlantConfig;
-use crate::plant::VtxoPlant;
+use crate::flight::config::VtxoAlgorithmConfig;
+use crate::model::config::VtxoPlantConfig;
+use crate::model::plant::VtxoPlant;
 
 /// What the loop shows an observer after the shares of step k: k, the plant, the agents.
 pub type Observer<'a> = dyn FnMut(u64, &VtxoPlant, &[Box<dyn Algorithm>]) + 'a;
@@ -36,9 +36,9 @@ impl Sim {
         seed: u64,
     ) -> Result<Self, Vec<Problem>> {
         let mut problems = crate::config::check_pair(plant, algorithm);
-        let p = crate::build_plant(plant, 2, dt_s, seed);
-        let a1 = crate::build_agent(algorithm, 1);
-        let a2 = crate::build_agent(algorithm, 2);
+        let p = crate::formation::build_plant(plant, 2, dt_s, seed);
+        let a1 = crate::formation::build_agent(algorithm, 1);
+        let a2 = crate::formation::build_agent(algorithm, 2);
         for r in [p.as_ref().err(), a1.as_ref().err()].into_iter().flatten() {
             problems.extend(r.iter().cloned());
         }

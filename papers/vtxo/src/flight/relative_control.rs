@@ -14,8 +14,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::orbit::point_mass_accel;
-use crate::quaternion::V3;
+use crate::model::orbit::point_mass_accel;
+use crate::model::quaternion::V3;
 
 /// The switching function of the SMC.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -115,7 +115,7 @@ pub fn leader_accel(law: &RelativeLaw, st: &RelativeState, u_follower_mps2: &V3)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::orbit::MU_EARTH_M3PS2;
+    use crate::model::orbit::MU_EARTH_M3PS2;
 
     fn state() -> RelativeState {
         RelativeState {

@@ -4,8 +4,8 @@
 //! consistency join needs (`leader_q1…q4`, `follower_q1…q4` against the agents' `q_hat_*` and
 //! `sigma_theta_*`, row k with row k).
 
-use crate::metrics::attitude_error_deg;
-use crate::plant::VtxoPlant;
+use crate::model::metrics::attitude_error_deg;
+use crate::model::plant::VtxoPlant;
 
 const XYZ: [&str; 3] = ["x", "y", "z"];
 

@@ -1,22 +1,22 @@
 //! The leader (agent 1, the Outer Satellite with the laser beacons): its attitude control system
-//! ([`crate::acs`]), its own orbit estimate r̂_L, v̂_L (started from the hand-over fix and
+//! ([`crate::flight::acs`]), its own orbit estimate r̂_L, v̂_L (started from the hand-over fix and
 //! propagated with the point-mass model (36)–(37) and its own command — no GPS at apogee), and
 //! either a natural drift (û_L = 0, Sec. 7, the default) or the SMC (70) with the follower's
 //! previous-step command and relative estimates (the leader has no relative sensor).
 //!
-//! Shares (see [`crate::share`]): û_L, r̂_L, v̂_L, q̂_L, ω̂_L, ã_L. Command: τ̂_in (body, N·m) and
+//! Shares (see [`crate::flight::share`]): û_L, r̂_L, v̂_L, q̂_L, ω̂_L, ã_L. Command: τ̂_in (body, N·m) and
 //! F̂_in = m û_L (ECI, N).
 
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use serde::{Deserialize, Serialize};
 
-use crate::acs::Acs;
-use crate::attitude_control::AttitudeLaw;
-use crate::layout::Readings;
-use crate::orbit::rk4_point_mass;
-use crate::quaternion::V3;
-use crate::relative_control::{RelativeLaw, RelativeState, leader_accel};
-use crate::share::{FollowerShare, LeaderShare};
+use crate::flight::acs::Acs;
+use crate::flight::attitude_control::AttitudeLaw;
+use crate::flight::layout::Readings;
+use crate::flight::relative_control::{RelativeLaw, RelativeState, leader_accel};
+use crate::flight::share::{FollowerShare, LeaderShare};
+use crate::model::orbit::rk4_point_mass;
+use crate::model::quaternion::V3;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Leader {

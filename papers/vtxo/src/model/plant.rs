@@ -1,30 +1,30 @@
 //! The seed-002 truth (`PlantModel`): leader (agent 1) and follower (agent 2) orbits
-//! ([`crate::orbit`]), each spacecraft's attitude ([`crate::attitude`]), its reaction wheels and
-//! thrusters ([`crate::actuators`]), the perturbation force u_g (25) and torque w_ω (15), and the
-//! sensors ([`crate::sensors`]); RK4 at the scenario's step with the commands held.
+//! ([`crate::model::orbit`]), each spacecraft's attitude ([`crate::model::attitude`]), its reaction wheels and
+//! thrusters ([`crate::model::actuators`]), the perturbation force u_g (25) and torque w_ω (15), and the
+//! sensors ([`crate::model::sensors`]); RK4 at the scenario's step with the commands held.
 //!
 //! Random numbers: constant errors, initial biases and initial attitude draws come from the
 //! set-up stream of the seed; the process noise (w_ω, w_τ, w_u, and every ECRV: u_g, b_τ, b_u
 //! and the sensor biases) from the plant's own process stream, drawn in `advance` for the next
 //! step (and at construction for step 0), so the applied torque and thrust of step k are known
 //! when its telemetry row is written; the sensors' white noise only from the rng `readings` is
-//! given, in agent order. Readings and command layouts: [`crate::layout`].
+//! given, in agent order. Readings and command layouts: [`crate::flight::layout`].
 
 use cohort_runtime::model::PlantModel;
 use cohort_runtime::rng::setup_rng;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::actuators::{Actuator, ErrorModel};
-use crate::attitude::{AttitudeState, Inertia, TorqueInputs};
-use crate::config_plant::{AttitudeDraw, VtxoPlantConfig};
-use crate::ecrv::{Ecrv, white};
-use crate::layout::{Readings, parse_command};
-use crate::metrics::{CraftMetrics, FormationMetrics, RunMetrics, attitude_error_deg};
-use crate::orbit::{Gravity, OrbitPair};
-use crate::orbit_setup::{Elements, initial_pair};
-use crate::quaternion::{self, Quat, V3};
-use crate::sensors::{self, Axes, SensorModel, SensorSuite};
+use crate::flight::layout::{Readings, parse_command};
+use crate::model::actuators::{Actuator, ErrorModel};
+use crate::model::attitude::{AttitudeState, Inertia, TorqueInputs};
+use crate::model::config::{AttitudeDraw, VtxoPlantConfig};
+use crate::model::ecrv::{Ecrv, white};
+use crate::model::metrics::{CraftMetrics, FormationMetrics, RunMetrics, attitude_error_deg};
+use crate::model::orbit::{Gravity, OrbitPair};
+use crate::model::orbit_setup::{Elements, initial_pair};
+use crate::model::quaternion::{self, Quat, V3};
+use crate::model::sensors::{self, Axes, SensorModel, SensorSuite};
 
 /// One spacecraft's hardware and held inputs.
 #[derive(Debug, Clone)]
@@ -265,7 +265,7 @@ impl VtxoPlant {
 
 impl PlantModel for VtxoPlant {
     fn columns(&self) -> Vec<String> {
-        crate::plant_row::columns()
+        crate::model::plant_row::columns()
     }
 
     fn readings(&mut self, agent: u32, rng: &mut ChaCha8Rng, out: &mut Vec<f64>) {
@@ -330,7 +330,7 @@ impl PlantModel for VtxoPlant {
     }
 
     fn row(&self, out: &mut Vec<f64>) {
-        crate::plant_row::row(self, out);
+        crate::model::plant_row::row(self, out);
     }
 
     fn metrics(&self) -> Vec<(String, f64)> {

@@ -14,7 +14,7 @@
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
-use crate::orbit::{OrbitPair, V3};
+use crate::model::orbit::{OrbitPair, V3};
 
 /// Classical elements of an ellipse, SI and radians.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -83,7 +83,7 @@ pub fn initial_pair(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::orbit::{Gravity, MU_EARTH_M3PS2, generic_periapsis_state};
+    use crate::model::orbit::{Gravity, MU_EARTH_M3PS2, generic_periapsis_state};
 
     fn table_d9(e: f64, nu: f64) -> Elements {
         Elements {

@@ -7,10 +7,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::attitude_control::{self, AttitudeLaw};
-use crate::layout::Readings;
-use crate::mekf::{FilterModel, Mekf, MekfVariant};
-use crate::quaternion::{Quat, V3};
+use crate::flight::attitude_control::{self, AttitudeLaw};
+use crate::flight::layout::Readings;
+use crate::flight::mekf::{FilterModel, Mekf, MekfVariant};
+use crate::model::quaternion::{Quat, V3};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Acs {

@@ -22,7 +22,7 @@
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
-use crate::quaternion::{self, Quat, V3};
+use crate::model::quaternion::{self, Quat, V3};
 
 /// The inertia model: J̄ (diagonal) plus δJ(t) = diag(a₁ sin t, a₂ cos t, a₃).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -128,7 +128,7 @@ mod tests {
                 inertia: &TABLE_E,
                 held_torque_n_m: V3::new(1e-5, -2e-5, 1e-5),
                 gravity_gradient_r_eci_m: Some(r),
-                mu_m3ps2: crate::orbit::MU_EARTH_M3PS2,
+                mu_m3ps2: crate::model::orbit::MU_EARTH_M3PS2,
             };
             let dt = 0.01;
             for k in 0..360_000 {
@@ -146,7 +146,7 @@ mod tests {
             inertia: &TABLE_E,
             held_torque_n_m: V3::new(2e-3, -1e-3, 3e-3),
             gravity_gradient_r_eci_m: Some(V3::new(7.0e6, 1.0e6, 0.5e6)),
-            mu_m3ps2: crate::orbit::MU_EARTH_M3PS2,
+            mu_m3ps2: crate::model::orbit::MU_EARTH_M3PS2,
         };
         let s0 = AttitudeState {
             q_body_eci: Quat::new(0.1, -0.5, 0.3, 0.8).normalize(),
@@ -198,7 +198,7 @@ mod tests {
     #[test]
     fn gravity_gradient_vanishes_on_principal_axes_and_has_the_textbook_size() {
         let j = TABLE_E.nominal();
-        let mu = crate::orbit::MU_EARTH_M3PS2;
+        let mu = crate::model::orbit::MU_EARTH_M3PS2;
         let r = V3::new(7.0e6, 0.0, 0.0);
         // Nadir along a principal axis: no torque.
         assert!(gravity_gradient(&quaternion::identity(), &r, &j, mu).norm() < 1e-20);

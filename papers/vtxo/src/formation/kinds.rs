@@ -1,7 +1,7 @@
 //! The registry's view of seed 002: the `vtxo` plant kind (the whole truth of both spacecraft,
-//! [`crate::plant::VtxoPlant`]) and the `vtxo-formation` algorithm kind (agent 1 the leader,
-//! agent 2 the follower, [`crate::leader`], [`crate::follower`]). Each parses its section with the
-//! typed configuration of [`crate::config_plant`] / [`crate::config_algorithm`] and reports every
+//! [`crate::model::plant::VtxoPlant`]) and the `vtxo-formation` algorithm kind (agent 1 the leader,
+//! agent 2 the follower, [`crate::flight::leader`], [`crate::flight::follower`]). Each parses its section with the
+//! typed configuration of [`crate::model::config`] / [`crate::flight::config`] and reports every
 //! problem with its key path; the pair is checked where both name a target
 //! ([`crate::config::check_pair`]).
 //!
@@ -20,12 +20,12 @@ use cohort_runtime::paper::{
 };
 use cohort_scenario::{Checker, Scenario};
 
-use crate::config_algorithm::{LeaderControl, Phase, RelativeController, ScienceAttitude, VtxoAlgorithmConfig};
-use crate::config_plant::{AGENTS_REASON, VtxoPlantConfig};
-use crate::layout::{COMMAND_LEN, READINGS_LEN};
-use crate::mekf::MekfVariant;
-use crate::relative_control::Switching;
-use crate::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
+use crate::flight::config::{LeaderControl, Phase, RelativeController, ScienceAttitude, VtxoAlgorithmConfig};
+use crate::flight::layout::{COMMAND_LEN, READINGS_LEN};
+use crate::flight::mekf::MekfVariant;
+use crate::flight::relative_control::Switching;
+use crate::flight::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
+use crate::model::config::{AGENTS_REASON, VtxoPlantConfig};
 
 pub const PLANT_KIND: &str = "vtxo";
 pub const ALGORITHM_KIND: &str = "vtxo-formation";
@@ -64,7 +64,7 @@ impl PlantSetup for VtxoPlantConfig {
         COMMAND_LEN
     }
     fn build(&self, setup: &Setup) -> Box<dyn PlantModel> {
-        Box::new(crate::plant::VtxoPlant::new(self, setup.scenario.dt_s, setup.scenario.seed))
+        Box::new(crate::model::plant::VtxoPlant::new(self, setup.scenario.dt_s, setup.scenario.seed))
     }
     fn as_any(&self) -> &dyn Any {
         self
@@ -151,8 +151,8 @@ impl AlgorithmSetup for VtxoAlgorithmConfig {
     fn build(&self, _setup: &Setup, id: u32) -> Box<dyn Algorithm> {
         // Validated: the ids are 1 and 2.
         match id {
-            1 => Box::new(crate::build_leader(self)),
-            _ => Box::new(crate::build_follower(self)),
+            1 => Box::new(crate::formation::build_leader(self)),
+            _ => Box::new(crate::formation::build_follower(self)),
         }
     }
     fn labels(&self) -> BTreeMap<String, String> {

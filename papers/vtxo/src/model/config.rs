@@ -1,14 +1,14 @@
 //! The plant section (`[plant]`, kind "vtxo") of a seed-002 scenario. Every key has a default:
 //! the values of Tables D.9 and E.10–E.13 and the reference's choices where the paper is silent
-//! (see the module docs of [`crate::orbit_setup`], [`crate::actuators`], [`crate::sensors`]).
+//! (see the module docs of [`crate::model::orbit_setup`], [`crate::model::actuators`], [`crate::model::sensors`]).
 //! All noise and bias values are 3σ (white: per sample; ECRV: stationary).
 
 use cohort_scenario::Problem;
 use serde::{Deserialize, Serialize};
 
 use crate::config::Checker;
-use crate::orbit::{Gravity, R_EARTH_M};
-use crate::orbit_setup::{FollowerStart, kepler_period_s};
+use crate::model::orbit::{Gravity, R_EARTH_M};
+use crate::model::orbit_setup::{FollowerStart, kepler_period_s};
 
 fn yes() -> bool {
     true
@@ -365,8 +365,8 @@ impl Default for MetricsConfig {
 
 impl VtxoPlantConfig {
     /// Every problem, with key paths under `prefix` (normally "plant"), and the agent count and
-    /// step a standalone loop ([`crate::sim`]) is given (a scenario's are checked by the runtime
-    /// and [`crate::kinds`]).
+    /// step a standalone loop ([`crate::formation::sim`]) is given (a scenario's are checked by the runtime
+    /// and [`crate::formation::kinds`]).
     pub fn validate(&self, prefix: &str, n_agents: u32, dt_s: f64) -> Vec<Problem> {
         let mut c = Checker::new();
         if n_agents != 2 {

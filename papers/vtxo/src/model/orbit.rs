@@ -103,7 +103,7 @@ pub fn rk4_point_mass(mu_m3ps2: f64, r: &mut V3, v: &mut V3, a_mps2: &V3, dt_s: 
     *v = v0 + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
 }
 
-/// The generic module's periapsis state, for cross-checking [`crate::orbit_setup`].
+/// The generic module's periapsis state, for cross-checking [`crate::model::orbit_setup`].
 pub fn generic_periapsis_state(a_m: f64, e: f64, inc_rad: f64, raan_rad: f64, argp_rad: f64) -> (V3, V3) {
     cohort_astro::orbit::periapsis_state(a_m * (1.0 - e), a_m * (1.0 + e), inc_rad, raan_rad, argp_rad, MU_EARTH_M3PS2)
 }

@@ -1,22 +1,22 @@
 //! The follower (agent 2, the Inner Satellite with NISTEx-II and the radio ranging): its attitude
-//! control system ([`crate::acs`]), its relative navigation ([`crate::relative_nav`]), and the
+//! control system ([`crate::flight::acs`]), its relative navigation ([`crate::flight::relative_nav`]), and the
 //! relative-position law — SMC (64)–(67) (sign or sat) or PD (56) — on r̂_rel, v̂_rel with the
 //! leader's shared r̂_L and previous-step û_L.
 //!
 //! Until v̂_rel is known (step 0: the leader's first share has not arrived) it commands no thrust.
-//! Shares (see [`crate::share`]): û_F, r̂_rel, v̂_rel. Command: τ̂_in (body, N·m) and
+//! Shares (see [`crate::flight::share`]): û_F, r̂_rel, v̂_rel. Command: τ̂_in (body, N·m) and
 //! F̂_in = m û_F (ECI, N).
 
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use serde::{Deserialize, Serialize};
 
-use crate::acs::Acs;
-use crate::attitude_control::AttitudeLaw;
-use crate::layout::Readings;
-use crate::quaternion::V3;
-use crate::relative_control::{RelativeLaw, RelativeState, follower_accel, sliding_vector};
-use crate::relative_nav::RelativeNav;
-use crate::share::{FollowerShare, LeaderShare};
+use crate::flight::acs::Acs;
+use crate::flight::attitude_control::AttitudeLaw;
+use crate::flight::layout::Readings;
+use crate::flight::relative_control::{RelativeLaw, RelativeState, follower_accel, sliding_vector};
+use crate::flight::relative_nav::RelativeNav;
+use crate::flight::share::{FollowerShare, LeaderShare};
+use crate::model::quaternion::V3;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Follower {

@@ -1,5 +1,5 @@
 //! Sensor models of App. C with the 3σ values of Tables E.12–E.13 (white noise: per sample; bias:
-//! stationary ECRV, see [`crate::ecrv`]).
+//! stationary ECRV, see [`crate::model::ecrv`]).
 //!
 //! - Gyro (C.1)–(C.3): ω̃ = δR(ε_ω)[(I + diag f_ω) ω + b_ω + w_ω]; f_ω 3e-4, ε_ω 3 mrad (drawn once),
 //!   w_ω 22.5 µrad/s, b_ω 3 deg/h.
@@ -25,8 +25,8 @@ use nalgebra::{Matrix3, SVector};
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::ecrv::{Ecrv, white};
-use crate::quaternion::{self, Quat, V3, skew};
+use crate::model::ecrv::{Ecrv, white};
+use crate::model::quaternion::{self, Quat, V3, skew};
 
 /// 3σ values of one sensor.
 #[derive(Debug, Clone, Copy, PartialEq)]

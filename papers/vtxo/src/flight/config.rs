@@ -6,11 +6,11 @@
 use cohort_scenario::Problem;
 use serde::{Deserialize, Serialize};
 
-use crate::attitude_control::AttitudeLaw;
 use crate::config::Checker;
-use crate::config_plant::StarTrackerConfig;
-use crate::mekf::{FilterModel, MekfVariant};
-use crate::relative_control::{RelativeLaw, Switching};
+use crate::flight::attitude_control::AttitudeLaw;
+use crate::flight::mekf::{FilterModel, MekfVariant};
+use crate::flight::relative_control::{RelativeLaw, Switching};
+use crate::model::config::StarTrackerConfig;
 
 /// The ACS phase (Sec. 2.1): which attitude law flies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -114,10 +114,10 @@ fn hour_s() -> f64 {
     3600.0
 }
 fn star_leader() -> StarTrackerConfig {
-    crate::config_plant::SensorsConfig::default().star_tracker_leader
+    crate::model::config::SensorsConfig::default().star_tracker_leader
 }
 fn star_follower() -> StarTrackerConfig {
-    crate::config_plant::SensorsConfig::default().star_tracker_follower
+    crate::model::config::SensorsConfig::default().star_tracker_follower
 }
 fn torque_noise() -> f64 {
     2f64.sqrt() * 1e-3
