@@ -22,20 +22,13 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod analysis;
+pub mod automaton;
 pub mod config;
 pub mod figures;
 pub mod flight;
 pub mod formation;
 pub mod handoff;
-pub mod handoff_analysis;
-pub mod handoff_config;
-pub mod handoff_kind;
-pub mod handoff_science;
 pub mod mission;
-pub mod mission_config;
-pub mod mission_figure;
-pub mod mission_kind;
-pub mod mission_period;
 pub mod model;
 pub mod science_data;
 pub mod science_dnn;
@@ -45,11 +38,6 @@ pub mod science_stats;
 pub mod science_train;
 pub mod science_trainer;
 pub mod sec7;
-pub mod supervisor;
-pub mod supervisor_check;
-pub mod supervisor_exec;
-pub mod supervisor_lockstep;
-pub mod supervisor_share;
 pub mod transient_data;
 pub mod transient_dnn;
 pub mod transient_gains;
@@ -82,7 +70,7 @@ impl Paper for Vtxo {
         &[&formation::kinds::VtxoPlantKind]
     }
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
-        &[&formation::kinds::VtxoFormationKind, &mission_kind::VtxoMissionKind, &handoff_kind::VtxoHandoffKind]
+        &[&formation::kinds::VtxoFormationKind, &mission::kind::VtxoMissionKind, &handoff::kind::VtxoHandoffKind]
     }
 }
 
@@ -163,10 +151,10 @@ impl PaperHost for Vtxo {
     }
     fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
         if run.setup.plant_as::<VtxoPlantConfig>().is_some()
-            && run.setup.algorithm_as::<handoff_kind::HandoffSetup>().is_some()
+            && run.setup.algorithm_as::<handoff::kind::HandoffSetup>().is_some()
         {
             let mut m = analysis::analyse(run.dirs)?;
-            m.extend(handoff_analysis::analyse(run.dirs)?);
+            m.extend(handoff::analysis::analyse(run.dirs)?);
             return Ok(m);
         }
         // The join needs both of this paper's sides.
@@ -178,8 +166,8 @@ impl PaperHost for Vtxo {
         analysis::analyse(run.dirs)
     }
     fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
-        if setup.algorithm_as::<mission_config::VtxoMissionConfig>().is_some() {
-            return Some(Box::new(mission_figure::MissionFigures));
+        if setup.algorithm_as::<mission::config::VtxoMissionConfig>().is_some() {
+            return Some(Box::new(mission::figure::MissionFigures));
         }
         let p = setup.plant_as::<VtxoPlantConfig>()?;
         Some(Box::new(figures::VtxoFigures::of(p)))

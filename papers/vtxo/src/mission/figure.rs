@@ -1,4 +1,4 @@
-//! The figure of a mission run ([`crate::mission_kind`]; Sec. 8 and Table 6 of "Explainable
+//! The figure of a mission run ([`crate::mission::kind`]; Sec. 8 and Table 6 of "Explainable
 //! AI-Enhanced Supervisory Control for High-Precision Spacecraft Formation"):
 //! `vtxo_mission_timeline.png` — the supervisor's location s (0–6) and the operational mode Id
 //! (0–9) against mission time (days), as steps, from the events of `telemetry/plant.csv`.

@@ -1,7 +1,7 @@
 //! One spacecraft of the hand-off scenario: its flight agent ([`crate::flight::leader::Leader`] or
 //! [`crate::flight::follower::Follower`]: MEKF, relative navigation and relative law) with the Sec. 8
 //! supervisor of "Explainable AI-Enhanced Supervisory Control for High-Precision Spacecraft
-//! Formation" (arXiv:2509.13331) riding along ([`crate::supervisor_lockstep::SupervisorAgent`]:
+//! Formation" (arXiv:2509.13331) riding along ([`crate::automaton::lockstep::SupervisorAgent`]:
 //! the follower is the master, the leader adopts the master's location one step later), and the
 //! attitude law switched with the supervisor's location at every step:
 //!
@@ -10,8 +10,8 @@
 //!   max(T̂_L, T̂_F) is the supervisor's rule (`u2_ticks`), as in the mission;
 //! - s3 science: PD (54) or SMC (58)–(60) with the gains k̂ its [`SciencePredictor`] answered at its
 //!   own entry to s3, from its MEKF estimate (δq, ω̂) and w: the science DNN of Sec. 3.2.2
-//!   ([`crate::handoff_science::DnnScience`]; what it is given and where that departs from the print
-//!   is in [`crate::handoff_science`]) or the configured gains ([`ConfiguredScience`]);
+//!   ([`crate::handoff::science::DnnScience`]; what it is given and where that departs from the print
+//!   is in [`crate::handoff::science`]) or the configured gains ([`ConfiguredScience`]);
 //! - every other location (s1 stabilisation here; s0, s4, s5, s6 if a longer run reached them):
 //!   the stabilisation law of Sec. 2.11, a feed-forward that cancels the gravity-gradient torque
 //!   (23) predicted from q̂ and this spacecraft's own orbit estimate r̂ (the leader's r̂_L; the
@@ -25,7 +25,7 @@
 //! the science law's k̂, Ê, ê chosen at the latest entries (`transient_*`, `science_*`).
 //!
 //! Shares: the flight share (padded to [`SUPERVISOR_OFFSET`] values), then the supervisor share
-//! ([`crate::supervisor_share`]). The supervisor's clocks count steps (its tick is `dt_s`).
+//! ([`crate::automaton::share`]). The supervisor's clocks count steps (its tick is `dt_s`).
 
 use std::sync::Arc;
 
@@ -33,17 +33,17 @@ use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
+use crate::automaton::lockstep::SupervisorAgent;
+use crate::automaton::table::{S2, S3};
 use crate::flight::acs::Acs;
 use crate::flight::attitude_control::AttitudeLaw;
 use crate::flight::follower::Follower;
 use crate::flight::leader::Leader;
 use crate::flight::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
-use crate::handoff_science::{self, ScienceChoice};
-pub use crate::handoff_science::{ConfiguredScience, SciencePredictor};
+use crate::handoff::science::{self, ScienceChoice};
+pub use crate::handoff::science::{ConfiguredScience, SciencePredictor};
 use crate::model::attitude::gravity_gradient;
 use crate::model::quaternion::{self, V3};
-use crate::supervisor::{S2, S3};
-use crate::supervisor_lockstep::SupervisorAgent;
 use crate::transient_gains::{MeasuredState, TransientPredictor};
 
 /// Where the supervisor's share starts in a hand-off agent's share values.
@@ -194,7 +194,7 @@ impl Algorithm for HandoffAgent {
             c.push(n.into());
         }
         c.extend(["transient_k1_n_m", "transient_k2_n_m_s", "transient_t_hat_entry_s"].map(String::from));
-        c.extend(handoff_science::columns(self.science.kind()));
+        c.extend(science::columns(self.science.kind()));
         c
     }
 
@@ -231,7 +231,7 @@ impl Algorithm for HandoffAgent {
         out.extend([on(ActingLaw::Stabilisation), on(ActingLaw::Transient), on(ActingLaw::Science)]);
         let g = self.state.sup.entry_gains;
         out.extend([g.k1, g.k2, g.t_s]);
-        handoff_science::row(self.science.kind(), self.state.science.as_ref(), out);
+        science::row(self.science.kind(), self.state.science.as_ref(), out);
     }
 
     fn save_state(&self) -> Vec<u8> {

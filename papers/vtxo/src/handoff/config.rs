@@ -1,8 +1,8 @@
 //! The algorithm section of the hand-off scenario (`[algorithm] kind = "vtxo-handoff"`,
-//! [`crate::handoff_kind`]): one visit of the Sec. 8 supervisor of "Explainable AI-Enhanced
+//! [`crate::handoff::kind`]): one visit of the Sec. 8 supervisor of "Explainable AI-Enhanced
 //! Supervisory Control for High-Precision Spacecraft Formation" (arXiv:2509.13331) through
 //! s1 stabilisation → s2 transient → s3 science with the full dynamics, the controllers switching
-//! with the supervisor's location ([`crate::handoff`]).
+//! with the supervisor's location ([`crate::handoff::agent`]).
 //!
 //! ```toml
 //! [algorithm.flight]            # the two agents' flight layer: VtxoAlgorithmConfig
@@ -23,13 +23,13 @@
 //! Departures, and why: u1 is `handoff.stabilisation_s` instead of orbit period − 10 h − 3 min
 //! (80 820 s in the print, 59 773 s on the plant's 26.65 h orbit; a short run is the point of this
 //! scenario), so the supervisor's `timers.orbit_period_s` is not read (it is still the plant's
-//! period, or refused when it disagrees, as in the mission: [`crate::mission_period`]); the run starts in s1 (the mission's s0 → s4 → s2 prefix is
+//! period, or refused when it disagrees, as in the mission: [`crate::mission::period`]); the run starts in s1 (the mission's s0 → s4 → s2 prefix is
 //! the discrete-event scenario's business). `transient_weights` is relative to the scenario file;
 //! without it the supervisor's fixed (k1, k2, T) answer. `science_weights`, also relative to the
 //! scenario file, is required by `science_gains = "dnn"`; when named it is loaded and checked
 //! whatever `science_gains` says (so switching the source with `--set` never skips the check).
 //! The science DNN's w is a scenario constant (the print's w of Table 4 is outside our data's
-//! range; see [`crate::handoff_science`]): 100 deg/J by default, about the SMC data's median (96);
+//! range; see [`crate::handoff::science`]): 100 deg/J by default, about the SMC data's median (96);
 //! the PD data's median is 457.
 
 use std::path::PathBuf;
@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::Checker;
 use crate::flight::config::VtxoAlgorithmConfig;
-use crate::mission_config::{VtxoMissionConfig, whole_ticks};
+use crate::mission::config::{VtxoMissionConfig, whole_ticks};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]

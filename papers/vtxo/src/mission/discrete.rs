@@ -1,8 +1,8 @@
 //! The whole VTXO mission, Id 0 → 9, as a discrete-event run of the supervisor of Sec. 8 of
 //! "Explainable AI-Enhanced Supervisory Control for High-Precision Spacecraft Formation"
-//! ([`crate::supervisor`], the corrected Tables 6–8) with the dynamics abstracted: each phase
+//! ([`crate::automaton::table`], the corrected Tables 6–8) with the dynamics abstracted: each phase
 //! lasts what its timer says — u3(Id) of Table 6, u1 = orbit period − 10 h − 3 min (the plant's
-//! 26.65 h, [`crate::mission_period`]; the print's 32.5 h gives 22.45 h), the 10 h science
+//! 26.65 h, [`crate::mission::period`]; the print's 32.5 h gives 22.45 h), the 10 h science
 //! window, u2 = T from the [`TransientPredictor`] of each spacecraft — and the formation event u4
 //! comes `reach` after an orbit switch (entry to s4). Pure: no files, no transport.
 //!
@@ -22,11 +22,11 @@
 
 use rand_chacha::ChaCha8Rng;
 
-use crate::mission_config::{VtxoMissionConfig, whole_ticks};
-use crate::supervisor::{Automaton, S2, S3, S4, StateIx};
-use crate::supervisor_check::AutomatonError;
-use crate::supervisor_exec::{Inputs, Supervisor};
-use crate::supervisor_share::{LeaderShare, MasterShare};
+use crate::automaton::check::AutomatonError;
+use crate::automaton::exec::{Inputs, Supervisor};
+use crate::automaton::share::{LeaderShare, MasterShare};
+use crate::automaton::table::{Automaton, S2, S3, S4, StateIx};
+use crate::mission::config::{VtxoMissionConfig, whole_ticks};
 use crate::transient_gains::{TransientGains, TransientPredictor, draw_entry_state, u2_ticks};
 
 /// The mission's inputs in ticks.
@@ -288,7 +288,7 @@ impl Mission {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::supervisor::{S0, S1, S5, S6};
+    use crate::automaton::table::{S0, S1, S5, S6};
     use crate::transient_gains::FixedTransient;
 
     fn fixed(t_s: f64) -> FixedTransient {

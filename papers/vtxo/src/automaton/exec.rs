@@ -1,11 +1,11 @@
-//! Running a supervisor table ([`crate::supervisor`], Sec. 8 of "Explainable AI-Enhanced
+//! Running a supervisor table ([`crate::automaton::table`], Sec. 8 of "Explainable AI-Enhanced
 //! Supervisory Control for High-Precision Spacecraft Formation") in integer ticks: the current
 //! location, Id and clocks, how long until each exit's guard holds with the inputs held
 //! ([`Supervisor::next`]), advancing the stopwatches, and firing a transition with its reset.
 //! The same code serves a discrete-event run (jump to the next event) and a lockstep one (advance
 //! one tick, fire what holds).
 
-use crate::supervisor::{Atom, Automaton, StateIx, Threshold};
+use crate::automaton::table::{Atom, Automaton, StateIx, Threshold};
 
 /// The inputs i = {u1, u2, u3, u4} (and the science window), in ticks; u3 by Id (Table 6).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -121,7 +121,7 @@ impl Supervisor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::supervisor::*;
+    use crate::automaton::table::*;
 
     fn inputs() -> Inputs {
         Inputs { u1: 100, u2: 5, u3: vec![50, 7, 25, 30], u4: 3, window: 10, formation: false }

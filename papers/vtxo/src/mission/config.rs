@@ -1,12 +1,12 @@
 //! The algorithm section of the discrete-event mission (`[algorithm] kind = "vtxo-mission"`,
-//! [`crate::mission_kind`]): the supervisor's inputs of Sec. 8 of "Explainable AI-Enhanced
+//! [`crate::mission::kind`]): the supervisor's inputs of Sec. 8 of "Explainable AI-Enhanced
 //! Supervisory Control for High-Precision Spacecraft Formation" and the abstracted durations of
 //! what the dynamics would decide. Defaults: the paper's.
 //!
 //! ```toml
 //! [algorithm.timers]
 //! # orbit_period_s: absent = the plant's 2π√(a³/μ), 95 952.939 s = 26.65 h for Table D.9; a
-//! # value given must agree with it to 1e-6 (crate::mission_period). Sec. 2.5 prints 32.5 h.
+//! # value given must agree with it to 1e-6 (crate::mission::period). Sec. 2.5 prints 32.5 h.
 //! science_window_s = 36000.0     # 10 h of science per orbit
 //! transient_max_s = 180.0        # 3 min: u1 = period − window − transient_max = 59 772.94 s
 //! u3_h = [1440.0, 0.2, 1.5, 4.2, 4.9, 5.4, 19.0, 146.0, 452.0, 120.0]   # Table 6, Id 0..9

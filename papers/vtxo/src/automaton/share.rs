@@ -18,7 +18,7 @@
 //! Leader → follower, [`LEADER_SHARE_LEN`] = 5 values: acknowledged s and Id, and the leader's
 //! transient prediction T̂_L (s), k1, k2 (0 outside s2).
 
-use crate::supervisor_exec::Supervisor;
+use crate::automaton::exec::Supervisor;
 
 pub const N_CLOCKS: usize = 7;
 pub const MASTER_SHARE_LEN: usize = 12;

@@ -4,7 +4,7 @@
 //! transient, s3 science, s4 next operational mode (Id++), s5 de-commissioning, s6 end; clocks
 //! t0..t5; inputs u1..u4; transitions k_ij = {s_i, g(i, j), reset(i, j), s_j} with the guards of
 //! Table 8 and the resets of Table 7; u3(Id) of Table 6. Pure: no transport, no time source.
-//! [`crate::supervisor_check`] validates a table, [`crate::supervisor_exec`] runs one.
+//! [`crate::automaton::check`] validates a table, [`crate::automaton::exec`] runs one.
 //!
 //! Semantics (the paper's words made precise):
 //! - Clocks are stopwatches: "the local timer shows the amount of time that the system has spent

@@ -1,4 +1,4 @@
-//! Validation of a supervisor table ([`crate::supervisor::Automaton`], Sec. 8 of "Explainable
+//! Validation of a supervisor table ([`crate::automaton::table::Automaton`], Sec. 8 of "Explainable
 //! AI-Enhanced Supervisory Control for High-Precision Spacecraft Formation"): every problem, each
 //! naming the states and transitions (g(i,j)) it is about.
 //!
@@ -19,7 +19,7 @@
 
 use std::fmt;
 
-use crate::supervisor::{Atom, Automaton, StateIx, Threshold};
+use crate::automaton::table::{Atom, Automaton, StateIx, Threshold};
 
 /// One thing wrong with a supervisor table.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -205,7 +205,7 @@ impl Automaton {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::supervisor::*;
+    use crate::automaton::table::*;
 
     #[test]
     fn the_corrected_table_is_valid() {

@@ -1,12 +1,12 @@
 //! The registry's `vtxo-mission` algorithm kind: the whole mission of Sec. 8 of "Explainable
 //! AI-Enhanced Supervisory Control for High-Precision Spacecraft Formation" as a discrete-event
-//! run ([`crate::mission`]), launched by `orchestrator launch topologies/vtxo-mission.toml`
+//! run ([`crate::mission::discrete`]), launched by `orchestrator launch topologies/vtxo-mission.toml`
 //! through the runtime's coupled mode (in the orchestrator's process, no processes spawned; see
-//! [`crate::mission`] for why the fixed-step lockstep cannot carry it).
+//! [`crate::mission::discrete`] for why the fixed-step lockstep cannot carry it).
 //!
 //! The scenario is an ordinary one: `[plant] kind = "vtxo"` (validated; its dynamics are what the
-//! timers abstract, and its orbit gives their period, [`crate::mission_period`]),
-//! `[algorithm] kind = "vtxo-mission"` ([`crate::mission_config`]), the leader
+//! timers abstract, and its orbit gives their period, [`crate::mission::period`]),
+//! `[algorithm] kind = "vtxo-mission"` ([`crate::mission::config`]), the leader
 //! (agent 1) and the follower (agent 2) each listing the other (the supervisor's state and the
 //! leader's acknowledgement pass between them). `scenario.dt_s` is the mission's tick and
 //! `scenario.duration_s` its horizon: the run ends at s6 or there, whichever comes first
@@ -17,7 +17,7 @@
 //! u2, its T̂, k1, k2), `telemetry/agent-1.csv` (the leader's acknowledgement and prediction),
 //! `derived/vtxo_mission_timeline.csv` (the timeline: state, Id, the state it came from, entry
 //! time in s and days, dwell), the summary metrics below, and the figure `vtxo_mission_timeline.png`
-//! ([`crate::mission_figure`]).
+//! ([`crate::mission::figure`]).
 
 use std::any::Any;
 use std::collections::BTreeMap;
@@ -32,13 +32,13 @@ use cohort_runtime::paper::{
 use cohort_runtime::record::{CsvWriter, ErrorKind, ProcessError, ProcessReport, RunDirs};
 use cohort_scenario::{Checker, Scenario};
 
+use crate::automaton::lockstep::SupervisorAgent;
+use crate::automaton::share::{LEADER_SHARE_LEN, MASTER_SHARE_LEN};
+use crate::automaton::table::{Automaton, S1, S2, S3};
 use crate::formation::kinds::check_pair_kind;
-use crate::mission::{Mission, MissionParams};
-use crate::mission_config::{PredictorKind, VtxoMissionConfig};
+use crate::mission::config::{PredictorKind, VtxoMissionConfig};
+use crate::mission::discrete::{Mission, MissionParams};
 use crate::model::config::VtxoPlantConfig;
-use crate::supervisor::{Automaton, S1, S2, S3};
-use crate::supervisor_lockstep::SupervisorAgent;
-use crate::supervisor_share::{LEADER_SHARE_LEN, MASTER_SHARE_LEN};
 use crate::transient_gains::{FixedTransient, TransientGains, TransientPredictor};
 
 pub const MISSION_KIND: &str = "vtxo-mission";
@@ -147,7 +147,7 @@ fn run_into(s: &Setup, dirs: &RunDirs, ctx: &CoupledCtx<'_>) -> Result<(), Strin
     let p = MissionParams::of(cfg, s.scenario.dt_s);
     let (lead, fol) = (cfg.predictor(), cfg.predictor());
     let started = Instant::now();
-    let m = crate::mission::run(&p, lead.as_ref(), fol.as_ref(), s.scenario.seed, s.n_steps());
+    let m = crate::mission::discrete::run(&p, lead.as_ref(), fol.as_ref(), s.scenario.seed, s.n_steps());
     let wall_s = started.elapsed().as_secs_f64();
     let (m, error) = match m {
         Ok(m) => (m, None),

@@ -1,9 +1,9 @@
 //! The supervisor of Sec. 8 of "Explainable AI-Enhanced Supervisory Control for High-Precision
 //! Spacecraft Formation" as a lockstep [`Algorithm`]: what `AlgorithmSetup::build` gives for a
 //! `vtxo-mission` scenario (the runtime's reference and agent processes build agents; `launch`
-//! runs the scenario's discrete-event mode instead, [`crate::mission`]). One tick per step
-//! (the scenario step), the same automaton ([`crate::supervisor_exec`]), the same messages
-//! ([`crate::supervisor_share`]); it commands no torque and no thrust (the controllers switching
+//! runs the scenario's discrete-event mode instead, [`crate::mission::discrete`]). One tick per step
+//! (the scenario step), the same automaton ([`crate::automaton::exec`]), the same messages
+//! ([`crate::automaton::share`]); it commands no torque and no thrust (the controllers switching
 //! with the location are the hand-off's business).
 //!
 //! Step k: the follower (master) fires every transition whose guard holds at t_k (at an entry to
@@ -16,12 +16,12 @@
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use serde::{Deserialize, Serialize};
 
+use crate::automaton::exec::{Inputs, Supervisor};
+use crate::automaton::share::{LeaderShare, MasterShare};
+use crate::automaton::table::{Automaton, S2, S4};
 use crate::flight::layout::{COMMAND_LEN, Readings};
-use crate::mission::MissionParams;
-use crate::mission_config::VtxoMissionConfig;
-use crate::supervisor::{Automaton, S2, S4};
-use crate::supervisor_exec::{Inputs, Supervisor};
-use crate::supervisor_share::{LeaderShare, MasterShare};
+use crate::mission::config::VtxoMissionConfig;
+use crate::mission::discrete::MissionParams;
 use crate::transient_gains::{FixedTransient, MeasuredState, TransientGains, TransientPredictor, u2_ticks};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -186,7 +186,7 @@ impl Algorithm for SupervisorAgent {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mission::run;
+    use crate::mission::discrete::run;
 
     /// A short mission in 1 s ticks: u3 = [50 s, 7 s, 25 s, 30 s], window 10 s, u1 = 100 s,
     /// formation 3 s after an orbit switch, T = 5 s.

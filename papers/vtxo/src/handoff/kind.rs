@@ -6,7 +6,7 @@
 //! Configuring checks the section ([`VtxoHandoffConfig::validate`]), the pair with the plant
 //! (targets, [`crate::config::check_pair`], reported under `algorithm.flight.…`; the supervisor's
 //! orbit period, which this scenario does not read, is the plant's or agrees with it,
-//! [`crate::mission_period`]), the links (each
+//! [`crate::mission::period`]), the links (each
 //! agent lists the other), and loads the transient DNN named by `algorithm.handoff.transient_weights`
 //! (relative to the scenario file; the resolved scenario the processes read carries it absolute):
 //! a missing or malformed file is a problem at that key path naming the file. The science DNN
@@ -23,18 +23,18 @@ use cohort_runtime::model::Algorithm;
 use cohort_runtime::paper::{AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantSetup, Setup, section_as, table_of};
 use cohort_scenario::{Checker, Scenario};
 
+use crate::automaton::exec::Supervisor;
+use crate::automaton::lockstep::SupervisorAgent;
+use crate::automaton::share::{LEADER_SHARE_LEN, MASTER_SHARE_LEN};
+use crate::automaton::table::S1;
 use crate::flight::config::{Phase, VtxoAlgorithmConfig};
 use crate::formation::kinds::check_pair_kind;
-use crate::handoff::{ConfiguredScience, Flight, HandoffAgent, SUPERVISOR_OFFSET, SciencePredictor};
-use crate::handoff_config::{ScienceGainsSource, VtxoHandoffConfig};
-use crate::handoff_science::DnnScience;
-use crate::mission_kind::MISSION_KIND;
+use crate::handoff::agent::{ConfiguredScience, Flight, HandoffAgent, SUPERVISOR_OFFSET, SciencePredictor};
+use crate::handoff::config::{ScienceGainsSource, VtxoHandoffConfig};
+use crate::handoff::science::DnnScience;
+use crate::mission::kind::MISSION_KIND;
 use crate::model::config::VtxoPlantConfig;
 use crate::science_dnn::ScienceDnn;
-use crate::supervisor::S1;
-use crate::supervisor_exec::Supervisor;
-use crate::supervisor_lockstep::SupervisorAgent;
-use crate::supervisor_share::{LEADER_SHARE_LEN, MASTER_SHARE_LEN};
 use crate::transient_dnn::TransientDnn;
 use crate::transient_gains::{FixedTransient, TransientGains, TransientPredictor};
 

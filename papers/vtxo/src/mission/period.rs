@@ -20,7 +20,7 @@
 
 use cohort_scenario::Problem;
 
-use crate::mission_config::TimersConfig;
+use crate::mission::config::TimersConfig;
 use crate::model::config::VtxoPlantConfig;
 
 /// How far, relative, an explicit `timers.orbit_period_s` may lie from the plant's period.
@@ -35,7 +35,7 @@ impl TimersConfig {
     /// Take the orbit period from `plant` when absent, or check the one given against it: a
     /// problem at `{prefix}.timers.orbit_period_s` when it disagrees. A plant with no valid
     /// semi-major axis gives no period (its own problem names `plant.orbit.a_m`); a given value
-    /// that is not finite and positive is left to [`crate::mission_config::VtxoMissionConfig::validate`].
+    /// that is not finite and positive is left to [`crate::mission::config::VtxoMissionConfig::validate`].
     pub fn follow_plant(&mut self, prefix: &str, plant: &VtxoPlantConfig) -> Option<Problem> {
         let plant_s = plant.orbit_period_s()?;
         let Some(given_s) = self.orbit_period_s else {
@@ -64,7 +64,7 @@ impl TimersConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mission_config::VtxoMissionConfig;
+    use crate::mission::config::VtxoMissionConfig;
 
     /// 2π√(a³/μ) for a = 45 300 km, μ = 3.986004418e14 m³/s², to 40 digits (mpmath):
     /// 95952.93943589334535578561337179203473916 s.
