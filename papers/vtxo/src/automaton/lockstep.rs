@@ -20,9 +20,9 @@ use crate::automaton::exec::{Inputs, Supervisor};
 use crate::automaton::share::{LeaderShare, MasterShare};
 use crate::automaton::table::{Automaton, S2, S4};
 use crate::flight::layout::{COMMAND_LEN, Readings};
+use crate::learn::transient::gains::{FixedTransient, MeasuredState, TransientGains, TransientPredictor, u2_ticks};
 use crate::mission::config::VtxoMissionConfig;
 use crate::mission::discrete::MissionParams;
-use crate::transient_gains::{FixedTransient, MeasuredState, TransientGains, TransientPredictor, u2_ticks};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SupervisorAgent {

@@ -42,9 +42,9 @@ use crate::flight::leader::Leader;
 use crate::flight::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
 use crate::handoff::science::{self, ScienceChoice};
 pub use crate::handoff::science::{ConfiguredScience, SciencePredictor};
+use crate::learn::transient::gains::{MeasuredState, TransientPredictor};
 use crate::model::attitude::gravity_gradient;
 use crate::model::quaternion::{self, V3};
-use crate::transient_gains::{MeasuredState, TransientPredictor};
 
 /// Where the supervisor's share starts in a hand-off agent's share values.
 pub const SUPERVISOR_OFFSET: usize =

@@ -30,9 +30,9 @@ use cohort_report::Table;
 use cohort_report::table::read_table_with;
 use cohort_runtime::record::RunDirs;
 
-use crate::analysis::ROLES;
 use crate::automaton::table::{S2, S3};
 use crate::handoff::agent::ActingLaw;
+use crate::host::analysis::ROLES;
 
 /// Sec. 5.1: P99(e) < 0.2° at the end of the transient.
 pub const ERROR_BOUND_DEG: f64 = 0.2;

@@ -32,11 +32,11 @@ use crate::formation::kinds::check_pair_kind;
 use crate::handoff::agent::{ConfiguredScience, Flight, HandoffAgent, SUPERVISOR_OFFSET, SciencePredictor};
 use crate::handoff::config::{ScienceGainsSource, VtxoHandoffConfig};
 use crate::handoff::science::DnnScience;
+use crate::learn::science::dnn::ScienceDnn;
+use crate::learn::transient::dnn::TransientDnn;
+use crate::learn::transient::gains::{FixedTransient, TransientGains, TransientPredictor};
 use crate::mission::kind::MISSION_KIND;
 use crate::model::config::VtxoPlantConfig;
-use crate::science_dnn::ScienceDnn;
-use crate::transient_dnn::TransientDnn;
-use crate::transient_gains::{FixedTransient, TransientGains, TransientPredictor};
 
 pub const HANDOFF_KIND: &str = "vtxo-handoff";
 const WEIGHTS_KEY: &str = "algorithm.handoff.transient_weights";

@@ -4,7 +4,7 @@
 //! of the configured kind (PD (54) or SMC (58)–(60)) with its gains k̂.
 //!
 //! - [`ConfiguredScience`]: `flight.attitude`'s gains (Table 4 by default), whatever the state;
-//! - [`DnnScience`]: the science DNN of Sec. 3.2.2 ([`crate::science_dnn`]), queried once per entry
+//! - [`DnnScience`]: the science DNN of Sec. 3.2.2 ([`crate::learn::science::dnn`]), queried once per entry
 //!   to s3 at the agent's own estimate.
 //!
 //! **What the DNN gets, and where it departs from the print.** Inputs: x₀ = (δq = q̂ ⊗ q_f⁻¹,
@@ -27,9 +27,9 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::flight::attitude_control::AttitudeLaw;
-use crate::science_dnn::{ScienceDnn, ScienceGainPredictor};
-use crate::science_sim::ScienceLaw;
-use crate::transient_gains::MeasuredState;
+use crate::learn::science::dnn::{ScienceDnn, ScienceGainPredictor};
+use crate::learn::science::sim::ScienceLaw;
+use crate::learn::transient::gains::MeasuredState;
 
 /// The law and gains chosen at an entry to s3, with the predictor's expectation of the phase.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -26,8 +26,8 @@ use crate::automaton::check::AutomatonError;
 use crate::automaton::exec::{Inputs, Supervisor};
 use crate::automaton::share::{LeaderShare, MasterShare};
 use crate::automaton::table::{Automaton, S2, S3, S4, StateIx};
+use crate::learn::transient::gains::{TransientGains, TransientPredictor, draw_entry_state, u2_ticks};
 use crate::mission::config::{VtxoMissionConfig, whole_ticks};
-use crate::transient_gains::{TransientGains, TransientPredictor, draw_entry_state, u2_ticks};
 
 /// The mission's inputs in ticks.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -289,7 +289,7 @@ impl Mission {
 mod tests {
     use super::*;
     use crate::automaton::table::{S0, S1, S5, S6};
-    use crate::transient_gains::FixedTransient;
+    use crate::learn::transient::gains::FixedTransient;
 
     fn fixed(t_s: f64) -> FixedTransient {
         FixedTransient(TransientGains { k1: 0.085, k2: 0.25, t_s })
@@ -349,7 +349,7 @@ mod tests {
     #[test]
     fn the_leader_follows_and_u2_is_the_larger_prediction_from_the_measured_state() {
         // A predictor that reads the state: T grows with |ω₀| (clamped to [7.2, 72] s).
-        let by_rate = |x: &crate::transient_gains::MeasuredState, _w: f64| TransientGains {
+        let by_rate = |x: &crate::learn::transient::gains::MeasuredState, _w: f64| TransientGains {
             k1: 0.1,
             k2: 0.3,
             t_s: 10.0 + 20.0 * x.omega_body_rad_s.iter().map(|w| w * w).sum::<f64>().sqrt(),

@@ -36,10 +36,10 @@ use crate::automaton::lockstep::SupervisorAgent;
 use crate::automaton::share::{LEADER_SHARE_LEN, MASTER_SHARE_LEN};
 use crate::automaton::table::{Automaton, S1, S2, S3};
 use crate::formation::kinds::check_pair_kind;
+use crate::learn::transient::gains::{FixedTransient, TransientGains, TransientPredictor};
 use crate::mission::config::{PredictorKind, VtxoMissionConfig};
 use crate::mission::discrete::{Mission, MissionParams};
 use crate::model::config::VtxoPlantConfig;
-use crate::transient_gains::{FixedTransient, TransientGains, TransientPredictor};
 
 pub const MISSION_KIND: &str = "vtxo-mission";
 /// The timeline table of a mission run.

@@ -2,8 +2,8 @@
 //! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
 //!
 //! `orchestrator train vtxo-transient`: the transient DNN of Sec. 3.2.1 trained with candle (f32,
-//! CPU) on a table of [`crate::transient_data`], written as the weights file of
-//! [`crate::transient_dnn`] and a report beside it (`<stem>-report.md`).
+//! CPU) on a table of [`crate::learn::transient::data`], written as the weights file of
+//! [`crate::learn::transient::dnn`] and a report beside it (`<stem>-report.md`).
 //!
 //! As printed: ℝ⁸ → ℝ⁵, one 3-layer head per output, ReLU (hidden and output), Adam on the MAPE,
 //! max-norm kernel constraint, 4-fold cross-validation (each fold's test quarter predicted by the
@@ -30,8 +30,8 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::transient_dnn::{N_IN, N_OUT, OUTPUTS, TransientDnn};
-use crate::transient_stats::{self, percentile};
+use crate::learn::transient::dnn::{N_IN, N_OUT, OUTPUTS, TransientDnn};
+use crate::learn::transient::stats::{self, percentile};
 
 /// Input columns of the data table, in the network's order.
 pub const INPUT_COLUMNS: [&str; N_IN] = ["q0", "q1", "q2", "q3", "w0_rad_s", "w1_rad_s", "w2_rad_s", "w"];
@@ -66,7 +66,7 @@ pub struct Table {
 /// Read a data table.
 pub fn read_table(path: &Path) -> Result<Table, String> {
     let names: Vec<&str> = INPUT_COLUMNS.iter().chain(OUTPUTS.iter()).copied().collect();
-    let cols = transient_stats::read_columns(path, &names)?;
+    let cols = stats::read_columns(path, &names)?;
     let n = cols[0].len();
     let x = (0..n).map(|r| std::array::from_fn(|i| cols[i][r])).collect();
     let y = (0..n).map(|r| std::array::from_fn(|o| cols[N_IN + o][r])).collect();

@@ -1,5 +1,5 @@
-//! The F32 safetensors files of the learned models (the transient DNN, [`crate::transient_dnn`],
-//! and the science DNN, [`crate::science_dnn`]): reading a file, one checked tensor, and writing
+//! The F32 safetensors files of the learned models (the transient DNN, [`crate::learn::transient::dnn`],
+//! and the science DNN, [`crate::learn::science::dnn`]): reading a file, one checked tensor, and writing
 //! tensors. Each model keeps its own error type (naming which model's file); these return the
 //! reason only.
 

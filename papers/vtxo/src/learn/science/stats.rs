@@ -13,13 +13,13 @@
 //! science phase of every Pareto-optimal design of the science tables (the science phase's ω_f in
 //! the sense of (86)'s final state), since that is the rate the phase hands on.
 //!
-//! Statistics as in [`crate::transient_stats`]: sample variance, percentiles interpolated linearly.
+//! Statistics as in [`crate::learn::transient::stats`]: sample variance, percentiles interpolated linearly.
 
 use std::path::Path;
 
+use crate::learn::transient::sim::{self, DT_S, Start};
+use crate::learn::transient::stats::{percentile, read_columns};
 use crate::model::quaternion::{Quat, V3};
-use crate::transient_sim::{self, DT_S, Start};
-use crate::transient_stats::{percentile, read_columns};
 
 /// Table 3 as printed: per axis (mean, variance, P99, P1), deg/s and (deg/s)².
 pub const TABLE3: [[f64; 4]; 3] =
@@ -29,7 +29,7 @@ pub const TOLERANCE_DEG_S: f64 = 1.0;
 
 /// (mean, variance, P99, P1) of a non-empty column.
 pub fn row_stats(x: &[f64]) -> [f64; 4] {
-    let s = crate::transient_stats::stats(x);
+    let s = crate::learn::transient::stats::stats(x);
     let mut v = x.to_vec();
     v.sort_by(f64::total_cmp);
     [s.mean, s.var, percentile(&v, 99.0), percentile(&v, 1.0)]
@@ -56,7 +56,7 @@ pub fn transient_end_rates(path: &Path) -> Result<Vec<[f64; 3]>, String> {
                 q: Quat::new(c[0][r], c[1][r], c[2][r], c[3][r]),
                 omega_rad_s: V3::new(c[4][r], c[5][r], c[6][r]),
             };
-            let f = transient_sim::fly(&start, c[8][r], c[9][r], c[7][r], DT_S);
+            let f = sim::fly(&start, c[8][r], c[9][r], c[7][r], DT_S);
             [f.omega_end_rad_s[0], f.omega_end_rad_s[1], f.omega_end_rad_s[2]]
         })
         .collect())
@@ -126,7 +126,7 @@ mod tests {
             &p,
             format!(
                 "# test\n{}\n0.1,0.2,-0.1,0.97,0.3,-0.2,0.1,5,0.1,0.001,72,0.2,0.3\n0,0,0,1,0.01,0,0,5,0.1,0.001,7.2,0.01,0.01\n",
-                crate::transient_data::HEADER
+                crate::learn::transient::data::HEADER
             ),
         )
         .unwrap();

@@ -39,11 +39,11 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use crate::flight::attitude_control::{self, AttitudeLaw};
+use crate::learn::transient::sim::INERTIA;
 use crate::model::actuators::{Actuator, ErrorModel};
 use crate::model::attitude::{AttitudeState, TorqueInputs};
 use crate::model::ecrv::white;
 use crate::model::quaternion::{self, Quat, V3};
-use crate::transient_sim::INERTIA;
 
 /// The flight step, s: the scenarios' 10 ms, over which the command is held.
 pub const DT_S: f64 = 0.01;

@@ -2,17 +2,17 @@
 //! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
 //!
 //! The paper's trainers, `orchestrator train vtxo-transient-data …` (the optimisation table of
-//! Sec. 3.1/3.2.1, [`crate::transient_data`]) and `orchestrator train vtxo-transient …` (the
-//! transient DNN, [`crate::transient_train`]), and the arguments of `orchestrator vtxo
-//! transient-mc` ([`crate::transient_mc`]).
+//! Sec. 3.1/3.2.1, [`crate::learn::transient::data`]) and `orchestrator train vtxo-transient …` (the
+//! transient DNN, [`crate::learn::transient::train`]), and the arguments of `orchestrator vtxo
+//! transient-mc` ([`crate::learn::transient::mc`]).
 
 use std::path::PathBuf;
 
 use clap::{FromArgMatches, Parser};
 use cohort_host::CommandError;
 
-use crate::transient_data::{self, DataError, NAME, Options};
-use crate::transient_sim::DT_S;
+use crate::learn::transient::data::{self, DataError, NAME, Options};
+use crate::learn::transient::sim::DT_S;
 
 #[derive(Parser)]
 #[command(
@@ -57,7 +57,7 @@ pub struct DnnArgs {
     #[arg(long, default_value = "papers/vtxo/data/transient-sa.csv")]
     pub data: PathBuf,
     /// Weights file to write.
-    #[arg(long, default_value = crate::transient_dnn::COMMITTED)]
+    #[arg(long, default_value = crate::learn::transient::dnn::COMMITTED)]
     pub out: PathBuf,
     /// Seeds the fold split, the initial weights and the batch order.
     #[arg(long, default_value_t = 1)]
@@ -83,7 +83,7 @@ pub struct McArgs {
     #[arg(long, default_value_t = 300)]
     pub iterations: u32,
     /// The DNN's weights.
-    #[arg(long, default_value = crate::transient_dnn::COMMITTED)]
+    #[arg(long, default_value = crate::learn::transient::dnn::COMMITTED)]
     pub weights: PathBuf,
     /// Worker threads.
     #[arg(long, default_value_t = 2)]
@@ -95,7 +95,7 @@ pub fn run_mc(a: &McArgs) -> Result<String, CommandError> {
     if a.draws == 0 || a.iterations == 0 || a.threads == 0 {
         return Err(CommandError::invalid("--draws, --iterations and --threads must be at least 1"));
     }
-    let md = crate::transient_mc::run(&a.weights, a.draws, a.seed, a.iterations, a.threads)
+    let md = crate::learn::transient::mc::run(&a.weights, a.draws, a.seed, a.iterations, a.threads)
         .map_err(CommandError::invalid)?;
     Ok(format!(
         "{md}\n`orchestrator vtxo transient-mc --draws {} --seed {} --iterations {} --weights {}`",
@@ -113,18 +113,18 @@ pub fn commands() -> Vec<clap::Command> {
 
 fn run_dnn(matches: &clap::ArgMatches) -> Result<String, CommandError> {
     let a = DnnArgs::from_arg_matches(matches).map_err(|e| CommandError::invalid(e.to_string()))?;
-    if a.epochs == 0 || a.hidden == 0 || a.hidden > crate::transient_dnn::MAX_HIDDEN {
+    if a.epochs == 0 || a.hidden == 0 || a.hidden > crate::learn::transient::dnn::MAX_HIDDEN {
         return Err(CommandError::invalid(format!(
             "--epochs {} --hidden {}: at least 1 epoch, 1 to {} units",
             a.epochs,
             a.hidden,
-            crate::transient_dnn::MAX_HIDDEN
+            crate::learn::transient::dnn::MAX_HIDDEN
         )));
     }
-    if let Err(e) = crate::transient_train::read_table(&a.data) {
+    if let Err(e) = crate::learn::transient::train::read_table(&a.data) {
         return Err(CommandError::invalid(format!("--data: {e}")));
     }
-    let mut o = crate::transient_train::Options::reference(a.data.clone(), a.out.clone(), a.seed);
+    let mut o = crate::learn::transient::train::Options::reference(a.data.clone(), a.out.clone(), a.seed);
     (o.epochs, o.hidden) = (a.epochs, a.hidden);
     let command = format!(
         "orchestrator train {DNN_NAME} --data {} --out {} --seed {} --epochs {} --hidden {}",
@@ -135,9 +135,9 @@ fn run_dnn(matches: &clap::ArgMatches) -> Result<String, CommandError> {
         a.hidden
     );
     let t0 = std::time::Instant::now();
-    let report = crate::transient_train::train(&o).map_err(CommandError::failed)?;
+    let report = crate::learn::transient::train::train(&o).map_err(CommandError::failed)?;
     let md = report.markdown(&command, &o);
-    let path = crate::transient_train::report_path(&o.out);
+    let path = crate::learn::transient::train::report_path(&o.out);
     std::fs::write(&path, &md).map_err(|e| CommandError::failed(format!("{}: {e}", path.display())))?;
     Ok(format!(
         "{md}\nwall-clock {:.1} s\nwritten: {} and {}",
@@ -164,12 +164,12 @@ pub fn run(name: &str, matches: &clap::ArgMatches) -> Result<String, CommandErro
         threads: a.threads,
         out: a.out,
     };
-    let s = transient_data::run(&o).map_err(|e| match e {
+    let s = data::run(&o).map_err(|e| match e {
         DataError::Options(_) | DataError::Existing { .. } => CommandError::invalid(e.to_string()),
         DataError::Io { .. } => CommandError::failed(e.to_string()),
     })?;
     let rate = if s.seconds > 0.0 { s.written as f64 * 60.0 / s.seconds } else { 0.0 };
-    let table2 = crate::transient_stats::table2_markdown(&o.out).map_err(CommandError::failed)?;
+    let table2 = crate::learn::transient::stats::table2_markdown(&o.out).map_err(CommandError::failed)?;
     Ok(format!(
         "{table2}\n{}: {} points ({} were there, {} new) in {:.1} s: {:.1} points/min\nwritten: {}",
         NAME,

@@ -6,7 +6,7 @@
 //! inputs and outputs, "with 10 neurons in the first layer, 5 neurons in the second layer, and 3
 //! neurons in the last layer", sigmoid. A plain f64 forward pass with no training stack, so a
 //! supervisor can call [`ScienceDnn::predict`] at the entry to s3; the training is
-//! `crate::science_train`.
+//! `crate::learn::science::train`.
 //!
 //! Our reading of the print (where it does not say):
 //! - **inputs, 8**: x₀ = (q₀ (4, scalar last, relative to the target), ω₀ (3, rad/s)) and w — the
@@ -29,10 +29,10 @@
 use std::path::{Path, PathBuf};
 
 use crate::flight::attitude_control::AttitudeLaw;
+use crate::learn::science::sim::{K_MAX, K_MIN, ScienceLaw};
+use crate::learn::transient::gains::MeasuredState;
+use crate::learn::weights;
 use crate::model::quaternion::{Quat, V3};
-use crate::science_sim::{K_MAX, K_MIN, ScienceLaw};
-use crate::transient_gains::MeasuredState;
-use crate::weights_file;
 
 /// Inputs of every network.
 pub const N_IN: usize = 8;
@@ -164,19 +164,19 @@ impl ScienceDnn {
             .into_iter()
             .flat_map(|net| net.tensors().into_iter().map(|(n, s, v)| (format!("{}.{n}", net.law.name()), s, v)))
             .collect();
-        weights_file::serialise_f32(&tensors)
+        weights::serialise_f32(&tensors)
     }
 
     /// Read and check a weights file.
     pub fn load(path: &Path) -> Result<Self, WeightsError> {
-        let bytes = weights_file::read(path).map_err(|reason| WeightsError { file: path.into(), reason })?;
+        let bytes = weights::read(path).map_err(|reason| WeightsError { file: path.into(), reason })?;
         Self::from_bytes(&bytes, path)
     }
 
     /// Check and load a weights file's bytes; `file` only names it in errors.
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
         let fail = |reason: String| WeightsError { file: file.into(), reason };
-        let st = weights_file::open(bytes).map_err(fail)?;
+        let st = weights::open(bytes).map_err(fail)?;
         let mut names: Vec<&str> = st.names();
         if !names.iter().any(|n| n.starts_with("pd.") || n.starts_with("smc.")) {
             names.sort_unstable();
@@ -184,7 +184,7 @@ impl ScienceDnn {
                 "holds no science DNN (no pd.* or smc.* tensor; it has {names:?}): another model's file?"
             )));
         }
-        let get = |name: &str, shape: &[usize]| weights_file::f32_tensor(&st, name, shape).map_err(fail);
+        let get = |name: &str, shape: &[usize]| weights::f32_tensor(&st, name, shape).map_err(fail);
         let net = |law: ScienceLaw| -> Result<Net, WeightsError> {
             let p = law.name();
             let shapes = layer_shapes(law);

@@ -2,8 +2,8 @@
 //! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
 //!
 //! The science-phase trainers: `orchestrator train vtxo-science-data …` (the Pareto tables of
-//! Sec. 3.1/3.2.2, [`crate::science_data`]) and `orchestrator train vtxo-science …` (the science
-//! DNN, [`crate::science_train`], with the Table 3 analogue of [`crate::science_stats`] in its
+//! Sec. 3.1/3.2.2, [`crate::learn::science::data`]) and `orchestrator train vtxo-science …` (the science
+//! DNN, [`crate::learn::science::train`], with the Table 3 analogue of [`crate::learn::science::stats`] in its
 //! report).
 
 use std::path::PathBuf;
@@ -11,8 +11,8 @@ use std::path::PathBuf;
 use clap::{FromArgMatches, Parser};
 use cohort_host::CommandError;
 
-use crate::science_data::{self, DataError, NAME, Options};
-use crate::science_sim::{DT_S, PHASE_S};
+use crate::learn::science::data::{self, DataError, NAME, Options};
+use crate::learn::science::sim::{DT_S, PHASE_S};
 
 #[derive(Parser)]
 #[command(
@@ -64,7 +64,7 @@ pub struct DnnArgs {
     #[arg(long, default_value = "papers/vtxo/data/transient-sa.csv")]
     pub transient_data: PathBuf,
     /// Weights file to write.
-    #[arg(long, default_value = crate::science_dnn::COMMITTED)]
+    #[arg(long, default_value = crate::learn::science::dnn::COMMITTED)]
     pub out: PathBuf,
     /// Seeds the split, the initial weights and the batch order.
     #[arg(long, default_value_t = 1)]
@@ -88,8 +88,8 @@ pub fn owns(name: &str) -> bool {
 }
 
 fn run_dnn(matches: &clap::ArgMatches) -> Result<String, CommandError> {
-    use crate::science_sim::ScienceLaw;
-    use crate::science_train::{self, Options as TrainOptions};
+    use crate::learn::science::sim::ScienceLaw;
+    use crate::learn::science::train::{self, Options as TrainOptions};
     let a = DnnArgs::from_arg_matches(matches).map_err(|e| CommandError::invalid(e.to_string()))?;
     if a.epochs == 0 || a.epochs > 100_000 || !(a.lr > 0.0 && a.lr <= 10.0) {
         return Err(CommandError::invalid(format!(
@@ -99,10 +99,10 @@ fn run_dnn(matches: &clap::ArgMatches) -> Result<String, CommandError> {
     }
     let mut tables = Vec::new();
     for law in ScienceLaw::ALL {
-        let t = science_train::read_table(&a.data, law).map_err(|e| CommandError::invalid(format!("--data: {e}")))?;
+        let t = train::read_table(&a.data, law).map_err(|e| CommandError::invalid(format!("--data: {e}")))?;
         tables.push((law, t));
     }
-    let transient = crate::science_stats::transient_end_rates(&a.transient_data)
+    let transient = crate::learn::science::stats::transient_end_rates(&a.transient_data)
         .map_err(|e| CommandError::invalid(format!("--transient-data: {e}")))?;
     let mut o = TrainOptions::reference(a.data.clone(), a.out.clone(), a.seed);
     (o.epochs, o.lr) = (a.epochs, a.lr);
@@ -116,17 +116,17 @@ fn run_dnn(matches: &clap::ArgMatches) -> Result<String, CommandError> {
         a.lr
     );
     let t0 = std::time::Instant::now();
-    let reports = science_train::train(&o).map_err(CommandError::failed)?;
+    let reports = train::train(&o).map_err(CommandError::failed)?;
     let mut sources = vec![(format!("ours, end of transient ({})", a.transient_data.display()), transient)];
     for (law, t) in tables {
         sources.push((format!("ours, end of science phase, {} Pareto designs", law.name()), t.omega_end_rad_s));
     }
     let md = format!(
         "# Science DNN (Sec. 3.2.2) and Table 3 analogue\n\n`{command}`\n\n{}\n{}",
-        science_train::accuracy_markdown(&reports, &o),
-        crate::science_stats::table3_markdown(&sources)
+        train::accuracy_markdown(&reports, &o),
+        crate::learn::science::stats::table3_markdown(&sources)
     );
-    let path = science_train::report_path(&o.out);
+    let path = train::report_path(&o.out);
     std::fs::write(&path, &md).map_err(|e| CommandError::failed(format!("{}: {e}", path.display())))?;
     Ok(format!(
         "{md}\nwall-clock {:.1} s\nwritten: {} and {}",
@@ -148,7 +148,7 @@ fn run_data(matches: &clap::ArgMatches) -> Result<String, CommandError> {
         threads: a.threads,
         out_dir: a.out,
     };
-    let s = science_data::run(&o).map_err(|e| match e {
+    let s = data::run(&o).map_err(|e| match e {
         DataError::Options(_) => CommandError::invalid(e.to_string()),
         DataError::Io { .. } => CommandError::failed(e.to_string()),
     })?;
@@ -159,8 +159,8 @@ fn run_data(matches: &clap::ArgMatches) -> Result<String, CommandError> {
         s.rows[1],
         s.flights,
         s.seconds,
-        science_data::table_path(&o.out_dir, crate::science_sim::ScienceLaw::Pd).display(),
-        science_data::table_path(&o.out_dir, crate::science_sim::ScienceLaw::Smc).display()
+        data::table_path(&o.out_dir, crate::learn::science::sim::ScienceLaw::Pd).display(),
+        data::table_path(&o.out_dir, crate::learn::science::sim::ScienceLaw::Smc).display()
     ))
 }
 

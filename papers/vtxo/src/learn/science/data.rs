@@ -2,9 +2,9 @@
 //! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
 //!
 //! `orchestrator train vtxo-science-data`: the science-phase Pareto data of Sec. 3.1 and 3.2.2 —
-//! for each random science start (84) and its disturbance realisation ([`crate::science_sim`]), the
+//! for each random science start (84) and its disturbance realisation ([`crate::learn::science::sim`]), the
 //! Pareto-optimal gains of the PD (54) and of the SMC (58)–(60) for χ = [E, e] (72)
-//! ([`crate::science_moga`]) — written as two CSV tables, `science-pd.csv` and `science-smc.csv`,
+//! ([`crate::learn::science::moga`]) — written as two CSV tables, `science-pd.csv` and `science-smc.csv`,
 //! one row per Pareto-optimal design.
 //!
 //! A row is what the science DNN learns from: the inputs x₀ = (q₀, ω₀) and w, the outputs E, e
@@ -22,8 +22,8 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-use crate::science_moga::{self, Design, Settings};
-use crate::science_sim::{self, ScienceLaw, Start};
+use crate::learn::science::moga::{self, Design, Settings};
+use crate::learn::science::sim::{self, ScienceLaw, Start};
 
 /// The trainer's name.
 pub const NAME: &str = "vtxo-science-data";
@@ -91,11 +91,11 @@ pub struct DrawFronts {
 
 /// Draw `index` and search both laws.
 pub fn draw_fronts(o: &Options, index: u64) -> DrawFronts {
-    let steps = science_sim::steps(o.phase_s, o.dt_s);
-    let (start, env, mut rng) = science_sim::draw(o.seed, index, steps, o.dt_s);
+    let steps = sim::steps(o.phase_s, o.dt_s);
+    let (start, env, mut rng) = sim::draw(o.seed, index, steps, o.dt_s);
     let s = Settings { population: o.population, generations: o.generations, dt_s: o.dt_s };
-    let pd = science_moga::pareto(&start, &env, ScienceLaw::Pd, &s, &mut rng);
-    let smc = science_moga::pareto(&start, &env, ScienceLaw::Smc, &s, &mut rng);
+    let pd = moga::pareto(&start, &env, ScienceLaw::Pd, &s, &mut rng);
+    let smc = moga::pareto(&start, &env, ScienceLaw::Smc, &s, &mut rng);
     DrawFronts { start, fronts: [pd, smc] }
 }
 

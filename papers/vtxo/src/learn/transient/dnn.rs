@@ -5,7 +5,7 @@
 //! ω₀ (3, rad/s), w), outputs (E (J), e (deg), T (s), k₁, k₂), one head of 3 layers per output
 //! ("3 layers for each output"), ReLU hidden and output activations (the output ReLU keeps every
 //! prediction ≥ 0, Sec. 5.1). A plain f64 forward pass with no training stack, so an agent can call
-//! [`TransientDnn::predict`] every step; the training is `crate::transient_train`.
+//! [`TransientDnn::predict`] every step; the training is `crate::learn::transient::train`.
 //!
 //! Departures from the print, and why:
 //! - the prediction is clamped before use: T to [7.2, 72] s (80) — the paper's own DNN P99 of T is
@@ -21,9 +21,9 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::learn::transient::sim::{K_MAX, K_MIN, T_MAX_S, T_MIN_S};
+use crate::learn::weights;
 use crate::model::quaternion::{Quat, V3};
-use crate::transient_sim::{K_MAX, K_MIN, T_MAX_S, T_MIN_S};
-use crate::weights_file;
 
 /// Inputs and outputs.
 pub const N_IN: usize = 8;
@@ -138,20 +138,20 @@ impl TransientDnn {
     pub fn to_bytes(&self) -> Vec<u8> {
         let tensors: Vec<(String, Vec<usize>, &[f64])> =
             self.tensors().into_iter().map(|(n, s, v)| (n.to_string(), s, v)).collect();
-        weights_file::serialise_f32(&tensors)
+        weights::serialise_f32(&tensors)
     }
 
     /// Read and check a weights file.
     pub fn load(path: &Path) -> Result<Self, WeightsError> {
-        let bytes = weights_file::read(path).map_err(|reason| WeightsError { file: path.into(), reason })?;
+        let bytes = weights::read(path).map_err(|reason| WeightsError { file: path.into(), reason })?;
         Self::from_bytes(&bytes, path)
     }
 
     /// Check and load a weights file's bytes; `file` only names it in errors.
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
         let fail = |reason: String| WeightsError { file: file.into(), reason };
-        let st = weights_file::open(bytes).map_err(fail)?;
-        let get = |name: &str, shape: &[usize]| weights_file::f32_tensor(&st, name, shape).map_err(fail);
+        let st = weights::open(bytes).map_err(fail)?;
+        let get = |name: &str, shape: &[usize]| weights::f32_tensor(&st, name, shape).map_err(fail);
         let b1 = st.tensor("b1").map_err(|_| fail("no tensor \"b1\"".into()))?;
         let hidden = match b1.shape() {
             [N_OUT, h] if (1..=MAX_HIDDEN).contains(h) => *h,
@@ -185,13 +185,17 @@ impl TransientDnn {
 pub const COMMITTED: &str = "papers/vtxo/weights/transient.safetensors";
 
 /// The DNN as the supervisor's source of u2 = T and the transient gains
-/// ([`crate::transient_gains`]), each spacecraft predicting from its own measured state.
-impl crate::transient_gains::TransientPredictor for TransientDnn {
-    fn predict(&self, x: &crate::transient_gains::MeasuredState, w: f64) -> crate::transient_gains::TransientGains {
+/// ([`crate::learn::transient::gains`]), each spacecraft predicting from its own measured state.
+impl crate::learn::transient::gains::TransientPredictor for TransientDnn {
+    fn predict(
+        &self,
+        x: &crate::learn::transient::gains::MeasuredState,
+        w: f64,
+    ) -> crate::learn::transient::gains::TransientGains {
         let [q1, q2, q3, q4] = x.q_body_eci;
         let [w1, w2, w3] = x.omega_body_rad_s;
         let p = TransientDnn::predict(self, &Quat::new(q1, q2, q3, q4), &V3::new(w1, w2, w3), w);
-        crate::transient_gains::TransientGains { k1: p.k1, k2: p.k2, t_s: p.duration_s }
+        crate::learn::transient::gains::TransientGains { k1: p.k1, k2: p.k2, t_s: p.duration_s }
     }
 }
 
@@ -283,7 +287,7 @@ mod tests {
 
     #[test]
     fn the_dnn_is_the_supervisors_transient_predictor() {
-        use crate::transient_gains::{MeasuredState, TransientPredictor};
+        use crate::learn::transient::gains::{MeasuredState, TransientPredictor};
         let d =
             TransientDnn::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("weights/transient.safetensors")).unwrap();
         let x = MeasuredState { q_body_eci: [0.3, -0.2, 0.5, 0.78], omega_body_rad_s: [0.4, -0.6, 0.2] };

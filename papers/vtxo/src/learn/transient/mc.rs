@@ -2,23 +2,23 @@
 //! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
 //!
 //! `orchestrator vtxo transient-mc`: the closed-loop transient Monte Carlo of Sec. 5 and 5.1 —
-//! fresh draws of (q₀, ω₀, w) as in the data ([`crate::transient_data::draw`], from a seed the
+//! fresh draws of (q₀, ω₀, w) as in the data ([`crate::learn::transient::data::draw`], from a seed the
 //! table does not use), each flown with the Lyapunov law (57) twice: with the gains and duration
-//! the transient DNN predicts ([`crate::transient_dnn`]), and with those simulated annealing finds
-//! for that draw ([`crate::transient_sa`]). Reports P99(e) and P99(E) of both beside Table 2's
+//! the transient DNN predicts ([`crate::learn::transient::dnn`]), and with those simulated annealing finds
+//! for that draw ([`crate::learn::transient::sa`]). Reports P99(e) and P99(E) of both beside Table 2's
 //! 0.067° and 0.37 J and checks Sec. 5.1's bounds P99(e) < 0.2°, P99(E) < 2 J, and the DNN's own
 //! predictions against P99(ê) < 0.09°, P99(Ê) < 0.5 J.
 //!
-//! Departure: the flights are those of [`crate::transient_sim`] (truth feedback, no noise or
+//! Departure: the flights are those of [`crate::learn::transient::sim`] (truth feedback, no noise or
 //! disturbance), the dynamics the data was optimised on; the noisy MEKF loop is the plant's.
 
 use std::path::Path;
 
-use crate::transient_data::draw;
-use crate::transient_dnn::TransientDnn;
-use crate::transient_sa;
-use crate::transient_sim::{self, DT_S};
-use crate::transient_stats::percentile;
+use crate::learn::transient::data::draw;
+use crate::learn::transient::dnn::TransientDnn;
+use crate::learn::transient::sa;
+use crate::learn::transient::sim::{self, DT_S};
+use crate::learn::transient::stats::percentile;
 
 /// Table 2's P99 of e (deg) and E (J); Sec. 5.1's closed-loop bounds and the DNN's.
 const PAPER_P99: (f64, f64) = (0.067, 0.37);
@@ -49,9 +49,9 @@ pub fn run(weights: &Path, draws: usize, seed: u64, iterations: u32, threads: us
                     }
                     let (start, w, mut rng) = draw(seed, i as u64);
                     let p = dnn.predict(&start.q, &start.omega_rad_s, w);
-                    let f = transient_sim::fly(&start, p.k1, p.k2, p.duration_s, DT_S);
+                    let f = sim::fly(&start, p.k1, p.k2, p.duration_s, DT_S);
                     let o = f.outcome(p.duration_s, w);
-                    let sa = transient_sa::anneal(&start, w, iterations, DT_S, &mut rng).outcome;
+                    let sa = sa::anneal(&start, w, iterations, DT_S, &mut rng).outcome;
                     let row = [o.error_deg, o.energy_j, sa.error_deg, sa.energy_j, p.error_deg, p.energy_j];
                     rows.lock().unwrap_or_else(|e| e.into_inner())[i] = row;
                 }

@@ -1,5 +1,5 @@
 //! The figures of a seed-002 run (the paper's Sec. 7 and the science phase), drawn for a run
-//! directory with the plant's telemetry and `derived/vtxo.csv` ([`crate::analysis`]):
+//! directory with the plant's telemetry and `derived/vtxo.csv` ([`crate::host::analysis`]):
 //!
 //! * `vtxo_formation.png` — the Figs. 6–8 analogue: (a) r_rel components (ECI, m) against t,
 //!   (b) |r_rel − r_f| and the transverse error √(e_x² + e_y²) on a log axis with the 1 m
@@ -26,7 +26,7 @@ use cohort_report::chart::{
 };
 use cohort_report::{FigureSource, PaperFigure, ReportError, Table, Telemetry};
 
-use crate::analysis::{DERIVED_FILE, ROLES};
+use crate::host::analysis::{DERIVED_FILE, ROLES};
 use crate::model::config::VtxoPlantConfig;
 
 const LOG_MAX_DECADES: i32 = 9;

@@ -2,9 +2,9 @@
 //! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
 //!
 //! `orchestrator train vtxo-science`: the science DNN of Sec. 3.2.2 trained with candle (f32, CPU)
-//! on the Pareto tables of [`crate::science_data`], one network per law, written together as the
-//! weights file of [`crate::science_dnn`]; the report beside it (`<stem>-report.md`) gives the
-//! held-out accuracy and the Table 3 analogue ([`crate::science_stats`]).
+//! on the Pareto tables of [`crate::learn::science::data`], one network per law, written together as the
+//! weights file of [`crate::learn::science::dnn`]; the report beside it (`<stem>-report.md`) gives the
+//! held-out accuracy and the Table 3 analogue ([`crate::learn::science::stats`]).
 //!
 //! As printed: 10–5–3 sigmoid layers (then the linear output layer, see `science_dnn`), stochastic
 //! gradient descent on the MSE, at most 1000 epochs.
@@ -30,9 +30,9 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::science_data::{INPUT_COLUMNS, OBJECTIVE_COLUMNS, table_path};
-use crate::science_dnn::{N_IN, Net, ScienceDnn, layer_shapes, n_out};
-use crate::science_sim::ScienceLaw;
+use crate::learn::science::data::{INPUT_COLUMNS, OBJECTIVE_COLUMNS, table_path};
+use crate::learn::science::dnn::{N_IN, Net, ScienceDnn, layer_shapes, n_out};
+use crate::learn::science::sim::ScienceLaw;
 
 /// Settings of one training run.
 #[derive(Debug, Clone)]
@@ -67,10 +67,10 @@ pub fn read_table(dir: &Path, law: ScienceLaw) -> Result<Table, String> {
         .iter()
         .chain(&OBJECTIVE_COLUMNS)
         .chain(law.gain_columns())
-        .chain(&crate::science_data::OMEGA_END_COLUMNS)
+        .chain(&crate::learn::science::data::OMEGA_END_COLUMNS)
         .copied()
         .collect();
-    let cols = crate::transient_stats::read_columns(&path, &names)?;
+    let cols = crate::learn::transient::stats::read_columns(&path, &names)?;
     let n = cols[0].len();
     let n_y = n_out(law);
     let mut t = Table { x: Vec::with_capacity(n), y: Vec::with_capacity(n), omega_end_rad_s: Vec::with_capacity(n) };
@@ -339,7 +339,7 @@ mod tests {
     #[test]
     fn training_is_byte_identical_and_the_file_loads() {
         let dir = std::env::temp_dir().join(format!("vtxo-science-train-{}", std::process::id()));
-        let data = crate::science_data::Options {
+        let data = crate::learn::science::data::Options {
             draws: 8,
             seed: 2,
             population: 6,
@@ -349,7 +349,7 @@ mod tests {
             threads: 2,
             out_dir: dir.clone(),
         };
-        crate::science_data::run(&data).expect("tiny tables");
+        crate::learn::science::data::run(&data).expect("tiny tables");
         let mut o = Options::reference(dir.clone(), dir.join("w.safetensors"), 3);
         o.epochs = 5;
         let r = train(&o).expect("train");

@@ -2,7 +2,7 @@
 //! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
 //!
 //! `orchestrator train vtxo-transient-data`: the transient-phase optimisation data of Sec. 3.1 and
-//! 3.2.1 — random initial states and weights, each annealed ([`crate::transient_sa`]) to the gains
+//! 3.2.1 — random initial states and weights, each annealed ([`crate::learn::transient::sa`]) to the gains
 //! (k₁, k₂) and duration T minimising χ = E + w·e — written as a CSV table, one row per point.
 //!
 //! Draws (point i of seed s, from its own ChaCha8 stream (s, i)):
@@ -29,9 +29,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
+use crate::learn::transient::sa::{self, Optimum};
+use crate::learn::transient::sim::Start;
 use crate::model::quaternion::{Quat, V3};
-use crate::transient_sa::{self, Optimum};
-use crate::transient_sim::Start;
 
 /// The trainer's name.
 pub const NAME: &str = "vtxo-transient-data";
@@ -76,7 +76,7 @@ pub fn draw(seed: u64, index: u64) -> (Start, f64, ChaCha8Rng) {
     let mut q = Quat::from_fn(|_, _| rng.random_range(-1.0..1.0));
     q[3] = q[3].abs();
     let q = q.normalize();
-    let n = Normal::new(0.0, crate::transient_gains::OMEGA0_SIGMA_RAD_S).expect("σ > 0");
+    let n = Normal::new(0.0, crate::learn::transient::gains::OMEGA0_SIGMA_RAD_S).expect("σ > 0");
     let omega = V3::from_fn(|_, _| n.sample(&mut rng));
     let u: f64 = rng.random();
     let w = if u < W_ODDS[0] {
@@ -92,7 +92,7 @@ pub fn draw(seed: u64, index: u64) -> (Start, f64, ChaCha8Rng) {
 /// Draw and anneal point `index`.
 pub fn point(seed: u64, index: u64, iterations: u32, dt_s: f64) -> Point {
     let (start, w, mut rng) = draw(seed, index);
-    let optimum = transient_sa::anneal(&start, w, iterations, dt_s, &mut rng);
+    let optimum = sa::anneal(&start, w, iterations, dt_s, &mut rng);
     Point { start, w, optimum }
 }
 
@@ -272,14 +272,14 @@ mod tests {
         let e = run(&Options { iterations: 5, ..tiny(full.clone(), 40, 2) }).expect_err("other options");
         assert!(matches!(e, DataError::Existing { .. }) && e.to_string().contains("full.csv"), "{e}");
         // And the DNN trains on it, byte-identically (a short smoke run).
-        let mut o = crate::transient_train::Options::reference(full.clone(), dir.join("a.safetensors"), 1);
+        let mut o = crate::learn::transient::train::Options::reference(full.clone(), dir.join("a.safetensors"), 1);
         (o.epochs, o.hidden) = (3, 4);
-        let r = crate::transient_train::train(&o).expect("train");
+        let r = crate::learn::transient::train::train(&o).expect("train");
         assert_eq!((r.points, r.fold_mape.len()), (40, 4));
         let first = std::fs::read(&o.out).expect("weights");
-        crate::transient_train::train(&o).expect("train again");
+        crate::learn::transient::train::train(&o).expect("train again");
         assert_eq!(first, std::fs::read(&o.out).expect("weights again"), "training is not byte-identical");
-        crate::transient_dnn::TransientDnn::load(&o.out).expect("the written weights load");
+        crate::learn::transient::dnn::TransientDnn::load(&o.out).expect("the written weights load");
         std::fs::remove_dir_all(&dir).ok();
     }
 

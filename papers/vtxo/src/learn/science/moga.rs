@@ -2,7 +2,7 @@
 //! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
 //!
 //! The multi-objective search of Sec. 3.1 for the science phase: min over k̂ of the vector loss
-//! χ = [E, e] (72) subject to the dynamics ([`crate::science_sim`]) and 0.01 < k < 3 (79). The
+//! χ = [E, e] (72) subject to the dynamics ([`crate::learn::science::sim`]) and 0.01 < k < 3 (79). The
 //! paper used MATLAB's MOGA and printed no settings; ours is a small seeded NSGA-II (Deb et al.
 //! 2002): non-dominated sorting, crowding distance, binary tournaments, blend crossover and
 //! Gaussian mutation, (μ + λ) survival. The answer is the first non-dominated front of the last
@@ -21,14 +21,14 @@
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::science_sim::{self, Environment, K_MAX, K_MIN, ScienceLaw, Start};
+use crate::learn::science::sim::{self, Environment, K_MAX, K_MIN, ScienceLaw, Start};
 
 /// A scored design.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Design {
     /// Gains, k̂'s order.
     pub gains: Vec<f64>,
-    pub outcome: science_sim::Outcome,
+    pub outcome: sim::Outcome,
 }
 
 impl Design {
@@ -112,7 +112,7 @@ fn better(rank: &[usize], crowd: &[f64], a: usize, b: usize) -> bool {
 }
 
 fn evaluate(start: &Start, env: &Environment, law: ScienceLaw, gains: Vec<f64>, dt_s: f64) -> Design {
-    let outcome = science_sim::fly(start, env, &law.law(&gains), dt_s);
+    let outcome = sim::fly(start, env, &law.law(&gains), dt_s);
     Design { gains, outcome }
 }
 
@@ -195,9 +195,9 @@ mod tests {
     fn the_front_is_non_dominated_in_the_box_and_reproducible() {
         // A short phase and a tiny search: every returned design lies in the box, none dominates
         // another, the front spans a trade-off, and the same seed gives the same front.
-        let steps = science_sim::steps(30.0, science_sim::DT_S);
-        let (start, env, _) = science_sim::draw(2, 0, steps, science_sim::DT_S);
-        let s = Settings { population: 8, generations: 3, dt_s: science_sim::DT_S };
+        let steps = sim::steps(30.0, sim::DT_S);
+        let (start, env, _) = sim::draw(2, 0, steps, sim::DT_S);
+        let s = Settings { population: 8, generations: 3, dt_s: sim::DT_S };
         let run = |law| pareto(&start, &env, law, &s, &mut ChaCha8Rng::seed_from_u64(9));
         for law in ScienceLaw::ALL {
             let f = run(law);

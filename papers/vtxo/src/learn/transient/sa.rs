@@ -2,11 +2,11 @@
 //! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
 //!
 //! The transient optimisation of Sec. 3.1 for one data point: min over (k₁, k₂, T) of
-//! χ = E + w·e (71), (73)–(76), subject to the dynamics (77) (our [`crate::transient_sim`]), the
+//! χ = E + w·e (71), (73)–(76), subject to the dynamics (77) (our [`crate::learn::transient::sim`]), the
 //! gain bounds (79) as corrected to (0.01, 0.5) and 7.2 s ≤ T ≤ 72 s (80), by simulated annealing.
 //!
 //! The annealer moves (k₁, k₂); every candidate is flown once for 72 s and its best T is taken by
-//! enumeration on the step grid ([`crate::transient_sim::Flight::best_duration`]), which is exact
+//! enumeration on the step grid ([`crate::learn::transient::sim::Flight::best_duration`]), which is exact
 //! and cheaper than annealing T. The print gives no schedule: ours is a Metropolis walk whose
 //! temperature falls geometrically from 10 % to 0.01 % of the starting χ, with Gaussian moves of
 //! standard deviation shrinking from a fifth of the gain range with the square root of the
@@ -18,7 +18,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::transient_sim::{self, K_MAX, K_MIN, Outcome, Start, T_MAX_S};
+use crate::learn::transient::sim::{self, K_MAX, K_MIN, Outcome, Start, T_MAX_S};
 
 /// The optimum found for one point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,7 +30,7 @@ pub struct Optimum {
 
 /// χ and the best T of gains (k₁, k₂) from `start` with weight `w`.
 pub fn evaluate(start: &Start, w: f64, k1: f64, k2: f64, dt_s: f64) -> Optimum {
-    let f = transient_sim::fly(start, k1, k2, T_MAX_S, dt_s);
+    let f = sim::fly(start, k1, k2, T_MAX_S, dt_s);
     Optimum { k1, k2, outcome: f.best_duration(w) }
 }
 

@@ -58,7 +58,7 @@ pub fn stats(x: &[f64]) -> Stats {
 pub const ROWS: [(&str, &str); 5] =
     [("k1", "k1_N_m"), ("k2", "k2_N_m_s"), ("e (deg)", "e_deg"), ("E (J)", "E_J"), ("T (s)", "T_s")];
 
-/// Read the named columns of a table written by [`crate::transient_data`] ('#' lines skipped).
+/// Read the named columns of a table written by [`crate::learn::transient::data`] ('#' lines skipped).
 pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut lines = text.lines().filter(|l| !l.starts_with('#'));
