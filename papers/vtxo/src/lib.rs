@@ -28,11 +28,11 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod automaton;
-pub mod config;
+pub(crate) mod config;
 pub mod flight;
 pub mod formation;
-pub mod handoff;
-pub mod host;
+pub(crate) mod handoff;
+pub(crate) mod host;
 pub mod learn;
 pub mod mission;
 pub mod model;

@@ -7,6 +7,6 @@
 
 pub mod check;
 pub mod exec;
-pub mod lockstep;
-pub mod share;
+pub(crate) mod lockstep;
+pub(crate) mod share;
 pub mod table;

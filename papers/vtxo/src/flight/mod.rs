@@ -5,13 +5,13 @@
 //! [`leader::Leader`] and [`follower::Follower`] agents; the plant ↔ agent and agent ↔ agent
 //! message layouts, and the `[algorithm]` section of a scenario ([`config`]).
 
-pub mod acs;
+pub(crate) mod acs;
 pub mod attitude_control;
 pub mod config;
-pub mod follower;
+pub(crate) mod follower;
 pub mod layout;
-pub mod leader;
+pub(crate) mod leader;
 pub mod mekf;
 pub mod relative_control;
-pub mod relative_nav;
+pub(crate) mod relative_nav;
 pub mod share;

@@ -4,8 +4,8 @@
 //! validated sections ([`build`]), and an in-process lockstep loop in the drivers' order for tests
 //! and studies ([`sim`]).
 
-pub mod build;
-pub mod kinds;
+pub(crate) mod build;
+pub(crate) mod kinds;
 pub mod sim;
 
 pub use build::{build_agent, build_follower, build_leader, build_plant};

@@ -6,8 +6,8 @@
 //! kind ([`kind`]) and its section ([`config`]); the run's summary from the telemetry
 //! ([`analysis`]).
 
-pub mod agent;
-pub mod analysis;
-pub mod config;
-pub mod kind;
-pub mod science;
+pub(crate) mod agent;
+pub(crate) mod analysis;
+pub(crate) mod config;
+pub(crate) mod kind;
+pub(crate) mod science;

@@ -4,8 +4,8 @@
 //! ([`verdict`]), the Sec. 7 table campaign ([`sec7`]), and the paper's host hooks and
 //! `orchestrator vtxo …` command line ([`hooks`]).
 
-pub mod analysis;
-pub mod figures;
+pub(crate) mod analysis;
+pub(crate) mod figures;
 mod hooks;
-pub mod sec7;
-pub mod verdict;
+pub(crate) mod sec7;
+pub(crate) mod verdict;

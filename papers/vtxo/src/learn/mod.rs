@@ -6,4 +6,4 @@
 
 pub mod science;
 pub mod transient;
-pub mod weights;
+pub(crate) mod weights;

@@ -4,8 +4,8 @@
 //! algorithm kind ([`kind`]) and its section ([`config`]), the orbit period taken from the plant
 //! ([`period`]), and the timeline figure ([`figure`]).
 
-pub mod config;
+pub(crate) mod config;
 pub mod discrete;
-pub mod figure;
-pub mod kind;
-pub mod period;
+pub(crate) mod figure;
+pub(crate) mod kind;
+pub(crate) mod period;

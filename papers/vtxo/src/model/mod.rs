@@ -6,14 +6,14 @@
 //! telemetry row and summary metrics, and the `[plant]` section of a scenario ([`config`]).
 //! The quaternion convention (Markley–Crassidis, scalar last) is here too; both sides use it.
 
-pub mod actuators;
-pub mod attitude;
+pub(crate) mod actuators;
+pub(crate) mod attitude;
 pub mod config;
-pub mod ecrv;
+pub(crate) mod ecrv;
 pub mod metrics;
 pub mod orbit;
 pub mod orbit_setup;
-pub mod plant;
-pub mod plant_row;
+pub(crate) mod plant;
+pub(crate) mod plant_row;
 pub mod quaternion;
-pub mod sensors;
+pub(crate) mod sensors;

@@ -4,10 +4,10 @@
 //! ([`moga`]), the Pareto tables ([`data`]), the DNN's inference ([`dnn`]) and training
 //! ([`train`]), the Table 3 analogue ([`stats`]), and the trainers' command lines ([`trainer`]).
 
-pub mod data;
+pub(crate) mod data;
 pub mod dnn;
-pub mod moga;
+pub(crate) mod moga;
 pub mod sim;
 pub mod stats;
 pub mod train;
-pub mod trainer;
+pub(crate) mod trainer;

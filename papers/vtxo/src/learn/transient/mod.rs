@@ -6,12 +6,12 @@
 //! the gains ([`gains`]), the closed-loop Monte Carlo ([`mc`]), and the trainers' and the Monte
 //! Carlo's command lines ([`trainer`]).
 
-pub mod data;
+pub(crate) mod data;
 pub mod dnn;
 pub mod gains;
-pub mod mc;
-pub mod sa;
-pub mod sim;
-pub mod stats;
-pub mod train;
-pub mod trainer;
+pub(crate) mod mc;
+pub(crate) mod sa;
+pub(crate) mod sim;
+pub(crate) mod stats;
+pub(crate) mod train;
+pub(crate) mod trainer;
