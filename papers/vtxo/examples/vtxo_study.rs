@@ -13,15 +13,15 @@
 
 use std::time::Instant;
 
-use cohort_paper_vtxo::config_algorithm::{LeaderControl, RelativeController, ScienceAttitude, VtxoAlgorithmConfig};
-use cohort_paper_vtxo::config_plant::{AttitudeDraw, VtxoPlantConfig};
-use cohort_paper_vtxo::mekf::MekfVariant;
-use cohort_paper_vtxo::metrics::mekf_error_rad;
-use cohort_paper_vtxo::orbit::{Gravity, MU_EARTH_M3PS2, OrbitPair, V3};
-use cohort_paper_vtxo::orbit_setup::{Elements, kepler_period_s, state_from_elements};
-use cohort_paper_vtxo::quaternion::Quat;
-use cohort_paper_vtxo::relative_control::Switching;
-use cohort_paper_vtxo::sim::Sim;
+use cohort_paper_vtxo::flight::config::{LeaderControl, RelativeController, ScienceAttitude, VtxoAlgorithmConfig};
+use cohort_paper_vtxo::flight::mekf::MekfVariant;
+use cohort_paper_vtxo::flight::relative_control::Switching;
+use cohort_paper_vtxo::formation::sim::Sim;
+use cohort_paper_vtxo::model::config::{AttitudeDraw, VtxoPlantConfig};
+use cohort_paper_vtxo::model::metrics::mekf_error_rad;
+use cohort_paper_vtxo::model::orbit::{Gravity, MU_EARTH_M3PS2, OrbitPair, V3};
+use cohort_paper_vtxo::model::orbit_setup::{Elements, kepler_period_s, state_from_elements};
+use cohort_paper_vtxo::model::quaternion::Quat;
 use cohort_runtime::model::PlantModel;
 
 #[derive(Clone, Copy, PartialEq)]
@@ -168,8 +168,8 @@ fn ideal(p: &mut VtxoPlantConfig) {
     }
 }
 
-fn zero_wheel_errors() -> cohort_paper_vtxo::config_plant::WheelConfig {
-    cohort_paper_vtxo::config_plant::WheelConfig {
+fn zero_wheel_errors() -> cohort_paper_vtxo::model::config::WheelConfig {
+    cohort_paper_vtxo::model::config::WheelConfig {
         scale_3sigma: 0.0,
         misalignment_3sigma_rad: 0.0,
         noise_3sigma_n_m: 0.0,

@@ -1,11 +1,11 @@
-//! Scenario configuration of seed 002: the plant section ([`crate::config_plant`]) and the
-//! algorithm section ([`crate::config_algorithm`]), validation helpers that report every problem
+//! Scenario configuration of seed 002: the plant section ([`crate::model::config`]) and the
+//! algorithm section ([`crate::flight::config`]), validation helpers that report every problem
 //! with its full key path, and the check that the two sections agree where both name a target.
 
 use cohort_scenario::Problem;
 
-use crate::config_algorithm::VtxoAlgorithmConfig;
-use crate::config_plant::VtxoPlantConfig;
+use crate::flight::config::VtxoAlgorithmConfig;
+use crate::model::config::VtxoPlantConfig;
 
 /// Collects problems under a key-path prefix (`plant`, `algorithm`).
 pub struct Checker {

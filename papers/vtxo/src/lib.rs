@@ -3,97 +3,41 @@
 //! Observation (VTXO): a leader (Outer Satellite, agent 1) and a follower (Inner Satellite,
 //! agent 2) 1 km apart in a highly elliptical orbit.
 //!
-//! The paper's kinds are the `vtxo` plant and the `vtxo-formation` algorithm ([`kinds`]), and
-//! [`Vtxo`] its registry entry (host side: [`analysis`], [`figures`]). Scenarios:
-//! `topologies/vtxo*.toml`.
-//!
-//! What is here (the flight layer, the Sec. 8 supervisor, [`supervisor`] and [`mission`], and the
-//! Sec. 3.2.1 transient gain search with its DNN, [`transient_sa`] and [`transient_dnn`], and the
-//! Sec. 3.2.2 science Pareto search with its DNN, [`science_moga`] and [`science_dnn`]):
-//! - the truth: [`plant::VtxoPlant`] (orbits, attitude, actuators, disturbances, sensors);
-//! - the agents: [`leader::Leader`] and [`follower::Follower`] (MEKF, attitude laws, relative
-//!   navigation and the relative-position laws), exchanging [`share`] values every step;
-//! - the scenario sections [`config_plant::VtxoPlantConfig`] and
-//!   [`config_algorithm::VtxoAlgorithmConfig`] with their validation;
-//! - the message layouts ([`layout`], [`share`]), the summary metrics and the MEKF consistency
-//!   join ([`metrics`]), and an in-process lockstep loop for tests and studies ([`sim`]).
+//! The paper's kinds are the `vtxo` plant and the `vtxo-formation` algorithm
+//! ([`formation::kinds`]), the `vtxo-mission` discrete-event mission ([`mission::kind`]) and the
+//! `vtxo-handoff` scenario ([`handoff::kind`]); [`Vtxo`] is its registry entry. Scenarios:
+//! `topologies/vtxo*.toml`. The modules, one per sub-system:
+//! - [`model`]: the truth, [`model::plant::VtxoPlant`] (orbits, attitude, actuators,
+//!   disturbances, sensors; Sec. 2, Apps. C–E), its telemetry row and summary metrics, and the
+//!   `[plant]` section;
+//! - [`flight`]: the agents, [`flight::leader::Leader`] and [`flight::follower::Follower`] (MEKF,
+//!   attitude laws, relative navigation and the relative-position laws; Secs. 2.10–2.11), the
+//!   message layouts they exchange every step, and the `[algorithm]` section;
+//! - [`formation`]: the formation kinds, the builders of plant and agents, and an in-process
+//!   lockstep loop for tests and studies (Sec. 7);
+//! - [`automaton`]: the Sec. 8 supervisor's timed automaton as data, checked and run in ticks;
+//! - [`mission`]: the whole mission, Id 0 → 9, as a discrete-event run of the automaton;
+//! - [`handoff`]: s1 → s2 → s3 with the full dynamics, the controllers switching with the
+//!   automaton's location;
+//! - [`learn`]: the Sec. 3.2.1 transient gain search with its DNN and the Sec. 3.2.2 science
+//!   Pareto search with its DNN, and their weights files;
+//! - [`host`]: analysis, figures, verdict and the Sec. 7 table (`orchestrator vtxo …`);
+//! - [`config`]: the validation helpers both scenario sections use and their pair check.
 
 // Axis loops (`for i in 0..3`) read like the equations they implement.
 #![allow(clippy::needless_range_loop)]
 
-pub mod acs;
-pub mod actuators;
-pub mod analysis;
-pub mod attitude;
-pub mod attitude_control;
-pub mod config;
-pub mod config_algorithm;
-pub mod config_plant;
-pub mod ecrv;
-pub mod figures;
-pub mod follower;
-pub mod handoff;
-pub mod handoff_analysis;
-pub mod handoff_config;
-pub mod handoff_kind;
-pub mod handoff_science;
-pub mod kinds;
-pub mod layout;
-pub mod leader;
-pub mod mekf;
-pub mod metrics;
+pub mod automaton;
+pub(crate) mod config;
+pub mod flight;
+pub mod formation;
+pub(crate) mod handoff;
+pub(crate) mod host;
+pub mod learn;
 pub mod mission;
-pub mod mission_config;
-pub mod mission_figure;
-pub mod mission_kind;
-pub mod mission_period;
-pub mod orbit;
-pub mod orbit_setup;
-pub mod plant;
-pub mod plant_row;
-pub mod quaternion;
-pub mod relative_control;
-pub mod relative_nav;
-pub mod science_data;
-pub mod science_dnn;
-pub mod science_moga;
-pub mod science_sim;
-pub mod science_stats;
-pub mod science_train;
-pub mod science_trainer;
-pub mod sec7;
-pub mod sensors;
-pub mod share;
-pub mod sim;
-pub mod supervisor;
-pub mod supervisor_check;
-pub mod supervisor_exec;
-pub mod supervisor_lockstep;
-pub mod supervisor_share;
-pub mod transient_data;
-pub mod transient_dnn;
-pub mod transient_gains;
-pub mod transient_mc;
-pub mod transient_sa;
-pub mod transient_sim;
-pub mod transient_stats;
-pub mod transient_train;
-pub mod transient_trainer;
-pub mod verdict;
-pub mod weights_file;
+pub mod model;
 
-use std::path::{Path, PathBuf};
-
-use clap::{FromArgMatches, Parser, Subcommand};
-use cohort_host::{CommandError, FigureSource, Launcher, Metrics, PaperHost, RunView};
-use cohort_runtime::model::Algorithm;
-use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind, Setup};
-use cohort_scenario::Problem;
-
-use acs::Acs;
-use config_algorithm::VtxoAlgorithmConfig;
-use config_plant::VtxoPlantConfig;
-use quaternion::{Quat, V3};
+use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind};
 
 /// The paper (see the crate docs).
 pub struct Vtxo;
@@ -103,179 +47,11 @@ impl Paper for Vtxo {
         "vtxo"
     }
     fn plants(&self) -> &'static [&'static dyn PlantKind] {
-        &[&kinds::VtxoPlantKind]
+        &[&formation::kinds::VtxoPlantKind]
     }
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
-        &[&kinds::VtxoFormationKind, &mission_kind::VtxoMissionKind, &handoff_kind::VtxoHandoffKind]
+        &[&formation::kinds::VtxoFormationKind, &mission::kind::VtxoMissionKind, &handoff::kind::VtxoHandoffKind]
     }
-}
-
-/// `orchestrator vtxo …`: seed 002's campaigns.
-#[derive(Parser)]
-#[command(name = "vtxo", about = "Seed 002 (VTXO formation flight): the paper's Sec. 7 case, measured")]
-struct VtxoCli {
-    #[command(subcommand)]
-    command: VtxoCmd,
-}
-
-#[derive(Subcommand)]
-enum VtxoCmd {
-    /// The Sec. 7 case for SMC-sign, SMC-sat and PD at each step (the scenario's own 10 ms
-    /// multi-process, the others in-process), with every model on and with the accelerometer bias
-    /// off (the sign law's band Z·dt/(2k)); `sec7.md` and `sec7.csv`. Run from the repository
-    /// root; the defaults take ≈ 40 min on two cores.
-    Sec7 {
-        /// Output directory (the tables, and every run's directory).
-        #[arg(long, default_value = "runs/vtxo-sec7-table")]
-        out: PathBuf,
-        /// Directory holding vtxo-sec7.toml, vtxo-sec7-sat.toml and vtxo-sec7-pd.toml.
-        #[arg(long, default_value = "topologies")]
-        topologies: PathBuf,
-        /// Steps, ms.
-        #[arg(long, value_delimiter = ',', default_values_t = [10.0, 1.0])]
-        steps_ms: Vec<f64>,
-        /// Skip the runs with the accelerometer bias off.
-        #[arg(long)]
-        no_ablation: bool,
-    },
-    /// Closed-loop transient Monte Carlo (Sec. 5.1): fresh draws flown with the DNN's gains and
-    /// duration and with simulated annealing's; P99(e), P99(E) against the paper's bounds.
-    TransientMc(transient_trainer::McArgs),
-}
-
-impl PaperHost for Vtxo {
-    fn command(&self) -> Option<clap::Command> {
-        Some(<VtxoCli as clap::CommandFactory>::command())
-    }
-    fn run_command(&self, matches: &clap::ArgMatches, launcher: &dyn Launcher) -> Result<String, CommandError> {
-        let cli = VtxoCli::from_arg_matches(matches).map_err(|e| CommandError::invalid(e.to_string()))?;
-        match cli.command {
-            VtxoCmd::Sec7 { out, topologies, steps_ms, no_ablation } => {
-                if let Some(x) = steps_ms.iter().find(|x| !(x.is_finite() && **x > 0.0 && **x <= 9300e3)) {
-                    return Err(CommandError::invalid(format!("--steps-ms {x}: steps must be positive")));
-                }
-                let o = sec7::Options {
-                    out,
-                    topologies,
-                    steps_s: steps_ms.iter().map(|x| x * 1e-3).collect(),
-                    ablation: !no_ablation,
-                };
-                let md = sec7::run(&o, launcher).map_err(CommandError::failed)?;
-                Ok(format!("{md}\nwritten: {}", o.out.join("sec7.md").display()))
-            }
-            VtxoCmd::TransientMc(a) => transient_trainer::run_mc(&a),
-        }
-    }
-    fn trainers(&self) -> Vec<clap::Command> {
-        let mut c = transient_trainer::commands();
-        c.extend(science_trainer::commands());
-        c
-    }
-    fn trainer_env(&self, _name: &str) -> Vec<(&'static str, &'static str)> {
-        // candle threads its CPU matrix products by this; one thread is the fastest on these
-        // small matrices, and the bytes written do not depend on it.
-        vec![("RAYON_NUM_THREADS", "1")]
-    }
-    fn run_trainer(&self, name: &str, matches: &clap::ArgMatches) -> Result<String, CommandError> {
-        if science_trainer::owns(name) {
-            return science_trainer::run(name, matches);
-        }
-        transient_trainer::run(name, matches)
-    }
-    fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
-        verdict::lines(input)
-    }
-    fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
-        if run.setup.plant_as::<VtxoPlantConfig>().is_some()
-            && run.setup.algorithm_as::<handoff_kind::HandoffSetup>().is_some()
-        {
-            let mut m = analysis::analyse(run.dirs)?;
-            m.extend(handoff_analysis::analyse(run.dirs)?);
-            return Ok(m);
-        }
-        // The join needs both of this paper's sides.
-        if run.setup.plant_as::<VtxoPlantConfig>().is_none()
-            || run.setup.algorithm_as::<VtxoAlgorithmConfig>().is_none()
-        {
-            return Ok(Metrics::new());
-        }
-        analysis::analyse(run.dirs)
-    }
-    fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
-        if setup.algorithm_as::<mission_config::VtxoMissionConfig>().is_some() {
-            return Some(Box::new(mission_figure::MissionFigures));
-        }
-        let p = setup.plant_as::<VtxoPlantConfig>()?;
-        Some(Box::new(figures::VtxoFigures::of(p)))
-    }
-}
-
-/// The plant of a scenario, or every problem with its key path.
-pub fn build_plant(
-    cfg: &VtxoPlantConfig,
-    n_agents: u32,
-    dt_s: f64,
-    seed: u64,
-) -> Result<plant::VtxoPlant, Vec<Problem>> {
-    let problems = cfg.validate("plant", n_agents, dt_s);
-    if !problems.is_empty() {
-        return Err(problems);
-    }
-    Ok(plant::VtxoPlant::new(cfg, dt_s, seed))
-}
-
-/// Agent `id`'s algorithm (1 leader, 2 follower), or every problem with its key path.
-pub fn build_agent(cfg: &VtxoAlgorithmConfig, id: u32) -> Result<Box<dyn Algorithm>, Vec<Problem>> {
-    let mut problems = cfg.validate("algorithm");
-    if id != 1 && id != 2 {
-        problems.push(Problem::new(
-            "agents[].id",
-            Some(id.to_string()),
-            "vtxo has agent 1 (leader) and agent 2 (follower)",
-        ));
-    }
-    if !problems.is_empty() {
-        return Err(problems);
-    }
-    Ok(match id {
-        1 => Box::new(build_leader(cfg)),
-        _ => Box::new(build_follower(cfg)),
-    })
-}
-
-fn acs_of(cfg: &VtxoAlgorithmConfig, id: u32) -> Acs {
-    Acs::new(
-        cfg.mekf.variant,
-        cfg.mekf.model(id, cfg.inertia_kg_m2),
-        cfg.attitude_law(),
-        Quat::from(cfg.attitude.q_target_body_eci),
-    )
-}
-
-/// The leader of a validated configuration.
-pub fn build_leader(cfg: &VtxoAlgorithmConfig) -> leader::Leader {
-    let r = &cfg.relative;
-    leader::Leader::new(
-        acs_of(cfg, 1),
-        cfg.leader_law(),
-        cfg.mass_kg,
-        orbit::MU_EARTH_M3PS2,
-        V3::from(r.r_target_eci_m),
-        V3::from(r.v_target_eci_mps),
-    )
-}
-
-/// The follower of a validated configuration.
-pub fn build_follower(cfg: &VtxoAlgorithmConfig) -> follower::Follower {
-    let r = &cfg.relative;
-    follower::Follower::new(
-        acs_of(cfg, 2),
-        cfg.relative_law(),
-        cfg.mass_kg,
-        orbit::MU_EARTH_M3PS2,
-        V3::from(r.r_target_eci_m),
-        V3::from(r.v_target_eci_mps),
-    )
 }
 
 #[cfg(test)]

@@ -1,14 +1,14 @@
 //! Closed-loop checks of seed 002 in the in-process lockstep loop (short horizons; the long runs
 //! are in `examples/vtxo_study.rs`).
 
-use cohort_paper_vtxo::config_algorithm::{LeaderControl, RelativeController, VtxoAlgorithmConfig};
-use cohort_paper_vtxo::config_plant::{AttitudeDraw, VtxoPlantConfig};
-use cohort_paper_vtxo::layout::{COMMAND_LEN, READINGS_LEN};
-use cohort_paper_vtxo::mekf::MekfVariant;
-use cohort_paper_vtxo::metrics::mekf_error_rad;
-use cohort_paper_vtxo::quaternion::Quat;
-use cohort_paper_vtxo::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
-use cohort_paper_vtxo::sim::Sim;
+use cohort_paper_vtxo::flight::config::{LeaderControl, RelativeController, VtxoAlgorithmConfig};
+use cohort_paper_vtxo::flight::layout::{COMMAND_LEN, READINGS_LEN};
+use cohort_paper_vtxo::flight::mekf::MekfVariant;
+use cohort_paper_vtxo::flight::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
+use cohort_paper_vtxo::formation::sim::Sim;
+use cohort_paper_vtxo::model::config::{AttitudeDraw, VtxoPlantConfig};
+use cohort_paper_vtxo::model::metrics::mekf_error_rad;
+use cohort_paper_vtxo::model::quaternion::Quat;
 use cohort_runtime::model::{Algorithm, PlantModel};
 
 fn metric(sim: &Sim, name: &str) -> f64 {
@@ -97,7 +97,7 @@ fn checkpoint_round_trip_is_bit_exact() {
     resumed.run(500);
     let saved: Vec<Vec<u8>> = resumed.agents.iter().map(|ag| ag.save_state()).collect();
     for (i, bytes) in saved.iter().enumerate() {
-        let mut fresh = cohort_paper_vtxo::build_agent(&a, i as u32 + 1).unwrap();
+        let mut fresh = cohort_paper_vtxo::formation::build_agent(&a, i as u32 + 1).unwrap();
         fresh.restore_state(bytes).unwrap();
         assert_eq!(&fresh.save_state(), bytes, "agent {} re-encodes differently", i + 1);
         resumed.agents[i] = fresh;

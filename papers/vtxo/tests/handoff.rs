@@ -12,13 +12,13 @@ use std::process::Output;
 use std::sync::Mutex;
 
 use cohort::{describe_output, orchestrator_command, scratch_dir, summary, telemetry_bits, telemetry_table};
-use cohort_paper_vtxo::attitude_control::{AttitudeLaw, torque};
-use cohort_paper_vtxo::quaternion::{Quat, V3};
-use cohort_paper_vtxo::science_dnn::ScienceDnn;
-use cohort_paper_vtxo::science_sim::ScienceLaw;
-use cohort_paper_vtxo::supervisor::{S1, S2, S3};
-use cohort_paper_vtxo::transient_dnn::TransientDnn;
-use cohort_paper_vtxo::transient_gains::u2_ticks;
+use cohort_paper_vtxo::automaton::table::{S1, S2, S3};
+use cohort_paper_vtxo::flight::attitude_control::{AttitudeLaw, torque};
+use cohort_paper_vtxo::learn::science::dnn::ScienceDnn;
+use cohort_paper_vtxo::learn::science::sim::ScienceLaw;
+use cohort_paper_vtxo::learn::transient::dnn::TransientDnn;
+use cohort_paper_vtxo::learn::transient::gains::u2_ticks;
+use cohort_paper_vtxo::model::quaternion::{Quat, V3};
 use cohort_report::Table;
 use nalgebra::Matrix3;
 

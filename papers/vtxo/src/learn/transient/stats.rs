@@ -1,0 +1,119 @@
+//! "Explainable AI-Enhanced Supervisory Control for High-Precision Spacecraft Formation"
+//! (R. Pirayeshshirazinezhad, arXiv:2509.13331).
+//!
+//! Table 2 of the paper ("Data statistics with 99 percentile values of DNN predicted outputs")
+//! for a transient data table: mean, mode, variance, P₁, max and P₉₉ of k₁, k₂, e, E and T.
+//!
+//! The print does not define its mode or percentiles: the mode here is the centre of the fullest
+//! of 50 equal bins between the column's minimum and maximum, the variance is the sample variance
+//! (n − 1), and percentiles interpolate linearly between order statistics (numpy's default), so
+//! the same numbers come out of any table read by the same rules.
+
+use std::path::Path;
+
+/// Bins of the mode's histogram.
+const MODE_BINS: usize = 50;
+
+/// The six statistics of one column.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stats {
+    pub mean: f64,
+    pub mode: f64,
+    pub var: f64,
+    pub p1: f64,
+    pub max: f64,
+    pub p99: f64,
+}
+
+/// Linear-interpolation percentile of sorted data, p in [0, 100].
+pub fn percentile(sorted: &[f64], p: f64) -> f64 {
+    let x = p / 100.0 * (sorted.len() - 1) as f64;
+    let (i, f) = (x.floor() as usize, x - x.floor());
+    if i + 1 >= sorted.len() { sorted[sorted.len() - 1] } else { sorted[i] + f * (sorted[i + 1] - sorted[i]) }
+}
+
+/// The statistics of a non-empty column.
+pub fn stats(x: &[f64]) -> Stats {
+    let n = x.len() as f64;
+    let mean = x.iter().sum::<f64>() / n;
+    let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    let mut s = x.to_vec();
+    s.sort_by(f64::total_cmp);
+    let (lo, hi) = (s[0], s[s.len() - 1]);
+    let width = (hi - lo) / MODE_BINS as f64;
+    let mode = if width > 0.0 {
+        let mut counts = [0usize; MODE_BINS];
+        for v in &s {
+            counts[(((v - lo) / width) as usize).min(MODE_BINS - 1)] += 1;
+        }
+        let best = (0..MODE_BINS).fold(0, |b, i| if counts[i] > counts[b] { i } else { b });
+        lo + (best as f64 + 0.5) * width
+    } else {
+        lo
+    };
+    Stats { mean, mode, var, p1: percentile(&s, 1.0), max: hi, p99: percentile(&s, 99.0) }
+}
+
+/// Table 2's rows in its order: (name, column of the data table).
+pub const ROWS: [(&str, &str); 5] =
+    [("k1", "k1_N_m"), ("k2", "k2_N_m_s"), ("e (deg)", "e_deg"), ("E (J)", "E_J"), ("T (s)", "T_s")];
+
+/// Read the named columns of a table written by [`crate::learn::transient::data`] ('#' lines skipped).
+pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().ok_or_else(|| format!("{}: no header", path.display()))?.split(',').collect();
+    let idx = names
+        .iter()
+        .map(|n| header.iter().position(|h| h == n).ok_or_else(|| format!("{}: no column {n:?}", path.display())))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut cols = vec![Vec::new(); names.len()];
+    for (ln, l) in lines.enumerate() {
+        let f: Vec<&str> = l.split(',').collect();
+        for (c, &i) in idx.iter().enumerate() {
+            let v = f.get(i).and_then(|s| s.parse::<f64>().ok()).ok_or_else(|| {
+                format!("{}: data line {}: column {:?} is not a number", path.display(), ln + 1, names[c])
+            })?;
+            cols[c].push(v);
+        }
+    }
+    if cols[0].is_empty() {
+        return Err(format!("{}: no rows", path.display()));
+    }
+    Ok(cols)
+}
+
+/// Table 2's analogue of a data table, as markdown.
+pub fn table2_markdown(path: &Path) -> Result<String, String> {
+    let names: Vec<&str> = ROWS.iter().map(|r| r.1).collect();
+    let cols = read_columns(path, &names)?;
+    let mut md = format!(
+        "{} points\n\n| y | mean | mode | variance | P1 | max | P99 |\n|---|---|---|---|---|---|---|\n",
+        cols[0].len()
+    );
+    for ((name, _), c) in ROWS.iter().zip(&cols) {
+        let s = stats(c);
+        md += &format!(
+            "| {name} | {:.4} | {:.4} | {:.4e} | {:.4} | {:.4} | {:.4} |\n",
+            s.mean, s.mode, s.var, s.p1, s.max, s.p99
+        );
+    }
+    Ok(md)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn statistics_of_a_known_column() {
+        let x: Vec<f64> = (0..=100).map(f64::from).collect();
+        let s = stats(&x);
+        assert_eq!((s.mean, s.p1, s.p99, s.max), (50.0, 1.0, 99.0, 100.0));
+        assert!((s.var - 858.5).abs() < 1e-9, "{}", s.var);
+        // One dominant value: the mode's bin holds it.
+        let mut y = vec![0.0, 10.0];
+        y.extend(std::iter::repeat_n(7.0, 20));
+        assert!((stats(&y).mode - 7.0).abs() <= 0.2, "{}", stats(&y).mode);
+    }
+}
