@@ -1,27 +1,18 @@
 //! The results of `orchestrator sweep`: every seed's summary metrics (`sweep.csv`) and their
-//! distribution (`sweep.md`: min, median, max, mean and the nearest-rank 99th percentile), with seed 000's published criterion checked when its metrics are
-//! present.
+//! distribution (`sweep.md`: min, median, max, mean and the 99th percentile, by the one quantile
+//! rule of `cohort_report::stats`), with seed 000's published criterion checked when its metrics
+//! are present.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::path::Path;
 
+use cohort_report::markdown::MdTable;
+use cohort_report::stats::describe;
+
 /// The paper's "≈ 5 m after ≈ 200 s" and "≈ 5 m/s after ≈ 150 s" (seed 000, Figs. 3–4).
 const E_BOUND_M: f64 = 5.0;
 const ZETA_BOUND_MPS: f64 = 5.0;
-
-fn stats(xs: &mut [f64]) -> (f64, f64, f64, f64) {
-    xs.sort_by(f64::total_cmp);
-    let n = xs.len();
-    let median = if n % 2 == 1 { xs[n / 2] } else { 0.5 * (xs[n / 2 - 1] + xs[n / 2]) };
-    (xs[0], median, xs[n - 1], xs.iter().sum::<f64>() / n as f64)
-}
-
-/// The 99th percentile by the nearest-rank rule (the ⌈0.99 n⌉-th smallest) of sorted `xs`.
-fn p99(sorted: &[f64]) -> f64 {
-    let n = sorted.len();
-    sorted[((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1]
-}
 
 fn g(x: f64) -> String {
     if x != 0.0 && (x.abs() >= 1e5 || x.abs() < 1e-3) { format!("{x:.3e}") } else { format!("{x:.4}") }
@@ -71,36 +62,27 @@ pub fn write(root: &Path, file: &Path, mode: &str, rows: &[(u64, BTreeMap<String
     }
     if !per.is_empty() {
         let names: BTreeSet<String> = per.values().flat_map(|m| m.keys().cloned()).collect();
-        md.push_str("Per servicer, over the seeds: median (min – max).\n\n| servicer |");
-        for n in &names {
-            let _ = write!(md, " {n} |");
-        }
-        md.push_str("\n|---|");
-        md.push_str(&"---|".repeat(names.len()));
-        md.push('\n');
+        md.push_str("Per servicer, over the seeds: median (min – max).\n\n");
+        let mut t = MdTable::new(std::iter::once("servicer".to_string()).chain(names.iter().cloned()));
         for (i, m) in &per {
-            let _ = write!(md, "| {i} |");
-            for n in &names {
-                match m.get(n) {
-                    Some(xs) => {
-                        let (lo, med, hi, _) = stats(&mut xs.clone());
-                        let _ = write!(md, " {} ({} – {}) |", g(med), g(lo), g(hi));
-                    }
-                    None => md.push_str(" – |"),
+            let cells = names.iter().map(|n| match m.get(n) {
+                Some(xs) => {
+                    let d = describe(xs);
+                    format!("{} ({} – {})", g(d.median), g(d.min), g(d.max))
                 }
-            }
-            md.push('\n');
+                None => "–".to_string(),
+            });
+            t.row(std::iter::once(i.to_string()).chain(cells));
         }
-        md.push('\n');
+        let _ = writeln!(md, "{t}");
     }
     if !other.is_empty() {
-        md.push_str("| metric | min | median | max | mean | p99 |\n|---|---|---|---|---|---|\n");
+        let mut t = MdTable::new(["metric", "min", "median", "max", "mean", "p99"]);
         for (k, xs) in &other {
-            let mut sorted = xs.clone();
-            let (lo, med, hi, mean) = stats(&mut sorted);
-            let _ = writeln!(md, "| {k} | {} | {} | {} | {} | {} |", g(lo), g(med), g(hi), g(mean), g(p99(&sorted)));
+            let d = describe(xs);
+            t.row([k.clone(), g(d.min), g(d.median), g(d.max), g(d.mean), g(d.p99)]);
         }
-        md.push('\n');
+        let _ = writeln!(md, "{t}");
     }
     // Seed 000's criterion: every servicer, every seed.
     let crit = |m: &BTreeMap<String, f64>, stem: &str| -> Option<f64> {
@@ -134,11 +116,14 @@ mod tests {
     use super::*;
 
     #[test]
-    fn p99_is_the_nearest_rank() {
-        let xs: Vec<f64> = (1..=100).map(f64::from).collect();
-        assert_eq!(p99(&xs), 99.0);
-        let xs: Vec<f64> = (1..=10).map(f64::from).collect();
-        assert_eq!(p99(&xs), 10.0);
-        assert_eq!(p99(&[3.0]), 3.0);
+    fn the_metrics_table_uses_the_one_quantile_rule() {
+        let root = std::env::temp_dir().join(format!("cohort-sweep-report-{}", std::process::id()));
+        std::fs::create_dir_all(&root).unwrap();
+        let rows: Vec<(u64, BTreeMap<String, f64>)> =
+            (1..=10).map(|s| (s, BTreeMap::from([("x_m".to_string(), s as f64)]))).collect();
+        let md = write(&root, Path::new("f.toml"), "reference", &rows).unwrap();
+        let _ = std::fs::remove_dir_all(&root);
+        // 1..=10: median 5.5, P99 by linear interpolation 9.91 (the nearest rank would say 10)
+        assert!(md.contains("| x_m | 1.0000 | 5.5000 | 10.0000 | 5.5000 | 9.9100 |"), "{md}");
     }
 }

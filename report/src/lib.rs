@@ -36,7 +36,9 @@ pub mod chart;
 pub mod chart3d;
 pub mod columns;
 mod generic;
+pub mod markdown;
 mod parquet_in;
+pub mod stats;
 pub mod table;
 
 use std::collections::HashSet;

@@ -21,6 +21,7 @@ use cohort_paper_tsnr::agents::aemc::TsnrAemc;
 use cohort_paper_tsnr::agents::mpc::{BoxQp, QpSolver, clarabel_box_qp, clarabel_settings};
 use cohort_paper_tsnr::config::formation::{TsnrFormation, TsnrModel};
 use cohort_paper_tsnr::config::net_plant::TsnrNetSetup;
+use cohort_report::stats::quantile;
 use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
 use cohort_runtime::paper::Paper;
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
@@ -97,10 +98,6 @@ fn replay(qps: &[AgentQps], solver: QpSolver) -> (Vec<f64>, Vec<u32>, Vec<Vec<f6
     (times, iters, xs)
 }
 
-fn percentile(sorted: &[f64], q: f64) -> f64 {
-    sorted[((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1]
-}
-
 /// Clarabel's fixed and per-iteration cost (least squares of time on iterations), and its
 /// timers for one solve with the median iteration count.
 fn clarabel_breakdown(qps: &[AgentQps], iters: &[u32], times: &[f64]) {
@@ -158,8 +155,8 @@ fn summary(qps: &[AgentQps]) {
             "{solver:?}: {} solves, p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs, {mean_iter:.2} iterations on average, \
              largest difference from the active set's solution {diff:.1e} N",
             times.len(),
-            percentile(&times, 0.5),
-            percentile(&times, 0.99),
+            quantile(&times, 0.5),
+            quantile(&times, 0.99),
             times.last().copied().unwrap_or(f64::NAN),
         );
         if exact.is_none() {
