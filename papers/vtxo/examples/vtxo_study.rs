@@ -319,10 +319,10 @@ fn orbit() {
     println!("\nThe paper's 32.5 h period needs a = {:.0} km.", a32 / 1e3);
 }
 
-/// P99 of a sample by the nearest-rank rule.
+/// P99 of a sample by the one quantile rule of Cohort's tables (`cohort_report::stats`).
 fn p99(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
-    v[((0.99 * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1]
+    cohort_report::stats::quantile(v, 0.99)
 }
 
 fn science() {

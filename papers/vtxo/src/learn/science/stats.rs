@@ -18,7 +18,9 @@
 use std::path::Path;
 
 use crate::learn::transient::sim::{self, DT_S, Start};
-use crate::learn::transient::stats::{percentile, read_columns};
+use cohort_report::stats::quantile;
+
+use crate::learn::transient::stats::read_columns;
 use crate::model::quaternion::{Quat, V3};
 
 /// Table 3 as printed: per axis (mean, variance, P99, P1), deg/s and (deg/s)².
@@ -32,7 +34,7 @@ pub fn row_stats(x: &[f64]) -> [f64; 4] {
     let s = crate::learn::transient::stats::stats(x);
     let mut v = x.to_vec();
     v.sort_by(f64::total_cmp);
-    [s.mean, s.var, percentile(&v, 99.0), percentile(&v, 1.0)]
+    [s.mean, s.var, quantile(&v, 0.99), quantile(&v, 0.01)]
 }
 
 /// Per axis (mean, variance, P99, P1) in deg/s of rates in rad/s.

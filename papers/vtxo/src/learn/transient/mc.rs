@@ -18,7 +18,7 @@ use crate::learn::transient::data::draw;
 use crate::learn::transient::dnn::TransientDnn;
 use crate::learn::transient::sa;
 use crate::learn::transient::sim::{self, DT_S};
-use crate::learn::transient::stats::percentile;
+use cohort_report::stats::quantile;
 
 /// Table 2's P99 of e (deg) and E (J); Sec. 5.1's closed-loop bounds and the DNN's.
 const PAPER_P99: (f64, f64) = (0.067, 0.37);
@@ -31,7 +31,7 @@ type Row = [f64; 6];
 fn p99(rows: &[Row], k: usize) -> f64 {
     let mut v: Vec<f64> = rows.iter().map(|r| r[k]).collect();
     v.sort_by(f64::total_cmp);
-    percentile(&v, 99.0)
+    quantile(&v, 0.99)
 }
 
 /// Fly `draws` draws of seed `seed` (parallel over `threads`); markdown of the result.

@@ -6,10 +6,13 @@
 //!
 //! The print does not define its mode or percentiles: the mode here is the centre of the fullest
 //! of 50 equal bins between the column's minimum and maximum, the variance is the sample variance
-//! (n − 1), and percentiles interpolate linearly between order statistics (numpy's default), so
-//! the same numbers come out of any table read by the same rules.
+//! (n − 1), and percentiles are the one quantile rule of every Cohort table,
+//! [`cohort_report::stats::quantile`] (linear interpolation between order statistics, numpy's
+//! default), so the same numbers come out of any table read by the same rules.
 
 use std::path::Path;
+
+use cohort_report::stats::quantile;
 
 /// Bins of the mode's histogram.
 const MODE_BINS: usize = 50;
@@ -23,13 +26,6 @@ pub struct Stats {
     pub p1: f64,
     pub max: f64,
     pub p99: f64,
-}
-
-/// Linear-interpolation percentile of sorted data, p in [0, 100].
-pub fn percentile(sorted: &[f64], p: f64) -> f64 {
-    let x = p / 100.0 * (sorted.len() - 1) as f64;
-    let (i, f) = (x.floor() as usize, x - x.floor());
-    if i + 1 >= sorted.len() { sorted[sorted.len() - 1] } else { sorted[i] + f * (sorted[i + 1] - sorted[i]) }
 }
 
 /// The statistics of a non-empty column.
@@ -51,7 +47,7 @@ pub fn stats(x: &[f64]) -> Stats {
     } else {
         lo
     };
-    Stats { mean, mode, var, p1: percentile(&s, 1.0), max: hi, p99: percentile(&s, 99.0) }
+    Stats { mean, mode, var, p1: quantile(&s, 0.01), max: hi, p99: quantile(&s, 0.99) }
 }
 
 /// Table 2's rows in its order: (name, column of the data table).

@@ -31,7 +31,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::learn::transient::dnn::{N_IN, N_OUT, OUTPUTS, TransientDnn};
-use crate::learn::transient::stats::{self, percentile};
+use cohort_report::stats::quantile;
+
+use crate::learn::transient::stats;
 
 /// Input columns of the data table, in the network's order.
 pub const INPUT_COLUMNS: [&str; N_IN] = ["q0", "q1", "q2", "q3", "w0_rad_s", "w1_rad_s", "w2_rad_s", "w"];
@@ -309,7 +311,7 @@ pub fn train(o: &Options) -> Result<Report, String> {
     let p99 = |col: &dyn Fn(usize) -> f64| {
         let mut v: Vec<f64> = (0..n).map(col).collect();
         v.sort_by(f64::total_cmp);
-        percentile(&v, 99.0)
+        quantile(&v, 0.99)
     };
     let heldout_p99 = std::array::from_fn(|k| p99(&|r| heldout[r][k]));
     let data_p99 = std::array::from_fn(|k| p99(&|r| t.y[r][k]));
