@@ -89,8 +89,8 @@ fn fixture_dirs() -> Vec<String> {
             .map(|e| e.expect("readable directory entry").path())
             .filter(|p| p.join("Cargo.toml").is_file())
             .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
-            // The registry and the shared kinds hold no paper section of their own.
-            .filter(|n| !(parent == "papers" && (n == "registry" || n == "common")))
+            // The registry holds no section of its own.
+            .filter(|n| !(parent == "papers" && n == "registry"))
             .collect();
         names.sort();
         for n in names {

@@ -1,4 +1,4 @@
-//! The `common` kinds' scenario sections, their checks, and how each builds its model.
+//! The generic kinds' scenario sections, their checks, and how each builds its model.
 
 use std::any::Any;
 use std::sync::Arc;
@@ -395,7 +395,7 @@ mod tests {
     use cohort_runtime::paper::{Paper, configure};
     use cohort_scenario::{Overrides, parse};
 
-    const PAPERS: &[&dyn Paper] = &[&crate::Common];
+    const PAPERS: &[&dyn Paper] = &[&crate::Generic];
 
     fn ring() -> String {
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../topologies/consensus-ring.toml")).unwrap()

@@ -1,4 +1,5 @@
-//! Kinds shared by every paper and the runtime's own scenarios (the consensus ring, the bench's
+//! The generic kinds — no paper's, so they live in `kinds/` beside the Python-hosted ones: kinds
+//! shared by every paper and the runtime's own scenarios (the consensus ring, the bench's
 //! null round): the `double-integrator` and `null` plants, the `consensus-formation`, `coast` and
 //! `null` algorithms. `coast` flies any plant whose command has three components, so a paper's
 //! plant can be checked on its own.
@@ -15,12 +16,12 @@ pub mod null_plant;
 
 use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind};
 
-/// The `common` paper: see the crate docs.
-pub struct Common;
+/// The generic kinds (registered like a paper, though they belong to none): see the crate docs.
+pub struct Generic;
 
-impl Paper for Common {
+impl Paper for Generic {
     fn name(&self) -> &'static str {
-        "common"
+        "generic"
     }
     fn plants(&self) -> &'static [&'static dyn PlantKind] {
         &[&config::DoubleIntegratorKind, &config::NullPlantKind]
@@ -31,4 +32,4 @@ impl Paper for Common {
 }
 
 /// The shared kinds have no analysis, figures or commands of their own.
-impl cohort_host::PaperHost for Common {}
+impl cohort_host::PaperHost for Generic {}
