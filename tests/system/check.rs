@@ -1,9 +1,12 @@
-//! `orchestrator check FILE...` against every scenario in `topologies/`.
+//! `orchestrator check FILE...` against every scenario in `topologies/` and every test fixture.
 //!
-//! - `topologies/invalid-*.toml` each hold one defect. Each must be rejected with exit code 2, and
-//!   stderr must name the file and the expected key path. The path comes from the file's first line
-//!   `# expect: <text>`, or from [`NO_EXPECT_LINE`] for files that cannot hold a comment.
-//! - Every other `topologies/*.toml` must pass (exit code 0, `ok: FILE` on stdout).
+//! - The fixtures live where their tests live: `papers/<name>/tests/invalid/*.toml` for the
+//!   paper whose kinds or sections they exercise, `tests/invalid/*.toml` for the generic ones
+//!   (see [`fixture_dirs`]). Each holds one defect and must be rejected with exit code 2, and
+//!   stderr must name the file and the expected key path. The path comes from the file's first
+//!   line `# expect: <text>`, or from [`NO_EXPECT_LINE`] for files that cannot hold a comment.
+//! - Every `topologies/*.toml` is a scenario a user runs: it must pass (exit code 0, `ok: FILE` on
+//!   stdout), hold no fixture (`invalid-*`), and be listed in `topologies/README.md`.
 //! - No input may make `check` panic.
 //!
 //! Run with `scripts/test`, which builds the release binaries first and then runs the tests (see
@@ -74,44 +77,137 @@ fn check(args: &[&str]) -> Run {
     }
 }
 
-/// `topologies/*.toml` file names, sorted, split into (valid, invalid-*).
-fn topology_files() -> (Vec<String>, Vec<String>) {
-    let dir = repo_root().join("topologies");
+/// Where the `# expect:` fixtures live, relative to the repository root: `tests/invalid` (the
+/// generic ones), `papers/<name>/tests/invalid` for every paper (required: each paper has
+/// configuration checks of its own), and `kinds/<name>/tests/invalid` where one exists.
+fn fixture_dirs() -> Vec<String> {
+    let mut dirs = vec!["tests/invalid".to_string()];
+    for (parent, required) in [("papers", true), ("kinds", false)] {
+        let dir = repo_root().join(parent);
+        let mut names: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
+            .map(|e| e.expect("readable directory entry").path())
+            .filter(|p| p.join("Cargo.toml").is_file())
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            // The registry holds no section of its own.
+            .filter(|n| !(parent == "papers" && n == "registry"))
+            .collect();
+        names.sort();
+        for n in names {
+            let rel = format!("{parent}/{n}/tests/invalid");
+            if required || repo_root().join(&rel).is_dir() {
+                dirs.push(rel);
+            }
+        }
+    }
+    dirs
+}
+
+/// The `*.toml` file names in `rel` (a directory under the repository root), sorted.
+fn tomls_in(rel: &str) -> Vec<String> {
+    let dir = repo_root().join(rel);
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
         .map(|e| e.expect("readable directory entry").file_name().to_string_lossy().into_owned())
         .filter(|n| n.ends_with(".toml"))
         .collect();
     names.sort();
-    names.into_iter().partition(|n| !n.starts_with("invalid-"))
+    names
 }
 
-fn rel(name: &str) -> String {
-    format!("topologies/{name}")
+/// (valid scenarios `topologies/*.toml`, invalid fixtures of every [`fixture_dirs`] folder), each
+/// as a path relative to the repository root.
+fn topology_files() -> (Vec<String>, Vec<String>) {
+    let valid = tomls_in("topologies").into_iter().map(|n| format!("topologies/{n}")).collect();
+    let invalid =
+        fixture_dirs().iter().flat_map(|d| tomls_in(d).into_iter().map(move |n| format!("{d}/{n}"))).collect();
+    (valid, invalid)
 }
 
-fn abs(name: &str) -> PathBuf {
-    repo_root().join("topologies").join(name)
+/// The file name of a relative path (what stderr must name).
+fn base(rel: &str) -> &str {
+    rel.rsplit('/').next().unwrap_or(rel)
 }
 
-/// What `name`'s error must contain: its `# expect:` line, else its [`NO_EXPECT_LINE`] entry.
-fn expectation(name: &str) -> String {
-    let bytes = std::fs::read(abs(name)).unwrap_or_else(|e| panic!("cannot read {}: {e}", rel(name)));
+fn abs(rel: &str) -> PathBuf {
+    repo_root().join(rel)
+}
+
+/// What `rel`'s error must contain: its `# expect:` line, else its [`NO_EXPECT_LINE`] entry.
+fn expectation(rel: &str) -> String {
+    let bytes = std::fs::read(abs(rel)).unwrap_or_else(|e| panic!("cannot read {rel}: {e}"));
     // Lossy: one case is deliberately not UTF-8 (after its first line).
     let text = String::from_utf8_lossy(&bytes);
     let first = text.lines().next().unwrap_or("");
     if let Some(want) = first.strip_prefix("# expect:") {
         let want = want.trim();
-        assert!(!want.is_empty(), "{}: the `# expect:` line is empty", rel(name));
+        assert!(!want.is_empty(), "{rel}: the `# expect:` line is empty");
         return want.to_string();
     }
-    match NO_EXPECT_LINE.iter().find(|(n, _)| *n == name) {
+    match NO_EXPECT_LINE.iter().find(|(n, _)| *n == base(rel)) {
         Some((_, want)) => want.to_string(),
         None => panic!(
-            "{}: the first line must be `# expect: <key path>` (or add the file to NO_EXPECT_LINE in tests/system/check.rs)",
-            rel(name)
+            "{rel}: the first line must be `# expect: <key path>` (or add the file to NO_EXPECT_LINE in tests/system/check.rs)"
         ),
     }
+}
+
+/// Every fixture folder exists and holds at least one fixture, every fixture is named
+/// `invalid-*.toml`, and `topologies/` holds none.
+#[test]
+fn every_fixture_folder_holds_fixtures_and_topologies_none() {
+    let mut problems = Vec::new();
+    for d in fixture_dirs() {
+        if !repo_root().join(&d).is_dir() {
+            problems.push(format!("{d}: missing (every paper keeps its `# expect:` fixtures there)"));
+            continue;
+        }
+        let names = tomls_in(&d);
+        if names.is_empty() {
+            problems.push(format!("{d}: holds no fixture"));
+        }
+        problems.extend(
+            names.iter().filter(|n| !n.starts_with("invalid-")).map(|n| format!("{d}/{n}: not named invalid-*.toml")),
+        );
+    }
+    problems.extend(
+        tomls_in("topologies")
+            .iter()
+            .filter(|n| n.starts_with("invalid-"))
+            .map(|n| format!("topologies/{n}: a fixture in the users' scenario folder (move it to tests/invalid or papers/<name>/tests/invalid)")),
+    );
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// `topologies/README.md`'s table under "## Files here" lists every scenario of the folder (its
+/// first cell names each in backticks) and names none that is not there.
+#[test]
+fn topologies_readme_lists_every_scenario_and_no_other() {
+    let readme = std::fs::read_to_string(repo_root().join("topologies/README.md")).unwrap();
+    let files = tomls_in("topologies");
+    let table = readme
+        .lines()
+        .skip_while(|l| l.trim() != "## Files here")
+        .skip_while(|l| !l.starts_with('|'))
+        .take_while(|l| l.starts_with('|'));
+    let listed: std::collections::BTreeSet<String> = table
+        .filter(|l| l.starts_with("| `"))
+        .filter_map(|l| l.split('|').nth(1))
+        .flat_map(|cell| cell.split('`').skip(1).step_by(2).map(str::to_string).collect::<Vec<_>>())
+        .filter(|n| n.ends_with(".toml"))
+        .collect();
+    let mut problems: Vec<String> = files
+        .iter()
+        .filter(|n| !listed.contains(*n))
+        .map(|n| format!("topologies/{n}: not listed in topologies/README.md"))
+        .collect();
+    problems.extend(
+        listed
+            .iter()
+            .filter(|n| !files.contains(*n))
+            .map(|n| format!("topologies/README.md lists {n}, which is not in topologies/")),
+    );
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 
 #[test]
@@ -119,22 +215,23 @@ fn every_invalid_file_is_rejected_naming_the_file_and_key() {
     let (_, invalid) = topology_files();
     assert!(
         invalid.len() >= MIN_INVALID_FILES,
-        "expected at least {MIN_INVALID_FILES} topologies/invalid-*.toml, found {}: {invalid:?}",
+        "expected at least {MIN_INVALID_FILES} invalid-*.toml fixtures in {:?}, found {}: {invalid:?}",
+        fixture_dirs(),
         invalid.len()
     );
     let mut failures = Vec::new();
-    for name in &invalid {
-        let want = expectation(name);
-        let run = check(&[&rel(name)]);
+    for path in &invalid {
+        let (want, name) = (expectation(path), base(path));
+        let run = check(&[path]);
         let mut why = Vec::new();
         if run.code != Some(2) {
             why.push("exit code is not 2".to_string());
         }
-        if !run.stderr.contains(name.as_str()) {
+        if !run.stderr.contains(name) {
             why.push(format!("stderr does not name the file {name:?}"));
         }
         // The expected text must be on a problem line that also names the file.
-        if !run.stderr.lines().any(|l| l.contains(name.as_str()) && l.contains(&want)) {
+        if !run.stderr.lines().any(|l| l.contains(name) && l.contains(&want)) {
             why.push(format!("no stderr line names both {name:?} and the expected {want:?}"));
         }
         if run.stdout.lines().any(|l| l.starts_with("ok:")) {
@@ -144,7 +241,7 @@ fn every_invalid_file_is_rejected_naming_the_file_and_key() {
             why.push("it panicked".to_string());
         }
         if !why.is_empty() {
-            failures.push(format!("{}: {}\n{}", rel(name), why.join("; "), run.report()));
+            failures.push(format!("{path}: {}\n{}", why.join("; "), run.report()));
         }
     }
     assert!(
@@ -160,20 +257,15 @@ fn every_invalid_file_is_rejected_naming_the_file_and_key() {
 fn every_valid_file_passes() {
     let (valid, _) = topology_files();
     assert!(
-        valid.iter().any(|n| n == "consensus-ring.toml"),
+        valid.iter().any(|n| n == "topologies/consensus-ring.toml"),
         "topologies/consensus-ring.toml is missing; found {valid:?}"
     );
     let mut failures = Vec::new();
     for name in &valid {
-        let run = check(&[&rel(name)]);
+        let run = check(&[name]);
         let says_ok = run.stdout.lines().any(|l| l.starts_with("ok:") && l.contains(name.as_str()));
         if run.code != Some(0) || !says_ok || run.panicked() {
-            failures.push(format!(
-                "{}: expected exit code 0 and `ok: {}` on stdout\n{}",
-                rel(name),
-                rel(name),
-                run.report()
-            ));
+            failures.push(format!("{name}: expected exit code 0 and `ok: {name}` on stdout\n{}", run.report()));
         }
     }
     assert!(failures.is_empty(), "valid scenarios were not accepted:\n\n{}", failures.join("\n\n"));
@@ -182,7 +274,7 @@ fn every_valid_file_passes() {
 #[test]
 fn a_missing_file_is_rejected_naming_it() {
     let name = "does-not-exist.toml";
-    let run = check(&[&rel(name)]);
+    let run = check(&[&format!("topologies/{name}")]);
     assert!(
         run.code == Some(2) && run.stderr.contains(name) && !run.panicked(),
         "expected exit code 2 and stderr naming {name:?}\n{}",
@@ -195,8 +287,7 @@ fn a_missing_file_is_rejected_naming_it() {
 #[test]
 fn checking_many_files_reports_each() {
     let (valid, invalid) = topology_files();
-    let paths: Vec<String> = valid.iter().chain(&invalid).map(|n| rel(n)).collect();
-    let args: Vec<&str> = paths.iter().map(String::as_str).collect();
+    let args: Vec<&str> = valid.iter().chain(&invalid).map(String::as_str).collect();
     let run = check(&args);
     let mut why = Vec::new();
     if run.code != Some(2) {
@@ -208,7 +299,7 @@ fn checking_many_files_reports_each() {
         }
     }
     for name in &invalid {
-        if !run.stderr.contains(name.as_str()) {
+        if !run.stderr.contains(base(name)) {
             why.push(format!("stderr does not name {name}"));
         }
     }
@@ -222,13 +313,13 @@ fn checking_many_files_reports_each() {
 #[test]
 fn check_never_panics() {
     let (valid, invalid) = topology_files();
-    let mut cases: Vec<Vec<String>> = valid.iter().chain(&invalid).map(|n| vec![rel(n)]).collect();
+    let mut cases: Vec<Vec<String>> = valid.iter().chain(&invalid).map(|n| vec![n.clone()]).collect();
     cases.extend([
         vec![],                         // no files at all
         vec![String::new()],            // an empty path
         vec!["topologies".to_string()], // a directory
         vec!["topologies/does-not-exist.toml".to_string()],
-        vec![abs("consensus-ring.toml").display().to_string()], // an absolute path
+        vec![abs("topologies/consensus-ring.toml").display().to_string()], // an absolute path
     ]);
     if std::path::Path::new("/dev/null").exists() {
         cases.push(vec!["/dev/null".to_string()]); // empty, and not a regular file
@@ -250,7 +341,7 @@ fn check_never_panics() {
 #[test]
 fn every_problem_of_a_file_is_reported_in_one_pass_at_its_place() {
     let dir = cohort::scratch_dir("check-three");
-    let text = std::fs::read_to_string(abs("consensus-ring.toml"))
+    let text = std::fs::read_to_string(abs("topologies/consensus-ring.toml"))
         .unwrap()
         .replace("step_timeout_s = 10.0", "step_timout_s = 10.0\nlink_delay_steps = \"one\"")
         .replace("kp_per_s2 = 0.5", "kp_per_s2 = -0.5");

@@ -1,5 +1,5 @@
-//! Every runnable scenario in `topologies/` runs to completion: each `topologies/*.toml` but the
-//! `invalid-*` cases is launched for at most 10 s of simulated time, or ten steps when its step is
+//! Every runnable scenario in `topologies/` runs to completion: each `topologies/*.toml` (the
+//! folder holds no test fixture: `check.rs`) is launched for at most 10 s of simulated time, or ten steps when its step is
 //! longer than a second (`--duration` when the file is longer; a shorter file runs whole), in-process (`--reference`, the fastest mode; each
 //! paper's own tests compare it with the multi-process run bit for bit). A run must exit 0 with the
 //! status `ok` — or, for a divergence study (`scenario.expect = "diverge"`), with `diverged`, the
@@ -20,7 +20,7 @@ fn runnable_scenarios() -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
         .map(|e| e.expect("readable directory entry").file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".toml") && !n.starts_with("invalid-"))
+        .filter(|n| n.ends_with(".toml"))
         .collect();
     names.sort();
     names

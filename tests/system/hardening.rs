@@ -69,7 +69,7 @@ fn bad_command_line_values_are_refused_without_a_panic() {
         (vec!["report", "/nonexistent/run"], 2, ""),
         (vec!["report", &damaged.display().to_string()], 2, "plant.parquet: not a readable telemetry Parquet file"),
         (
-            vec!["check", &repo_root().join("topologies/invalid-agent-id-out-of-range.toml").display().to_string()],
+            vec!["check", &repo_root().join("tests/invalid/invalid-agent-id-out-of-range.toml").display().to_string()],
             2,
             "",
         ),

@@ -15,7 +15,7 @@ fn floats(obj: &Bound<'_, PyAny>, n: usize, what: impl Fn() -> String) -> Result
     extend_floats(obj, n, what, &mut v).map(|_| v)
 }
 
-static KINDS: &[&dyn Paper] = &[&cohort_paper_common::Common, &crate::Python];
+static KINDS: &[&dyn Paper] = &[&cohort_kinds_generic::Generic, &crate::Python];
 
 fn examples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/python")

@@ -24,7 +24,7 @@ fn network(c: &mut Criterion) {
 fn agent_step(c: &mut Criterion) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../topologies/fig1-fixed.toml");
     let papers: &[&'static dyn cohort_runtime::paper::Paper] =
-        &[&cohort_paper_fig1::Fig1, &cohort_paper_common::Common];
+        &[&cohort_paper_fig1::Fig1, &cohort_kinds_generic::Generic];
     let s =
         cohort_runtime::paper::load(std::path::Path::new(path), &Default::default(), papers).expect("fig1-fixed.toml");
     let mut algo = s.algorithm.build(&s, 2);

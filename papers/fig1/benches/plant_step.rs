@@ -11,7 +11,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 fn fig1_plant(c: &mut Criterion) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../topologies/fig1-fixed.toml");
     let papers: &[&'static dyn cohort_runtime::paper::Paper] =
-        &[&cohort_paper_fig1::Fig1, &cohort_paper_common::Common];
+        &[&cohort_paper_fig1::Fig1, &cohort_kinds_generic::Generic];
     let s =
         cohort_runtime::paper::load(std::path::Path::new(path), &Default::default(), papers).expect("fig1-fixed.toml");
     let p = s.plant_as::<cohort_paper_fig1::config::OrbitalSetup>().expect("fig1 has an orbital plant");

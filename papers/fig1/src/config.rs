@@ -144,7 +144,7 @@ impl PlantKind for OrbitalKind {
         if !ctx.ids_ok || !all_given {
             return None;
         }
-        let order = cohort_paper_common::config::by_id(s);
+        let order = cohort_kinds_generic::config::by_id(s);
         Some(Arc::new(OrbitalSetup { config, agents: order.iter().map(|&k| agents[k].clone()).collect() }))
     }
 }
@@ -541,7 +541,7 @@ mod tests {
     use super::*;
     use cohort_runtime::paper::{Paper, load};
 
-    const PAPERS: &[&dyn Paper] = &[&crate::Fig1, &cohort_paper_common::Common];
+    const PAPERS: &[&dyn Paper] = &[&crate::Fig1, &cohort_kinds_generic::Generic];
 
     fn fig1() -> Setup {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies/fig1.toml");

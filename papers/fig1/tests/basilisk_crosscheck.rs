@@ -37,7 +37,7 @@ fn truth() -> Vec<Row> {
 fn the_coasting_plant_matches_basilisk() {
     let scenario_path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../topologies/fig1-coast.toml");
     let papers: &[&'static dyn cohort_runtime::paper::Paper] =
-        &[&cohort_paper_fig1::Fig1, &cohort_paper_common::Common];
+        &[&cohort_paper_fig1::Fig1, &cohort_kinds_generic::Generic];
     let s = cohort_runtime::paper::load(std::path::Path::new(scenario_path), &Default::default(), papers)
         .expect("valid scenario");
     let p = s.plant_as::<OrbitalSetup>().expect("fig1-coast has an orbital plant");

@@ -21,7 +21,7 @@ macro_rules! registry {
 }
 
 registry! {
-    cohort_paper_common::Common,
+    cohort_kinds_generic::Generic,
     cohort_paper_fig1::Fig1,
     cohort_paper_tsnr::Tsnr,
     cohort_paper_dai::Dai,
@@ -79,7 +79,7 @@ mod tests {
         for entry in std::fs::read_dir(topologies()).unwrap() {
             let path = entry.unwrap().path();
             let name = path.file_name().unwrap().to_string_lossy().into_owned();
-            if !name.ends_with(".toml") || name.starts_with("invalid-") {
+            if !name.ends_with(".toml") {
                 continue;
             }
             let s = load(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}"));
@@ -133,5 +133,61 @@ mod tests {
             assert_eq!(bits(&ta), bits(&tb), "{file}: behaviour after the restore differs");
             assert!(b.restore_state(&saved[..saved.len() / 2]).is_err(), "{file}: half a state must be refused");
         }
+    }
+
+    /// The rows of `papers/README.md`'s table: (folder cell, plant kinds, algorithm kinds), the kinds
+    /// read from the third cell's `plant …` / `algorithms …` parts (other parts, e.g. commands,
+    /// ignored).
+    fn readme_rows() -> Vec<(String, Vec<String>, Vec<String>)> {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md");
+        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let ticked = |s: &str| -> Vec<String> { s.split('`').skip(1).step_by(2).map(str::to_string).collect() };
+        let mut rows = Vec::new();
+        for line in text.lines().filter(|l| l.starts_with("| `")) {
+            let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+            let (Some(folder), Some(kinds)) = (cells.get(1), cells.get(3)) else { continue };
+            let (mut plants, mut algorithms) = (Vec::new(), Vec::new());
+            for part in kinds.split(';').map(str::trim) {
+                if part.starts_with("plant") {
+                    plants.extend(ticked(part).into_iter().filter(|k| !k.contains('.') && !k.contains(' ')));
+                } else if part.starts_with("algorithm") {
+                    // Only the kind names: a parenthesised remark may quote a key (`algorithm.method`).
+                    algorithms.extend(ticked(part).into_iter().filter(|k| !k.contains('.') && !k.contains(' ')));
+                }
+            }
+            rows.push((folder.trim_matches('`').to_string(), plants, algorithms));
+        }
+        rows
+    }
+
+    /// `papers/README.md`'s table has one row per registered paper (folder `<name>/`, or
+    /// `../kinds/<name>/` for the kinds that are no paper's) naming exactly its plant and algorithm
+    /// kinds, and no other row: a paper added without its row, or a kind renamed, fails here.
+    #[test]
+    fn the_papers_readme_table_matches_the_registry() {
+        let rows = readme_rows();
+        let mut problems = Vec::new();
+        let folder_of = |name: &str| -> [String; 2] { [format!("{name}/"), format!("../kinds/{name}/")] };
+        for p in PAPERS {
+            let Some((folder, plants, algorithms)) = rows.iter().find(|r| folder_of(p.name()).contains(&r.0)) else {
+                problems.push(format!("missing row: paper {:?} (folder `{}/`)", p.name(), p.name()));
+                continue;
+            };
+            let want_plants: Vec<String> = p.plants().iter().map(|k| k.kind().to_string()).collect();
+            let want_algorithms: Vec<String> = p.algorithms().iter().map(|k| k.kind().to_string()).collect();
+            if *plants != want_plants {
+                problems.push(format!("row `{folder}`: plants {plants:?}, the registry has {want_plants:?}"));
+            }
+            if *algorithms != want_algorithms {
+                problems
+                    .push(format!("row `{folder}`: algorithms {algorithms:?}, the registry has {want_algorithms:?}"));
+            }
+        }
+        for (folder, _, _) in &rows {
+            if !PAPERS.iter().any(|p| folder_of(p.name()).contains(folder)) {
+                problems.push(format!("extra row `{folder}`: no registered paper of that name"));
+            }
+        }
+        assert!(problems.is_empty(), "papers/README.md's table disagrees with the registry:\n{}", problems.join("\n"));
     }
 }

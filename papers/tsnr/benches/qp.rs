@@ -28,7 +28,7 @@ use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use nalgebra::DMatrix;
 use rand::SeedableRng;
 
-const PAPERS: &[&dyn Paper] = &[&cohort_paper_tsnr::Tsnr, &cohort_paper_common::Common];
+const PAPERS: &[&dyn Paper] = &[&cohort_paper_tsnr::Tsnr, &cohort_kinds_generic::Generic];
 
 /// One agent's QPs in step order, with what it takes to build its solver.
 struct AgentQps {

@@ -204,7 +204,7 @@ mod tests {
     #[test]
     fn a_run_directory_is_analysed_and_a_missing_column_is_named() {
         let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../topologies/tsnr-case1.toml");
-        let papers: &[&dyn cohort_runtime::paper::Paper] = &[&crate::Tsnr, &cohort_paper_common::Common];
+        let papers: &[&dyn cohort_runtime::paper::Paper] = &[&crate::Tsnr, &cohort_kinds_generic::Generic];
         let s = cohort_runtime::paper::load(&file, &cohort_scenario::Overrides::default(), papers).unwrap();
         let root = std::env::temp_dir().join(format!("cohort-tsnr-analysis-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&root);

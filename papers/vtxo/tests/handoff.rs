@@ -213,7 +213,7 @@ fn bad_weights_are_refused_naming_the_key_and_the_file() {
         ("invalid-vtxo-handoff-science-weights-malformed.toml", s, "science-smc.csv", "not a safetensors file"),
         ("invalid-vtxo-handoff-science-weights-kind.toml", s, "transient.safetensors", "holds no science DNN"),
     ] {
-        let o = orchestrator_command().args(["check", &format!("topologies/{file}")]).output().unwrap();
+        let o = orchestrator_command().args(["check", &format!("papers/vtxo/tests/invalid/{file}")]).output().unwrap();
         assert_eq!(o.status.code(), Some(2), "{file}: {}", describe_output(&o));
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(

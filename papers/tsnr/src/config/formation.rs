@@ -539,7 +539,7 @@ mod tests {
 
     use super::*;
 
-    const PAPERS: &[&dyn Paper] = &[&crate::Tsnr, &cohort_paper_common::Common];
+    const PAPERS: &[&dyn Paper] = &[&crate::Tsnr, &cohort_kinds_generic::Generic];
 
     fn case(n: u32) -> String {
         std::fs::read_to_string(format!("{}/../../topologies/tsnr-case{n}.toml", env!("CARGO_MANIFEST_DIR"))).unwrap()
