@@ -12,6 +12,7 @@ use cohort_runtime::record::{RunDirs, TimelineEvent};
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
 
 pub use cohort_report::{FigureSource, PaperFigure, ReportError};
+pub use cohort_runtime::run_status::RunStatus;
 pub use verdict::{Criterion, Verdict, VerdictInput, VerdictLine};
 
 pub mod verdict;
@@ -136,12 +137,12 @@ pub struct RunOptions {
 #[derive(Debug, Clone)]
 pub struct RunResult {
     pub dir: PathBuf,
-    /// "ok", "failed", "degraded" or "interrupted".
-    pub status: String,
+    /// How the run ended (its name in `summary.json`: "ok", "degraded", "diverged", "failed",
+    /// "interrupted" or "salvaged").
+    pub status: RunStatus,
     /// How the run was made: "multi-process", "reference" or a coupled mode's name.
     pub mode: String,
     pub error: Option<String>,
-    pub exit_code: u8,
     pub wall_s: f64,
     pub steps_completed: u64,
     pub metrics: Metrics,
@@ -150,6 +151,10 @@ pub struct RunResult {
 }
 
 impl RunResult {
+    /// The orchestrator's exit code for this run (see [`RunStatus::exit_code`]).
+    pub fn exit_code(&self) -> u8 {
+        self.status.exit_code()
+    }
     /// A metric, NaN when the run did not produce it.
     pub fn metric(&self, name: &str) -> f64 {
         self.metrics.get(name).copied().unwrap_or(f64::NAN)

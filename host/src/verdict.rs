@@ -10,7 +10,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{Metrics, RunView};
+use crate::{Metrics, RunStatus, RunView};
 
 /// Pass, fail, or not applicable to this run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -134,8 +134,8 @@ impl VerdictLine {
 pub struct VerdictInput<'a> {
     pub run: &'a RunView<'a>,
     pub metrics: &'a Metrics,
-    /// "ok", "degraded", "diverged", "failed" or "interrupted".
-    pub status: &'a str,
+    /// How the run ended.
+    pub status: RunStatus,
     /// The scenario had a fault plan or the timeline has events (a kill, a death, a freeze …).
     pub faulted: bool,
 }
@@ -150,8 +150,10 @@ impl VerdictInput<'_> {
     /// run).
     pub fn not_judgeable(&self) -> Option<String> {
         match self.status {
-            "ok" if !self.faulted => None,
-            "ok" | "degraded" => Some("fault run: the paper's figure is for the fault-free run".into()),
+            RunStatus::Ok if !self.faulted => None,
+            RunStatus::Ok | RunStatus::Degraded => {
+                Some("fault run: the paper's figure is for the fault-free run".into())
+            }
             other => Some(format!("the run ended {other}")),
         }
     }

@@ -10,7 +10,7 @@ use cohort_host::{Launcher, Mode, RunOptions, RunResult, RunView};
 use cohort_runtime::paper::{CoupledCtx, Setup};
 use cohort_runtime::record::RunDirs;
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
-use cohort_supervisor::supervise::{self, LaunchOutcome, SIGNALLED};
+use cohort_supervisor::supervise::{self, LaunchOutcome, RunStatus, SIGNALLED};
 use cohort_wire::auth::MacKey;
 use cohort_wire::transport::iox::IoxRun;
 
@@ -45,19 +45,12 @@ fn coupled(s: &Setup, dirs: &RunDirs, progress: &progress::Progress) -> Option<(
     let run = s.algorithm.coupled()?;
     let ctx = CoupledCtx { progress: &|k| progress.set(k), interrupted: &signalled };
     let out = run.run(s, dirs, &ctx);
-    let (status, exit_code) = match (out.interrupted, &out.error) {
-        (Some(sig), _) => ("interrupted", 128 + sig as u8),
-        (None, Some(_)) => ("failed", 1),
-        (None, None) => ("ok", 0),
+    let status = match (out.interrupted, &out.error) {
+        (Some(sig), _) => RunStatus::Interrupted(sig),
+        (None, Some(_)) => RunStatus::Failed,
+        (None, None) => RunStatus::Ok,
     };
-    let outcome = LaunchOutcome {
-        status,
-        error: out.error,
-        wall_s: out.wall_s,
-        startup_s: None,
-        exit_code,
-        timeline: Vec::new(),
-    };
+    let outcome = LaunchOutcome { status, error: out.error, wall_s: out.wall_s, startup_s: None, timeline: Vec::new() };
     Some((outcome, run.name()))
 }
 
@@ -79,11 +72,10 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
         Ok(k) => k,
         Err(e) => {
             let outcome = LaunchOutcome {
-                status: "failed",
+                status: RunStatus::Failed,
                 error: Some(format!("run.authenticate: cannot draw a key from /dev/urandom: {e}")),
                 wall_s: 0.0,
                 startup_s: None,
-                exit_code: EXIT_FAILED,
                 timeline: Vec::new(),
             };
             let o = summary::Outcome {
@@ -173,7 +165,7 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
 /// ends so by design: exit code 0.
 fn mark_divergence(s: &Setup, outcome: &mut LaunchOutcome, summary: &mut summary::Summary) {
     use cohort_runtime::record::ErrorKind;
-    if outcome.status != "failed" {
+    if outcome.status != RunStatus::Failed {
         return;
     }
     let Some(e) = summary.processes.iter().filter_map(|p| p.error.as_ref()).find(|e| e.kind == ErrorKind::Diverged)
@@ -183,11 +175,9 @@ fn mark_divergence(s: &Setup, outcome: &mut LaunchOutcome, summary: &mut summary
     if let Some(t) = e.t_s {
         summary.metrics.insert("diverged_at_s".into(), t);
     }
-    outcome.status = "diverged";
-    summary.status = "diverged";
-    if s.scenario.expect == cohort_scenario::Expect::Diverge {
-        outcome.exit_code = 0;
-    }
+    let status = RunStatus::Diverged { expected: s.scenario.expect == cohort_scenario::Expect::Diverge };
+    outcome.status = status;
+    summary.status = status;
 }
 
 /// Create the run directory and write the resolved scenario into it.
@@ -264,10 +254,9 @@ impl Launcher for Orchestrator {
         }
         Ok(RunResult {
             dir: dirs.root.clone(),
-            status: summary.status.to_string(),
+            status: summary.status,
             mode: summary.mode.to_string(),
             error: outcome.error,
-            exit_code: outcome.exit_code,
             wall_s: outcome.wall_s,
             steps_completed: summary.steps_completed,
             metrics: summary.metrics,

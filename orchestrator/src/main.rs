@@ -40,7 +40,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
-use cohort_host::{CommandError, PaperHost};
+use cohort_host::{CommandError, PaperHost, RunStatus};
 use cohort_registry::HOSTS;
 use cohort_runtime::paper::Setup;
 use cohort_scenario::Overrides;
@@ -712,7 +712,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     }
     let (outcome, summary) = run_once(&s, &dirs, reference, !QUIET.load(std::sync::atomic::Ordering::Relaxed));
     let expect_divergence = s.scenario.expect == cohort_scenario::Expect::Diverge;
-    if outcome.status == "diverged" {
+    if matches!(outcome.status, RunStatus::Diverged { .. }) {
         // A divergence is a result: its time and last metrics are printed and plotted like a
         // completed run's (the run directory holds the telemetry up to it).
         let e = outcome.error.as_deref().unwrap_or_default();
@@ -731,15 +731,15 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         if json {
             print_json(&dirs.root);
         }
-        return ExitCode::from(outcome.exit_code);
+        return ExitCode::from(outcome.exit_code());
     }
-    if expect_divergence && outcome.status == "ok" {
+    if expect_divergence && outcome.status == RunStatus::Ok {
         warn!("scenario.expect = \"diverge\", but the run completed every step");
     }
     humanln!(
         json,
         "{}: {} steps in {:.3} s wall ({:.0} steps/s); run directory: {}",
-        if outcome.status == "diverged" { "diverged" } else { "done" },
+        if matches!(outcome.status, RunStatus::Diverged { .. }) { "diverged" } else { "done" },
         summary.steps_completed,
         outcome.wall_s,
         summary.steps_per_s,
@@ -786,7 +786,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     if json {
         print_json(&dirs.root);
     }
-    ExitCode::from(outcome.exit_code)
+    ExitCode::from(outcome.exit_code())
 }
 
 /// The plots of a finished run, drawn on a thread while this one watches for a signal: Ctrl-C or
@@ -856,13 +856,13 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
             Err(code) => return code,
         };
         let (outcome, summary) = run_once(&s, &dirs, !args.multi_process, false);
-        if outcome.status == "interrupted" {
+        if outcome.status.is_interrupted() {
             warn!("interrupted at seed {seed}");
-            return ExitCode::from(outcome.exit_code);
+            return ExitCode::from(outcome.exit_code());
         }
         if let Some(e) = &outcome.error {
             error!("seed {seed}: {e}");
-            return ExitCode::from(outcome.exit_code);
+            return ExitCode::from(outcome.exit_code());
         }
         info!("seed {seed}: {} steps in {:.2} s", summary.steps_completed, outcome.wall_s);
         if !args.keep_telemetry {

@@ -11,7 +11,7 @@ use cohort_runtime::paper::Setup;
 use cohort_runtime::record::{ErrorKind, ProcessError, ProcessReport, RunDirs};
 use cohort_runtime::recording::writer::{RecordMeta, Recording};
 use cohort_runtime::rng::process_rng;
-use cohort_supervisor::supervise::{LaunchOutcome, SIGNALLED};
+use cohort_supervisor::supervise::{LaunchOutcome, RunStatus, SIGNALLED};
 use cohort_wire::msg::{PLANT_ID, STATUS_PROGRESS};
 use cohort_wire::transport::Proc;
 use cohort_wire::transport::memory::MemoryBus;
@@ -118,11 +118,10 @@ pub fn launch(
     let wall_s = started.elapsed().as_secs_f64();
     if signal != 0 {
         return LaunchOutcome {
-            status: "interrupted",
+            status: RunStatus::Interrupted(signal),
             error: Some(format!("interrupted by signal {signal}")),
             wall_s,
             startup_s: None,
-            exit_code: 128 + signal as u8,
             timeline: Vec::new(),
         };
     }
@@ -134,16 +133,15 @@ pub fn launch(
         .or_else(|| reports.iter().filter_map(|r| r.error.as_ref().map(|e| (r, e))).next());
     match failure {
         Some((r, e)) => LaunchOutcome {
-            status: "failed",
+            status: RunStatus::Failed,
             error: Some(format!("{}: {e}", r.process)),
             wall_s,
             startup_s: None,
-            exit_code: 1,
             timeline: Vec::new(),
         },
         None => {
             progress.set(s.n_steps());
-            LaunchOutcome { status: "ok", error: None, wall_s, startup_s: None, exit_code: 0, timeline: Vec::new() }
+            LaunchOutcome { status: RunStatus::Ok, error: None, wall_s, startup_s: None, timeline: Vec::new() }
         }
     }
 }

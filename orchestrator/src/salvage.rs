@@ -11,6 +11,7 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use cohort_runtime::record::RunDirs;
+use cohort_runtime::run_status::RunStatus;
 use cohort_scenario::Overrides;
 
 use crate::{EXIT_FAILED, EXIT_INVALID, summary};
@@ -58,7 +59,7 @@ fn write_summary(file: &Path, dirs: &RunDirs) {
         startup_s: None,
         mode: "multi-process",
         run_id: String::new(),
-        status: "salvaged",
+        status: RunStatus::Salvaged,
         error: Some(
             "the run ended without its orchestrator's summary (killed?); salvaged from what its processes left".into(),
         ),

@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 
 use cohort_runtime::paper::Setup;
 use cohort_runtime::record::LatencyHist;
+use cohort_runtime::run_status::RunStatus;
 use cohort_scenario::Overrides;
 use cohort_scenario::faults::{FAULT_KINDS, FaultSpec};
 use serde::Serialize;
@@ -111,7 +112,7 @@ impl LinkStats {
 struct RunRecord {
     run: usize,
     seed: u64,
-    status: String,
+    status: RunStatus,
     error: Option<String>,
     steps: u64,
     wall_start_s: f64,
@@ -377,7 +378,7 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
         let record = RunRecord {
             run: index,
             seed,
-            status: outcome.status.to_string(),
+            status: outcome.status,
             error: outcome.error.clone(),
             steps: summary.steps_completed,
             wall_start_s,
@@ -392,7 +393,7 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
             faults: s.faults.iter().map(describe).collect(),
             latency: LinkStats::of(&run_latency),
         };
-        if outcome.status == "interrupted" {
+        if outcome.status.is_interrupted() {
             problems.push(format!("run {index} was interrupted"));
             runs.push(record);
             break;

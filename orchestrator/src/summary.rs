@@ -7,7 +7,7 @@
 
 use std::collections::BTreeMap;
 
-use cohort_host::VerdictLine;
+use cohort_host::{RunStatus, VerdictLine};
 use cohort_runtime::paper::Setup;
 use cohort_runtime::record::{LatencyBuckets, LatencyHist, ProcessReport, RunDirs, timing_column};
 use cohort_scenario::Scenario;
@@ -50,8 +50,9 @@ pub struct Summary {
     pub seed: u64,
     pub mode: &'static str,
     pub run_id: String,
-    /// "ok", "degraded", "diverged", "failed" or "interrupted".
-    pub status: &'static str,
+    /// How the run ended: "ok", "degraded", "diverged", "failed", "interrupted" or "salvaged"
+    /// (see [`RunStatus`]).
+    pub status: RunStatus,
     pub error: Option<String>,
     pub n_agents: u32,
     pub steps: u64,
@@ -107,7 +108,7 @@ pub struct Outcome {
     pub startup_s: Option<f64>,
     pub mode: &'static str,
     pub run_id: String,
-    pub status: &'static str,
+    pub status: RunStatus,
     pub error: Option<String>,
     pub wall_s: f64,
     pub timeline: Vec<cohort_runtime::record::TimelineEvent>,

@@ -15,5 +15,6 @@ pub mod process;
 pub mod record;
 pub mod recording;
 pub mod rng;
+pub mod run_status;
 pub mod solver_stats;
 pub mod units;

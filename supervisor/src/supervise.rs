@@ -29,6 +29,7 @@ use std::time::{Duration, Instant};
 use cohort_runtime::paper::Setup;
 use cohort_runtime::process::{EXIT_BUILD_MISMATCH, EXIT_STOPPED};
 use cohort_runtime::record::{RunDirs, TimelineEvent};
+pub use cohort_runtime::run_status::RunStatus;
 use cohort_scenario::TransportKind;
 use cohort_scenario::faults::FaultPlan;
 use cohort_wire::auth::MacKey;
@@ -57,15 +58,20 @@ const BLAME_WAIT: Duration = Duration::from_millis(600);
 pub static SIGNALLED: AtomicUsize = AtomicUsize::new(0);
 
 pub struct LaunchOutcome {
-    pub status: &'static str,
+    pub status: RunStatus,
     pub error: Option<String>,
     pub wall_s: f64,
     /// From the first spawn to the start signal (every process ready), s.
     pub startup_s: Option<f64>,
-    /// Exit code for the orchestrator.
-    pub exit_code: u8,
     /// Faults carried out and roster changes, in order.
     pub timeline: Vec<TimelineEvent>,
+}
+
+impl LaunchOutcome {
+    /// Exit code for the orchestrator (see [`RunStatus::exit_code`]).
+    pub fn exit_code(&self) -> u8 {
+        self.status.exit_code()
+    }
 }
 
 /// How the supervisor reaches one child: a process of its own, or one a host daemon started.
@@ -473,11 +479,10 @@ impl Spawner<'_> {
 pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) -> LaunchOutcome {
     let started = Instant::now();
     let failed = |error: String| LaunchOutcome {
-        status: "failed",
+        status: RunStatus::Failed,
         error: Some(error),
         wall_s: 0.0,
         startup_s: None,
-        exit_code: 1,
         timeline: Vec::new(),
     };
     let bins = match (sibling_binary("plant"), sibling_binary("agent")) {
@@ -549,28 +554,24 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) ->
     }
     match (signal, failure) {
         (Some(sig), _) => LaunchOutcome {
-            status: "interrupted",
+            status: RunStatus::Interrupted(sig),
             error: Some(format!("interrupted by signal {sig}; every child was stopped")),
             wall_s,
             startup_s,
-            exit_code: 128 + sig as u8,
             timeline,
         },
-        (None, Some(e)) => {
-            LaunchOutcome { status: "failed", error: Some(e), wall_s, startup_s, exit_code: 1, timeline }
-        }
+        (None, Some(e)) => LaunchOutcome { status: RunStatus::Failed, error: Some(e), wall_s, startup_s, timeline },
         (None, None) if !unplanned.is_empty() => LaunchOutcome {
-            status: "degraded",
+            status: RunStatus::Degraded,
             error: Some(format!(
                 "{}; the run went on without it and completed (run.on_agent_loss = \"degrade\")",
                 unplanned.join("; ")
             )),
             wall_s,
             startup_s,
-            exit_code: 1,
             timeline,
         },
-        (None, None) => LaunchOutcome { status: "ok", error: None, wall_s, startup_s, exit_code: 0, timeline },
+        (None, None) => LaunchOutcome { status: RunStatus::Ok, error: None, wall_s, startup_s, timeline },
     }
 }
 

@@ -90,7 +90,7 @@ pub(crate) fn run(
     }
     let mode = if multi_process { Mode::MultiProcess } else { Mode::Reference };
     let outcome = launcher.run(s, &dir, RunOptions { mode, plots: false })?;
-    if outcome.status == "interrupted" {
+    if outcome.status.is_interrupted() {
         return Err(format!("{label}: interrupted"));
     }
     let failed = outcome.error.as_ref().map(|e| {

@@ -265,7 +265,7 @@ pub fn command(
             }
             let r = launcher.run(s, &dir, RunOptions { mode, plots: false }).map_err(CommandError::failed)?;
             if let Some(e) = &r.error {
-                return Err(CommandError { message: format!("{}: {e}", dir.display()), exit_code: r.exit_code });
+                return Err(CommandError { message: format!("{}: {e}", dir.display()), exit_code: r.exit_code() });
             }
             let f = run_figures(&dir, s.n_agents(), r.metric("fuel_total_ns")).map_err(CommandError::failed)?;
             tracing::info!("{}: fuel {:.2} N·s", dir.display(), f.fuel_ns);

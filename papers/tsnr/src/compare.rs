@@ -124,7 +124,7 @@ pub fn command(
         let r = launcher.run(s, &dir, RunOptions { mode: Mode::MultiProcess, plots }).map_err(CommandError::failed)?;
         if let Some(e) = &r.error {
             tracing::info!("run directory (partial): {}", dir.display());
-            return Err(CommandError { message: format!("{method}: {e}"), exit_code: r.exit_code });
+            return Err(CommandError { message: format!("{method}: {e}"), exit_code: r.exit_code() });
         }
         tracing::info!(
             "{method}: {} steps in {:.2} s; fuel {:.2} N·s",
