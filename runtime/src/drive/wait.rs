@@ -1,0 +1,271 @@
+//! How a process waits for its peers: drain, check, spin or block briefly, re-poll; adaptive
+//! spinning that backs off under CPU contention; the timeout naming the silent peer.
+
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use cohort_wire::msg::{RunControl, STATUS_WAITING};
+use cohort_wire::transport::{Incoming, Transport};
+use cohort_wire::validate::Rejection;
+
+use super::error::RunError;
+use super::params::DriveParams;
+use super::status::status;
+use crate::record::WaitStats;
+
+/// Longest single blocking wait before re-polling.
+pub(super) const POLL: Duration = Duration::from_millis(10);
+/// The same for an agent's wait for its first measurement, which lasts the whole start-up: the
+/// plant's wakeup ends it, the poll only covers a lost one. With every ready agent re-polling
+/// each 10 ms while the rest were spawned, start-up CPU grew as N² (a 256-agent ring: the late
+/// agents' start-up cost 3× the early ones').
+const POLL_BEFORE_START: Duration = Duration::from_millis(100);
+/// After this long in one wait, the process tells the orchestrator whom it is waiting for.
+const REPORT_WAITING_AFTER: Duration = Duration::from_millis(200);
+/// The plant reports progress at most this often.
+
+/// How a wait spins (draining and yielding the CPU) before it blocks on the event.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SpinPolicy {
+    /// Spin for a fixed time ("event" = zero, "poll" = the step timeout, or `run.spin_us`).
+    Fixed(Duration),
+    /// Learn from this process's own waits: spin for up to four times the recent typical wait of
+    /// the same kind (measurement or share) (at
+    /// least [`ADAPTIVE_FLOOR_US`], at most [`ADAPTIVE_CAP_US`]); when waits are typically longer
+    /// than the cap (a slow or paced plant), do not spin at all, so an idle process costs nothing.
+    /// When spinning stops paying because the machine is contended (a yield comes back only after
+    /// another program held the core for a scheduler slice, [`YIELD_STALL`]), block at once and
+    /// skip spinning for a while ([`Contention`]).
+    Adaptive,
+}
+
+/// Adaptive spinning: never less than this, µs.
+pub const ADAPTIVE_FLOOR_US: f64 = 20.0;
+/// Adaptive spinning: never more than this, µs; waits typically longer than it are not spun.
+/// Measured on the 2-core machine (README, Performance): spinning with `sched_yield` for up to
+/// 1 ms beat blocking at every N from 6 to 100 agent processes.
+pub const ADAPTIVE_CAP_US: f64 = 2000.0;
+/// A `sched_yield` that takes this long returned only after another runnable task held the core
+/// for a whole scheduler slice (on this machine 1–5 ms with two CPU hogs, while with none 99.99 %
+/// of yields take under 10 µs): the cores are contended, and a spinner then only takes CPU from
+/// the peer it waits for. A peer's step that would end a spin is microseconds (a slower one makes
+/// the typical wait exceed [`ADAPTIVE_CAP_US`], which stops spinning anyway).
+pub const YIELD_STALL: Duration = Duration::from_millis(1);
+/// After a stalled yield, the next waits block without spinning: at least this many, at most
+/// [`BACKOFF_MAX`], growing by [`BACKOFF_GROWTH`] per stall and halving per clean spin
+/// ([`Contention`]).
+///
+/// Every stall on the way to the maximum costs the whole lockstep run about a scheduler slice (the
+/// yielding process waits behind the hog's slice, where a blocked one would have been woken
+/// first), and each process learns on its own: the bench's loaded row counted ≈ 7 stalls per
+/// process with 16 × 4ⁿ. Starting at 64 and growing 8× reaches the maximum in three.
+pub(super) const BACKOFF_MIN: u32 = 64;
+pub(super) const BACKOFF_MAX: u32 = 4096;
+/// Growth of the back-off per stalled spin; a clean spin halves it, so spinning goes on being
+/// tried often only while fewer than one spin in four stalls (8^f·2^(−(1−f)) < 1 ⇔ f < 1/4).
+pub(super) const BACKOFF_GROWTH: u32 = 8;
+/// Weight of the newest wait in the running typical wait.
+const ADAPTIVE_EWMA: f64 = 0.1;
+/// Spin for up to this many typical waits.
+const ADAPTIVE_MARGIN: f64 = 4.0;
+/// What a process collects while it waits: it takes each incoming message, says when the wait
+/// is over, and names whom it still lacks.
+pub(super) trait Inbox {
+    fn take(&mut self, inc: Incoming<'_>);
+    fn complete(&self) -> bool;
+    /// (id, description) of the first peer still missing.
+    fn missing(&self) -> (u32, String);
+    /// A notice from the orchestrator (the plant's inbox only).
+    fn control(&mut self, _c: &RunControl) {}
+    /// Whether something arrived since the last call that shows the peer is alive though the
+    /// wait is not over (a newer measurement while off the roster): it restarts the silence clock.
+    fn fresh(&mut self) -> bool {
+        false
+    }
+    /// Why the latest message from process `id` was rejected, if it was (a valid one since
+    /// clears it): a wait that times out names that, not silence.
+    fn rejected_from(&self, id: u32) -> Option<Rejection>;
+}
+
+/// How a missing peer is described when its latest message was rejected.
+pub(super) fn rejected_note(r: Option<Rejection>) -> String {
+    r.map_or(String::new(), |r| {
+        format!(" (its latest message was rejected: {}, i.e. damaged in transit or not of this run)", r.name())
+    })
+}
+
+pub(super) struct Waiter<'a, T: Transport + ?Sized> {
+    pub(super) t: &'a mut T,
+    p: &'a DriveParams,
+    me: u32,
+    pub(super) timeouts: u64,
+    /// Running typical wait, µs, per kind of wait (measurement, share): adaptive spinning.
+    typical_wait_us: [f64; 2],
+    contention: Contention,
+    pub(super) stats: WaitStats,
+    events: Vec<RunControl>,
+}
+
+/// Adaptive waiting's view of CPU contention: whether spinning pays on this machine right now.
+///
+/// A stalled spin costs a scheduler slice (milliseconds); a spin that pays saves a wake-up
+/// (tens of µs). So spinning is worth trying again only when stalls are rare: each stalled spin
+/// multiplies the number of waits that block before the next try by [`BACKOFF_GROWTH`] (from
+/// [`BACKOFF_MIN`] up to [`BACKOFF_MAX`]), each clean one only halves it. Under sustained
+/// contention, where even one spin in four stalls, the gap grows to its maximum and the process
+/// waits as `event` would, trying a spin once in [`BACKOFF_MAX`] waits; on an idle machine a lone
+/// stall (another user's burst) is forgotten after a few clean spins.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct Contention {
+    /// Waits to block between two spinning waits: the back-off's memory of recent stalls.
+    gap: u32,
+    /// Waits left to block without spinning.
+    skip: u32,
+    /// Stalled spins so far.
+    pub stalls: u64,
+}
+
+impl Contention {
+    /// Whether this wait may spin (and count it against the back-off).
+    pub(super) fn may_spin(&mut self) -> bool {
+        if self.skip > 0 {
+            self.skip -= 1;
+            return false;
+        }
+        true
+    }
+    /// A spinning wait ended: `stalled` if one of its yields did.
+    pub(super) fn spun(&mut self, stalled: bool) {
+        if stalled {
+            self.stalls += 1;
+            self.gap = self.gap.saturating_mul(BACKOFF_GROWTH).clamp(BACKOFF_MIN, BACKOFF_MAX);
+            self.skip = self.gap;
+        } else {
+            self.gap /= 2;
+        }
+    }
+}
+
+impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
+    pub(super) fn new(t: &'a mut T, p: &'a DriveParams, me: u32) -> Waiter<'a, T> {
+        Waiter {
+            t,
+            p,
+            me,
+            timeouts: 0,
+            typical_wait_us: [0.0; 2],
+            contention: Contention::default(),
+            stats: WaitStats::default(),
+            events: Vec::new(),
+        }
+    }
+
+    fn spin_for(&mut self, kind: usize) -> Duration {
+        let typical = self.typical_wait_us[kind];
+        match self.p.spin {
+            SpinPolicy::Fixed(d) => d,
+            SpinPolicy::Adaptive if typical > ADAPTIVE_CAP_US => Duration::ZERO,
+            SpinPolicy::Adaptive if !self.contention.may_spin() => Duration::ZERO,
+            SpinPolicy::Adaptive => {
+                Duration::from_secs_f64((ADAPTIVE_MARGIN * typical).clamp(ADAPTIVE_FLOOR_US, ADAPTIVE_CAP_US) * 1e-6)
+            }
+        }
+    }
+
+    /// Drain into `inbox`, check it, wait briefly; repeat until it is complete or `limit` passes
+    /// with nothing fresh.
+    pub(super) fn until(
+        &mut self,
+        step: u64,
+        what: &'static str,
+        inbox: &mut impl Inbox,
+        limit: Duration,
+    ) -> Result<(), RunError> {
+        let started = Instant::now();
+        let mut silent_since = started;
+        let kind = usize::from(what == "share");
+        let mut spin = self.spin_for(kind);
+        let spun = spin > Duration::ZERO;
+        let adaptive = self.p.spin == SpinPolicy::Adaptive;
+        let mut stalled = false;
+        let mut reported = false;
+        let mut spins = 0u32;
+        let mut first = true;
+        let mut spin_ended: Option<Instant> = None;
+        loop {
+            self.t.drain(&mut |inc| inbox.take(inc))?;
+            if inbox.complete() {
+                let w = started.elapsed().as_secs_f64() * 1e6;
+                self.typical_wait_us[kind] += ADAPTIVE_EWMA * (w - self.typical_wait_us[kind]);
+                if spun && adaptive {
+                    self.contention.spun(stalled);
+                }
+                if !first {
+                    self.stats.count(
+                        spun,
+                        stalled,
+                        spin_ended.is_some(),
+                        spin_ended.unwrap_or_else(Instant::now) - started,
+                    );
+                }
+                return Ok(());
+            }
+            first = false;
+            if inbox.fresh() {
+                silent_since = Instant::now();
+            }
+            let waited = silent_since.elapsed();
+            if waited >= limit {
+                self.timeouts += 1;
+                let (_, from) = inbox.missing();
+                return Err(RunError::Timeout { step, from, what, after_s: waited.as_secs_f64() });
+            }
+            let spinning = started.elapsed() < spin;
+            if spun && !spinning && spin_ended.is_none() {
+                spin_ended = Some(Instant::now());
+            }
+            spins = spins.wrapping_add(1);
+            // While spinning, look at the control service only now and then: it is not free.
+            if !spinning || spins.is_multiple_of(1024) {
+                if self.t.stop_requested() {
+                    // What completes this wait may have come in with the stop (the run's last
+                    // step): look once more before giving up.
+                    self.t.drain(&mut |inc| inbox.take(inc))?;
+                    if inbox.complete() {
+                        return Ok(());
+                    }
+                    return Err(RunError::Stopped { step, why: "orchestrator" });
+                }
+                if self.p.terminate.load(Ordering::Relaxed) {
+                    return Err(RunError::Stopped { step, why: "SIGTERM" });
+                }
+                self.t.control_events(&mut self.events);
+                for e in self.events.drain(..) {
+                    inbox.control(&e);
+                }
+                if inbox.complete() {
+                    continue;
+                }
+                if !reported && waited >= REPORT_WAITING_AFTER {
+                    reported = true;
+                    let (id, _) = inbox.missing();
+                    let mut s = status(self.p, self.me, STATUS_WAITING, step, id);
+                    s.detail = inbox.rejected_from(id).map_or(0, |r| r as u32 + 1);
+                    self.t.report(&s);
+                }
+            }
+            if spinning {
+                let y0 = Instant::now();
+                std::thread::yield_now();
+                if adaptive && y0.elapsed() >= YIELD_STALL {
+                    // Contended: spinning only takes the CPU from whoever we wait for.
+                    stalled = true;
+                    spin = Duration::ZERO;
+                }
+            } else {
+                let poll = if step == 0 && kind == 0 { POLL_BEFORE_START } else { POLL };
+                self.t.wait(poll.min(limit.saturating_sub(waited)).max(Duration::from_micros(100)))?;
+            }
+        }
+    }
+}
