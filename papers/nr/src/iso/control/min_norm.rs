@@ -41,6 +41,7 @@ pub fn min_norm(u_nominal: &[f64], s: &[f64], sigma: &[f64], alpha_m: f64, out: 
 }
 
 /// The feasible point ς − α m s of (37).
+#[cfg(test)] // used by the unit tests only
 pub fn feasible_point(s: &[f64], sigma: &[f64], alpha_m: f64) -> Vec<f64> {
     sigma.iter().zip(s).map(|(g, si)| g - alpha_m * si).collect()
 }

@@ -147,6 +147,7 @@ impl SwarmPlant {
     pub fn positions(&self) -> &[V3] {
         &self.p
     }
+    #[cfg(test)] // used by the unit tests only
     pub fn velocities(&self) -> &[V3] {
         &self.v
     }

@@ -122,6 +122,7 @@ impl Expert {
 }
 
 /// The samples of one case (none if its global solution is unusable).
+#[cfg(test)] // used by the unit tests only
 pub fn case_samples(o: &SwarmDataOptions, c: usize) -> (CaseOutcome, Vec<SwarmSample>) {
     let (out, samples, _) = case_data(o, c);
     (out, samples)
@@ -170,6 +171,7 @@ pub fn case_data(o: &SwarmDataOptions, c: usize) -> CaseData {
 }
 
 /// Every case's outcome and samples, in case order, computed on `threads` threads.
+#[cfg(test)] // used by the unit tests only
 pub fn generate(o: &SwarmDataOptions, threads: usize) -> (Vec<CaseOutcome>, Vec<SwarmSample>) {
     let (outcomes, samples, _) = generate_with_experts(o, threads);
     (outcomes, samples)

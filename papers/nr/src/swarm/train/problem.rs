@@ -28,9 +28,10 @@ use rand::Rng;
 /// The model's facts, one definition for the plant and the global solution
 /// ([`crate::swarm::dynamics::setup`]); the names the SCP, data and evaluation code use.
 pub use crate::swarm::dynamics::setup::{
-    A_MAX_MPS2, DT_S, ELLIPSOID_RADII_M as ELLIPSOID_M, MIN_SAMPLE_SEPARATION as MIN_SEPARATION, MIN_TRAVEL_M,
-    R_COMM_M, T_RECONFIG_S as T_S,
+    A_MAX_MPS2, DT_S, ELLIPSOID_RADII_M as ELLIPSOID_M, R_COMM_M, T_RECONFIG_S as T_S,
 };
+#[cfg(test)] // used by the unit tests only
+pub use crate::swarm::dynamics::setup::{MIN_SAMPLE_SEPARATION as MIN_SEPARATION, MIN_TRAVEL_M};
 /// Control steps over the horizon.
 pub const STEPS: usize = 80;
 
@@ -39,6 +40,7 @@ pub fn t_to_go_s(k: usize) -> f64 {
     STEPS.saturating_sub(k) as f64 * DT_S
 }
 /// The cuboid [lo, hi] per axis, m (the plant's [`crate::swarm::dynamics::setup::CUBOID_M`] as arrays).
+#[cfg(test)] // used by the unit tests only
 pub const CUBOID_M: [[f64; 2]; 3] = {
     let c = crate::swarm::dynamics::setup::CUBOID_M;
     [[c[0].0, c[0].1], [c[1].0, c[1].1], [c[2].0, c[2].1]]
