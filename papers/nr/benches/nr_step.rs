@@ -13,8 +13,8 @@
 use std::hint::black_box;
 use std::path::Path;
 
-use cohort_paper_nr::config::Method;
-use cohort_paper_nr::kinds::NrSetup;
+use cohort_paper_nr::iso::config::Method;
+use cohort_paper_nr::iso::host::kinds::NrSetup;
 use cohort_runtime::model::{AgentInput, Algorithm, ShareOut};
 use cohort_runtime::paper::{Paper, Setup, load};
 use cohort_runtime::rng::process_rng;
@@ -32,7 +32,7 @@ fn agent(s: &Setup, method: Method) -> Box<dyn Algorithm> {
     let nr = s.algorithm_as::<NrSetup>().expect("neural-rendezvous");
     let mut alg = nr.config.clone();
     alg.method = method;
-    Box::new(cohort_paper_nr::agent::NrAgent::new(alg, s.scenario.dt_s, nr.net.clone()).expect("valid"))
+    Box::new(cohort_paper_nr::iso::control::agent::NrAgent::new(alg, s.scenario.dt_s, nr.net.clone()).expect("valid"))
 }
 
 /// (checkpoint before step k's `share`, readings of step k) for each k of `at`, from one flight

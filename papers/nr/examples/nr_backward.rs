@@ -1,14 +1,14 @@
 //! `cargo run --release -p cohort-paper-nr --example nr_backward -- WEIGHTS`: how well the two backward passes of `desired` agree with the policy along x_d: the residual
 //! ‖u_ℓ(x_d(t_j)) − u_d(j)‖ per node, for a desired trajectory built at t_s.
-use cohort_paper_nr::constants::{ISO_SET_SEED, T_F_S};
-use cohort_paper_nr::desired::{self, Backward};
-use cohort_paper_nr::features::features;
-use cohort_paper_nr::iso_set;
-use cohort_paper_nr::lvlh::IsoFrame;
-use cohort_paper_nr::navigation::{NavSigmas, draw};
-use cohort_paper_nr::scp::ScpInput;
-use cohort_paper_nr::sn_dnn::SnDnn;
-use cohort_paper_nr::two_body::V3;
+use cohort_paper_nr::iso::dynamics::constants::{ISO_SET_SEED, T_F_S};
+use cohort_paper_nr::iso::dynamics::iso_set;
+use cohort_paper_nr::iso::dynamics::lvlh::IsoFrame;
+use cohort_paper_nr::iso::dynamics::navigation::{NavSigmas, draw};
+use cohort_paper_nr::iso::dynamics::two_body::V3;
+use cohort_paper_nr::iso::guidance::desired::{self, Backward};
+use cohort_paper_nr::iso::guidance::features::features;
+use cohort_paper_nr::iso::guidance::scp::ScpInput;
+use cohort_paper_nr::nn::sn_dnn::SnDnn;
 use rand::SeedableRng;
 
 fn main() {
@@ -31,7 +31,9 @@ fn main() {
             u_max_n: 1.0,
             isp_s: 220.0,
         };
-        let pol = |x: &cohort_paper_nr::lvlh::X6, iso: &cohort_paper_nr::two_body::Inertial, t: f64| {
+        let pol = |x: &cohort_paper_nr::iso::dynamics::lvlh::X6,
+                   iso: &cohort_paper_nr::iso::dynamics::two_body::Inertial,
+                   t: f64| {
             let mut u = [0.0; 3];
             net.forward(&features(x, iso, t, T_F_S, &ideal.rho_f_m), &mut u);
             V3::from(u)

@@ -2,12 +2,12 @@
 //! [--n N] [--cases C]`: the learned swarm policy alone, in-process, on C seeded cases of N
 //! vehicles (labels `eval0…`, never trained on), against the centralised SCP global solution of
 //! each case: collisions, distance to the targets at T + 2 s, ∫‖u‖dt and compute time (see
-//! `cohort_paper_nr::swarm_eval`). Prints a markdown table; exit 2 on a bad argument or file.
+//! `cohort_paper_nr::swarm::train::eval`). Prints a markdown table; exit 2 on a bad argument or file.
 use std::path::PathBuf;
 
 use clap::Parser;
-use cohort_paper_nr::swarm_eval::{evaluate, markdown};
-use cohort_paper_nr::swarm_policy::DeepSetPolicy;
+use cohort_paper_nr::swarm::control::policy::DeepSetPolicy;
+use cohort_paper_nr::swarm::train::eval::{evaluate, markdown};
 
 #[derive(Parser)]
 struct Args {

@@ -1,78 +1,36 @@
 //! Seed 003: Neural-Rendezvous (Tsukamoto, Chung et al., "Neural-Rendezvous: Provably Robust
 //! Guidance and Control to Encounter Interstellar Objects", arXiv:2208.04883).
 //!
-//! The `iso-encounter` plant ([`plant`]) flies one ISO and K spacecraft about the Sun and gives
-//! each spacecraft noisy estimates ([`navigation`], [`messages`]); each spacecraft's
-//! [`agent::NrAgent`] flies Algorithm 1 or one of the baselines ([`config::Method`]): the SN-DNN
-//! guidance ([`sn_dnn`], [`features`]) trained by imitation of the SCP global solution
-//! ([`scp`], [`train`]), then min-norm tracking ([`min_norm`], [`tracking`]) of the desired
-//! trajectory ([`desired`]) with the delivery-error bound ([`bound`]). Every controller predicts
-//! with the relative model (2) ([`relative`]). [`sim`] and [`campaign`] run and evaluate it in
-//! one process. The crate README gives the set-up, the measured results and every departure.
+//! Two sub-systems, each cut by what it does:
 //!
-//! In the registry ([`Nr`]): the plant kind `iso-encounter` and the algorithm kind
-//! `neural-rendezvous` ([`kinds`]); the run analysis ([`analysis`]) and figures ([`figures`]);
-//! the trainer `orchestrator train nr-iso` ([`trainer`]); the command `orchestrator nr campaign`
-//! ([`campaign_cmd`], [`campaign_report`]); the swarm's `orchestrator nr swarm-campaign`
-//! ([`swarm_campaign_cmd`], [`swarm_campaign`], [`swarm_campaign_report`]). Scenarios: `topologies/nr-iso*.toml`.
+//! - [`iso`] — the ISO encounter (Secs. 2–6): the `iso-encounter` plant ([`iso::dynamics`])
+//!   flies one ISO and K spacecraft about the Sun and gives each spacecraft noisy estimates;
+//!   each spacecraft's [`iso::control::agent::NrAgent`] flies Algorithm 1 or one of the
+//!   baselines ([`iso::config::Method`]): the SN-DNN guidance ([`nn`],
+//!   [`iso::guidance::features`]) trained by imitation of the SCP global solution
+//!   ([`iso::guidance::scp`], `iso::train`), then min-norm tracking ([`iso::control`]) of the
+//!   desired trajectory ([`iso::guidance::desired`]) with the delivery-error bound
+//!   ([`iso::control::bound`]). Every controller predicts with the relative model (2)
+//!   ([`iso::dynamics::relative`]). [`iso::campaign`] runs and evaluates it in one process.
+//! - [`swarm`] — the swarm reconfiguration of Sec. 7.2: the `swarm` plant and the `nr-swarm`
+//!   vehicles flying a learned deep set ([`swarm::control::policy`]).
+//! - [`nn`] — the spectrally-normalised network both fly; `plots` — the figures' chart kit.
+//!
+//! In the registry ([`Nr`]): the plant kinds `iso-encounter` and `swarm`, the algorithm kinds
+//! `neural-rendezvous` and `nr-swarm` (each sub-system's `host`: kinds, run analysis, figures,
+//! verdict); the trainers `orchestrator train nr-iso` and `nr-swarm` (each sub-system's
+//! `train::command`); the commands `orchestrator nr campaign` and `orchestrator nr
+//! swarm-campaign` (each sub-system's `campaign`). Scenarios: `topologies/nr-iso*.toml`,
+//! `topologies/swarm-*.toml`. The crate README gives the set-up, the measured results and every
+//! departure.
 
 // Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
 #![allow(clippy::needless_range_loop)]
 
-pub mod agent;
-pub mod analysis;
-pub mod baselines;
-pub mod bound;
-pub mod campaign;
-pub mod campaign_cmd;
-pub mod campaign_report;
-pub mod cli;
-pub mod config;
-pub mod constants;
-pub mod desired;
-pub mod features;
-pub mod figures;
-pub mod iso_set;
-pub mod kinds;
-pub mod lvlh;
-pub mod messages;
-pub mod min_norm;
-pub mod navigation;
-pub mod plant;
-pub mod plots;
-pub mod qp;
-pub mod relative;
-pub mod scp;
-pub mod sim;
-pub mod sn_dnn;
-pub mod swarm_agent;
-pub mod swarm_analysis;
-pub mod swarm_campaign;
-pub mod swarm_campaign_cmd;
-pub mod swarm_campaign_report;
-pub mod swarm_config;
-pub mod swarm_dagger;
-pub mod swarm_data;
-pub mod swarm_eval;
-pub mod swarm_figures;
-pub mod swarm_kinds;
-pub mod swarm_messages;
-pub mod swarm_nav;
-pub mod swarm_obs;
-pub mod swarm_pd;
-pub mod swarm_plant;
-pub mod swarm_policy;
-pub mod swarm_problem;
-pub mod swarm_safety;
-pub mod swarm_scp;
-pub mod swarm_setup;
-pub mod swarm_train;
-pub mod swarm_trainer;
-pub mod tracking;
-pub mod train;
-pub mod trainer;
-pub mod two_body;
-pub mod verdict;
+pub mod iso;
+pub mod nn;
+mod plots;
+pub mod swarm;
 
 use std::path::Path;
 
@@ -88,10 +46,10 @@ impl Paper for Nr {
         "nr"
     }
     fn plants(&self) -> &'static [&'static dyn PlantKind] {
-        &[&kinds::IsoEncounterKind, &swarm_kinds::SwarmKind]
+        &[&iso::host::kinds::IsoEncounterKind, &swarm::host::kinds::SwarmKind]
     }
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
-        &[&kinds::NeuralRendezvousKind, &swarm_kinds::NrSwarmKind]
+        &[&iso::host::kinds::NeuralRendezvousKind, &swarm::host::kinds::NrSwarmKind]
     }
 }
 
@@ -108,28 +66,28 @@ enum NrCmd {
     /// Every method over the test ISOs in-process (delivery error, Δv, per-step compute, NR's
     /// error against b_e(t_f)), the control-interval sweep (Fig. 11) and the γ sweep (Fig. 9,
     /// one training per γ): campaign.md, CSV files and plots in --out. Run from the repository root.
-    Campaign(campaign_cmd::CampaignArgs),
+    Campaign(iso::campaign::command::CampaignArgs),
     /// The swarm (Sec. 7.2): cases at N = 8, N = 20 and N = 20 disturbed, each flown by NR over
     /// the deep set, the deep set alone (in-process reference runs) and the global SCP:
     /// cases.csv, summary.md (verdicts) and figures in --out. Run from the repository root.
-    SwarmCampaign(swarm_campaign_cmd::SwarmCampaignArgs),
+    SwarmCampaign(swarm::campaign::command::SwarmCampaignArgs),
 }
 
 impl PaperHost for Nr {
     fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
-        let mut m = analysis::analyse(run.setup, run.dirs)?;
-        m.extend(swarm_analysis::analyse(run.setup, run.dirs)?);
+        let mut m = iso::host::analysis::analyse(run.setup, run.dirs)?;
+        m.extend(swarm::host::analysis::analyse(run.setup, run.dirs)?);
         Ok(m)
     }
     fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
-        verdict::lines(input)
+        iso::host::verdict::lines(input)
     }
     fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
-        let swarm = || swarm_figures::SwarmFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>);
-        figures::NrFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>).or_else(swarm)
+        let swarm = || swarm::host::figures::SwarmFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>);
+        iso::host::figures::NrFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>).or_else(swarm)
     }
     fn trainers(&self) -> Vec<clap::Command> {
-        vec![trainer::command(), swarm_trainer::command()]
+        vec![iso::train::command::command(), swarm::train::command::command()]
     }
     fn trainer_env(&self, _name: &str) -> Vec<(&'static str, &'static str)> {
         // candle threads its CPU matrix products by this; one thread is the fastest on these
@@ -138,8 +96,8 @@ impl PaperHost for Nr {
     }
     fn run_trainer(&self, name: &str, matches: &clap::ArgMatches) -> Result<String, CommandError> {
         match name {
-            trainer::NAME => trainer::run(matches),
-            swarm_trainer::NAME => swarm_trainer::run(matches),
+            iso::train::command::NAME => iso::train::command::run(matches),
+            swarm::train::command::NAME => swarm::train::command::run(matches),
             _ => Err(CommandError::invalid(format!("nr has no trainer {name:?}"))),
         }
     }
@@ -149,8 +107,8 @@ impl PaperHost for Nr {
     fn run_command(&self, matches: &clap::ArgMatches, launcher: &dyn Launcher) -> Result<String, CommandError> {
         let cli = NrCli::from_arg_matches(matches).map_err(|e| CommandError::invalid(e.to_string()))?;
         match cli.command {
-            NrCmd::Campaign(a) => campaign_cmd::run(&a, launcher),
-            NrCmd::SwarmCampaign(a) => swarm_campaign_cmd::run(&a, launcher),
+            NrCmd::Campaign(a) => iso::campaign::command::run(&a, launcher),
+            NrCmd::SwarmCampaign(a) => swarm::campaign::command::run(&a, launcher),
         }
     }
 }

@@ -5,10 +5,10 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use cohort_paper_nr::agent::NrAgent;
-use cohort_paper_nr::config::{IsoEncounterConfig, Method, NrAlgorithmConfig, build_plant};
-use cohort_paper_nr::sim;
-use cohort_paper_nr::sn_dnn::SnDnn;
+use cohort_paper_nr::iso::campaign::sim;
+use cohort_paper_nr::iso::config::{IsoEncounterConfig, Method, NrAlgorithmConfig, build_plant};
+use cohort_paper_nr::iso::control::agent::NrAgent;
+use cohort_paper_nr::nn::sn_dnn::SnDnn;
 
 fn weights() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("weights/sn-dnn.safetensors")

@@ -1,0 +1,241 @@
+//! The in-process evaluation of Sec. 6.3 of "Neural-Rendezvous" (arXiv:2208.04883): every
+//! method on every ISO of a range (the test ISOs 200–299 by default), one spacecraft per run,
+//! our lockstep loop ([`crate::iso::campaign::sim`]): delivery error (median, p99, max, mean, std), Δv,
+//! per-step compute time (p50, p99 over every step of every run) and, for Neural-Rendezvous,
+//! the delivery error against the bound b_e(t_f). Run `seed` = `seed_base` + ISO index (the
+//! navigation noise of each ISO is its own and the same for every method).
+
+use std::ops::Range;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use serde::Serialize;
+
+use crate::iso::campaign::sim;
+use crate::iso::config::{IsoEncounterConfig, Method, NrAlgorithmConfig};
+use crate::iso::control::agent::NrAgent;
+use crate::iso::dynamics::constants::{DV_BUDGET_MPS, TEST_ISOS};
+use crate::iso::dynamics::plant::IsoEncounterPlant;
+use crate::nn::sn_dnn::SnDnn;
+
+#[derive(Debug, Clone)]
+pub struct CampaignOptions {
+    pub methods: Vec<Method>,
+    pub isos: Range<u32>,
+    pub plant: IsoEncounterConfig,
+    /// The algorithm section; `method` is replaced per run.
+    pub algorithm: NrAlgorithmConfig,
+    pub net: Option<Arc<SnDnn>>,
+    pub dt_s: f64,
+    pub seed_base: u64,
+    pub threads: usize,
+    /// Each run is flown this many times and each step keeps its smallest wall time (the runs
+    /// are deterministic, so the work is identical and the minimum strips the interference of
+    /// other processes); the outcomes are checked to be bit-identical.
+    pub timing_repeats: usize,
+}
+
+impl CampaignOptions {
+    pub fn new(methods: Vec<Method>, net: Option<Arc<SnDnn>>) -> Self {
+        Self {
+            methods,
+            isos: TEST_ISOS,
+            plant: IsoEncounterConfig::default(),
+            algorithm: NrAlgorithmConfig::new(Method::Nmpc),
+            net,
+            dt_s: crate::iso::dynamics::constants::DT_S,
+            seed_base: 0,
+            threads: 2,
+            timing_repeats: 1,
+        }
+    }
+}
+
+/// One run.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunResult {
+    pub method: Method,
+    pub iso: u32,
+    pub delivery_error_m: f64,
+    pub dv_mps: f64,
+    /// b_e(t_f) for the methods that keep a bound.
+    pub bound_m: Option<f64>,
+    pub clipped_steps: u64,
+    /// Per-step compute times of the run, s.
+    #[serde(skip)]
+    pub compute_s: Vec<f64>,
+}
+
+/// One method over the campaign.
+#[derive(Debug, Clone, Serialize)]
+pub struct MethodSummary {
+    pub method: Method,
+    pub runs: usize,
+    pub error_median_m: f64,
+    pub error_p99_m: f64,
+    pub error_max_m: f64,
+    pub error_mean_m: f64,
+    pub error_std_m: f64,
+    pub share_within_200m: f64,
+    pub dv_median_mps: f64,
+    pub dv_max_mps: f64,
+    pub dv_mean_mps: f64,
+    pub runs_over_dv_budget: usize,
+    pub compute_p50_s: f64,
+    pub compute_p99_s: f64,
+    pub compute_max_s: f64,
+    /// Runs whose delivery error is ≤ b_e(t_f) (methods with a bound).
+    pub within_bound: Option<usize>,
+}
+
+/// The q-quantile by the nearest-rank rule.
+pub fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+    sorted[rank - 1]
+}
+
+fn sorted(v: impl Iterator<Item = f64>) -> Vec<f64> {
+    let mut v: Vec<f64> = v.collect();
+    v.sort_by(f64::total_cmp);
+    v
+}
+
+/// Fly one ISO with one method (`o.timing_repeats` times, see there).
+pub fn run_one(o: &CampaignOptions, method: Method, iso: u32) -> Result<RunResult, String> {
+    let mut best = fly_once(o, method, iso)?;
+    for _ in 1..o.timing_repeats {
+        let again = fly_once(o, method, iso)?;
+        if (again.delivery_error_m.to_bits(), again.dv_mps.to_bits())
+            != (best.delivery_error_m.to_bits(), best.dv_mps.to_bits())
+        {
+            return Err(format!("{} on ISO {iso}: a repeated run differs", method.name()));
+        }
+        best.compute_s.iter_mut().zip(&again.compute_s).for_each(|(a, b)| *a = a.min(*b));
+    }
+    Ok(best)
+}
+
+fn fly_once(o: &CampaignOptions, method: Method, iso: u32) -> Result<RunResult, String> {
+    let plant_cfg = IsoEncounterConfig { iso_index: Some(iso), ..o.plant.clone() };
+    let seed = o.seed_base + u64::from(iso);
+    let mut plant: IsoEncounterPlant =
+        crate::iso::config::build_plant(&plant_cfg, 1, o.dt_s, seed).map_err(|p| format!("{p:?}"))?;
+    let cfg = NrAlgorithmConfig { method, ..o.algorithm.clone() };
+    let mut agents = [NrAgent::new(cfg, o.dt_s, o.net.clone()).map_err(|e| e.to_string())?];
+    let steps = (plant_cfg.t_f_s / o.dt_s).round() as u64;
+    let rec = sim::run(&mut plant, &mut agents, steps, o.dt_s, seed, false);
+    Ok(RunResult {
+        method,
+        iso,
+        delivery_error_m: plant.delivery_error_m(0).ok_or("t_f not reached")?,
+        dv_mps: plant.dv_mps(0),
+        bound_m: agents[0].bound_m(),
+        clipped_steps: agents[0].clipped_steps(),
+        compute_s: rec.compute_s.into_iter().next().unwrap_or_default(),
+    })
+}
+
+/// Every (method, ISO) run, on `threads` threads; results in (method, ISO) order. `stop` is
+/// asked by the calling thread every 50 ms while the runs go on (so it need not be `Sync`, e.g.
+/// "has a signal come?"): once it says true, no further run starts, the runs under way finish,
+/// and the result is an error.
+pub fn run_all(o: &CampaignOptions, stop: &dyn Fn() -> bool) -> Result<Vec<RunResult>, String> {
+    let jobs: Vec<(Method, u32)> = o.methods.iter().flat_map(|m| o.isos.clone().map(move |i| (*m, i))).collect();
+    let next = AtomicUsize::new(0);
+    let (halt, finished) = (AtomicBool::new(false), AtomicUsize::new(0));
+    let threads = o.threads.max(1);
+    let mut results: Vec<Option<Result<RunResult, String>>> = vec![None; jobs.len()];
+    let slots: Vec<std::sync::Mutex<&mut Option<Result<RunResult, String>>>> =
+        results.iter_mut().map(std::sync::Mutex::new).collect();
+    std::thread::scope(|s| {
+        for _ in 0..threads {
+            s.spawn(|| {
+                while !halt.load(Ordering::Relaxed) {
+                    let j = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&(m, i)) = jobs.get(j) else { break };
+                    **slots[j].lock().expect("no thread panics while holding it") = Some(run_one(o, m, i));
+                }
+                finished.fetch_add(1, Ordering::Release);
+            });
+        }
+        while finished.load(Ordering::Acquire) < threads {
+            if !halt.load(Ordering::Relaxed) && stop() {
+                halt.store(true, Ordering::Relaxed);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+    });
+    drop(slots);
+    results.into_iter().map(|r| r.unwrap_or_else(|| Err("stopped before every run finished".into()))).collect()
+}
+
+/// Summaries per method (in the options' order).
+pub fn summarise(o: &CampaignOptions, runs: &[RunResult]) -> Vec<MethodSummary> {
+    o.methods
+        .iter()
+        .map(|&m| {
+            let rs: Vec<&RunResult> = runs.iter().filter(|r| r.method == m).collect();
+            let e = sorted(rs.iter().map(|r| r.delivery_error_m));
+            let dv = sorted(rs.iter().map(|r| r.dv_mps));
+            let c = sorted(rs.iter().flat_map(|r| r.compute_s.iter().copied()));
+            let n = e.len() as f64;
+            let mean = e.iter().sum::<f64>() / n;
+            let std = (e.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
+            let with_bound: Vec<&&RunResult> = rs.iter().filter(|r| r.bound_m.is_some()).collect();
+            MethodSummary {
+                method: m,
+                runs: rs.len(),
+                error_median_m: quantile(&e, 0.5),
+                error_p99_m: quantile(&e, 0.99),
+                error_max_m: e.last().copied().unwrap_or(f64::NAN),
+                error_mean_m: mean,
+                error_std_m: std,
+                share_within_200m: e.iter().filter(|x| **x <= 200.0).count() as f64 / n,
+                dv_median_mps: quantile(&dv, 0.5),
+                dv_max_mps: dv.last().copied().unwrap_or(f64::NAN),
+                dv_mean_mps: dv.iter().sum::<f64>() / n,
+                runs_over_dv_budget: dv.iter().filter(|x| **x > DV_BUDGET_MPS).count(),
+                compute_p50_s: quantile(&c, 0.5),
+                compute_p99_s: quantile(&c, 0.99),
+                compute_max_s: c.last().copied().unwrap_or(f64::NAN),
+                within_bound: (!with_bound.is_empty())
+                    .then(|| with_bound.iter().filter(|r| r.delivery_error_m <= r.bound_m.expect("filtered")).count()),
+            }
+        })
+        .collect()
+}
+
+/// Per-ISO comparisons of Neural-Rendezvous with every other method of the campaign: the share
+/// of ISOs where NR's delivery error is smaller, and NR's Δv over the other's (median, max, and
+/// how many ISOs exceed 1.25×), as Markdown (empty without NR runs).
+pub fn comparisons(runs: &[RunResult]) -> String {
+    let nr: Vec<&RunResult> = runs.iter().filter(|r| r.method == Method::NeuralRendezvous).collect();
+    if nr.is_empty() {
+        return String::new();
+    }
+    let mut t = String::from(
+        "| NR vs | ISOs | NR error smaller | NR Δv / other's: median | max | ISOs > 1.25× |\n|---|---|---|---|---|---|\n",
+    );
+    for m in Method::ALL.into_iter().filter(|m| *m != Method::NeuralRendezvous) {
+        let pairs: Vec<(&RunResult, &RunResult)> =
+            nr.iter().filter_map(|a| runs.iter().find(|b| b.method == m && b.iso == a.iso).map(|b| (*a, b))).collect();
+        if pairs.is_empty() {
+            continue;
+        }
+        let smaller = pairs.iter().filter(|(a, b)| a.delivery_error_m < b.delivery_error_m).count();
+        let ratios = sorted(pairs.iter().map(|(a, b)| a.dv_mps / b.dv_mps));
+        t += &format!(
+            "| {} | {} | {} | {:.3} | {:.3} | {} |\n",
+            m.name(),
+            pairs.len(),
+            smaller,
+            quantile(&ratios, 0.5),
+            ratios.last().copied().unwrap_or(f64::NAN),
+            ratios.iter().filter(|r| **r > 1.25).count()
+        );
+    }
+    t
+}
