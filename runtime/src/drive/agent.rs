@@ -403,7 +403,7 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
     }
 
     /// Fill the report from the loop's counters and close the files, also after an error.
-    fn finish(self, report: &mut ProcessReport, result: Result<(), RunError>) -> Result<(), RunError> {
+    fn finish(mut self, report: &mut ProcessReport, result: Result<(), RunError>) -> Result<(), RunError> {
         report.timeouts = self.w.timeouts;
         report.wait = self.w.stats;
         let inbox = &self.inbox;
