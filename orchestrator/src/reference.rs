@@ -118,7 +118,7 @@ pub fn launch(
     let wall_s = started.elapsed().as_secs_f64();
     if signal != 0 {
         return LaunchOutcome {
-            status: RunStatus::Interrupted(signal),
+            status: RunStatus::Interrupted(signal as i32),
             error: Some(format!("interrupted by signal {signal}")),
             wall_s,
             startup_s: None,

@@ -554,7 +554,7 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) ->
     }
     match (signal, failure) {
         (Some(sig), _) => LaunchOutcome {
-            status: RunStatus::Interrupted(sig),
+            status: RunStatus::Interrupted(sig as i32),
             error: Some(format!("interrupted by signal {sig}; every child was stopped")),
             wall_s,
             startup_s,

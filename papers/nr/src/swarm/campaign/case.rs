@@ -24,7 +24,7 @@
 
 use std::path::{Path, PathBuf};
 
-use cohort_host::{Launcher, Mode, RunOptions};
+use cohort_host::{Launcher, Mode, RunOptions, RunStatus};
 use cohort_runtime::model::PlantModel;
 use cohort_runtime::paper::{Setup, table_of};
 use cohort_runtime::rng::process_rng;
@@ -165,7 +165,7 @@ pub fn fly_reference(
 ) -> Result<(), String> {
     let r = launcher.run(setup, dir, RunOptions { mode: Mode::Reference, plots })?;
     row.run_dir = Some(dir.to_path_buf());
-    if r.status != "ok" {
+    if r.status != RunStatus::Ok {
         row.status = format!("run {}: {}", r.status, r.error.unwrap_or_default());
         return Ok(());
     }
