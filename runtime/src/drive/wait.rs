@@ -22,7 +22,6 @@ pub(super) const POLL: Duration = Duration::from_millis(10);
 const POLL_BEFORE_START: Duration = Duration::from_millis(100);
 /// After this long in one wait, the process tells the orchestrator whom it is waiting for.
 const REPORT_WAITING_AFTER: Duration = Duration::from_millis(200);
-/// The plant reports progress at most this often.
 
 /// How a wait spins (draining and yielding the CPU) before it blocks on the event.
 #[derive(Debug, Clone, Copy, PartialEq)]
