@@ -26,6 +26,30 @@ pub struct RunView<'a> {
     pub dirs: &'a RunDirs,
 }
 
+/// Three telemetry columns of one process that together are a position, m (`x`, `y`, `z`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScenePosition {
+    /// The process whose telemetry holds them (`plant`, `agent-3`).
+    pub process: String,
+    pub columns: [String; 3],
+}
+
+/// One body of the live 3-D view (`launch --live`): where its truth is, and, where an algorithm
+/// estimates it, where the estimate puts it, both read from telemetry columns (see
+/// [`PaperHost::scene`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneBody {
+    /// The entity's name in the scene (`b0`, `agent-3`).
+    pub name: String,
+    /// The agent id it belongs to (its node of the communication graph), if any.
+    pub agent: Option<u32>,
+    pub truth: ScenePosition,
+    /// The position this body's algorithm estimates (its own, or the target it tracks, as the
+    /// paper declares), as a sum of positions (a relative estimate plus its owner's truth, say);
+    /// drawn as a ghost. Empty when there is none.
+    pub estimate: Vec<ScenePosition>,
+}
+
 /// What a paper adds on the host side. Every method has a default that adds nothing, so a paper
 /// implements only what it has.
 pub trait PaperHost: Paper {
@@ -52,6 +76,12 @@ pub trait PaperHost: Paper {
     /// it has any.
     fn figures(&self, _setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
         None
+    }
+    /// The bodies of a live 3-D view of a run of `setup` (`launch --live`): which telemetry
+    /// columns place each one. Default: none (the live view then has telemetry, roster and
+    /// progress but no scene).
+    fn scene(&self, _setup: &Setup) -> Vec<SceneBody> {
+        Vec::new()
     }
     /// Offline training jobs, `orchestrator train <trainer> …`: each a subcommand named for what
     /// it trains (unique across papers; the registry's test checks).

@@ -90,6 +90,8 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
             return (outcome, summary::build(s, dirs, o));
         }
     };
+    // `--live`: its thread follows this run (nothing without the flag).
+    let live = crate::live::LiveRun::start(s, dirs);
     let (mut outcome, mode) = match coupled(s, dirs, &progress) {
         Some(o) => o,
         None if reference => (reference::launch(s, dirs, run_id, key, &progress), "reference"),
@@ -99,6 +101,9 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
         ),
     };
     progress.finish();
+    if let Some(live) = live {
+        live.stop();
+    }
     // A process killed while running (a fault, a crash) left its Parquet telemetry's and
     // timing's journals: turn them into their files, as its own clean exit would have. A failure
     // is a warning of the summary, printed after the run's error (on a full disk that error is

@@ -25,6 +25,7 @@ macro_rules! errln {
 
 mod bench;
 mod launcher;
+mod live;
 mod progress;
 mod reference;
 mod replay;
@@ -130,6 +131,8 @@ enum Cmd {
         /// First run's seed (then +1 per run); default the scenario's.
         #[arg(long, value_parser = seed_arg)]
         seed: Option<u64>,
+        #[command(flatten)]
+        live: LiveArgs,
     },
     /// Run a scenario once per seed (in-process reference runs by default) and write the
     /// distribution of its summary metrics as Markdown and CSV.
@@ -301,6 +304,39 @@ struct LaunchArgs {
     /// Format of the telemetry files (sets run.telemetry; default parquet).
     #[arg(long, value_name = "parquet|csv")]
     telemetry: Option<String>,
+    #[command(flatten)]
+    live: LiveArgs,
+}
+
+/// `--live [ADDR] [--live-rate HZ]` (launch and soak).
+#[derive(Args)]
+struct LiveArgs {
+    /// Serve a live view of the run (3-D scene, every process's telemetry, roster and faults,
+    /// progress) over the Foxglove WebSocket protocol at ADDR; open it in Foxglove with "Open
+    /// connection" → ws://ADDR (docs/recording.md). Changes no result.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
+    live: Option<String>,
+    /// With --live: scene and telemetry messages per second of sim time.
+    #[arg(long, value_name = "HZ", default_value_t = 20.0, requires = "live")]
+    live_rate: f64,
+}
+
+impl LiveArgs {
+    /// Start the server when asked (before anything runs): a bad address or rate, or a port in
+    /// use, is exit 2.
+    fn start(&self) -> Result<(), ExitCode> {
+        let Some(addr) = &self.live else { return Ok(()) };
+        match live::start(live::Options { addr: addr.clone(), rate_hz: self.live_rate }) {
+            Ok(server) => {
+                info!("live view: ws://{addr} (port {}; Foxglove → Open connection)", server.port());
+                Ok(())
+            }
+            Err(e) => {
+                error!("{e}");
+                Err(ExitCode::from(EXIT_INVALID))
+            }
+        }
+    }
 }
 
 #[derive(Args)]
@@ -448,7 +484,10 @@ fn generic(command: Cmd) -> ExitCode {
         Cmd::Check { files } => check(&files),
         Cmd::Launch(a) => launch_command(*a),
         Cmd::Sweep { file, args } => sweep(&file, &args),
-        Cmd::Soak { file, wall, realtime, rate, faults, out, seed } => {
+        Cmd::Soak { file, wall, realtime, rate, faults, out, seed, live } => {
+            if let Err(code) = live.start() {
+                return code;
+            }
             let wall = match soak::parse_wall(&wall) {
                 Ok(w) => w,
                 Err(e) => {
@@ -593,6 +632,9 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
     if let Err(e) = a.security.install() {
         error!("{e}");
         return ExitCode::from(EXIT_INVALID);
+    }
+    if let Err(code) = a.live.start() {
+        return code;
     }
     let mut faults = Vec::new();
     for (k, f) in a.fault.iter().enumerate() {

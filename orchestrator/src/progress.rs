@@ -20,6 +20,8 @@ impl Progress {
         Self { bar, dt_s, started: std::time::Instant::now() }
     }
     pub fn set(&self, step: u64) {
+        // For the live view's progress channel (`--live`); a relaxed store, live or not.
+        crate::live::STEP.store(step, std::sync::atomic::Ordering::Relaxed);
         if step != self.bar.position() {
             self.bar.set_position(step);
             let rate = step as f64 / self.started.elapsed().as_secs_f64().max(1e-9);

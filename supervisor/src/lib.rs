@@ -13,6 +13,7 @@
 //!   orchestrator elsewhere, relays its signals and sends the run's files back.
 //! - [`netlab`] and [`zping`]: three network namespaces with host daemons and a delay on their
 //!   links, and a zenoh ping-pong, both for `orchestrator bench`.
+//! - [`observe`]: each timeline event as it happens, for the live view (`launch --live`).
 //! - [`linkemu`]: a user-space `tc netem` (a TAP pair with a pump that delays, jitters and drops
 //!   frames) for kernels without `sch_netem`; the lab's links and the multi-host test use it.
 //!
@@ -28,6 +29,7 @@ pub mod daemon;
 mod hostproto;
 pub mod linkemu;
 pub mod netlab;
+pub mod observe;
 mod remote;
 pub mod supervise;
 pub mod zping;

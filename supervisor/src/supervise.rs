@@ -615,6 +615,8 @@ impl Supervisor<'_> {
             event: event.into(),
             detail,
         });
+        // The live view's copy (nothing without `--live`).
+        crate::observe::emit(self.timeline.last().expect("just pushed"));
     }
 
     /// Whether a process fault of `agent` covers `step` (its loss then is planned).

@@ -13,6 +13,7 @@ mod every_scenario;
 mod faults;
 mod hardening;
 mod launch;
+mod live;
 mod logging;
 mod multihost;
 mod python;

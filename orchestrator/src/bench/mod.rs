@@ -51,6 +51,23 @@ struct Case {
     hogs: bool,
     /// Across the lab's namespaces, with this delay on what every namespace sends (zero: none).
     lab: Option<Duration>,
+    /// The `live` rows: served live (`--live`), with which client.
+    live: Option<LiveClient>,
+}
+
+/// The `live` rows' variants.
+const LIVE_VARIANTS: [(&str, LiveClient); 3] =
+    [("off", LiveClient::Off), ("one-client", LiveClient::Reader), ("stalled-client", LiveClient::Stalled)];
+
+/// The client of a `live` row.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum LiveClient {
+    /// No `--live` at all (the row the others are compared with).
+    Off,
+    /// `--live` and one client that reads every message.
+    Reader,
+    /// `--live` and one client that subscribes and then never reads.
+    Stalled,
 }
 
 /// What one run of a case measured.
@@ -205,6 +222,7 @@ fn cases(
     let ns: &[u32] = if quick { &[6, 20] } else { &[6, 20, 50, 100] };
     let steps = if quick { 500 } else { 2000 };
     let mut out = Vec::new();
+    let mut live_rows = Vec::new();
     let mut push = |group: &'static str, n: u32, variant: &str, label: &str, scenario: Setup, reference: bool| {
         // A headline case is named by its scenario; the others by group alone.
         let key = if group == "headline" {
@@ -223,6 +241,7 @@ fn cases(
             reference,
             hogs,
             lab: None,
+            live: None,
         });
     };
     for file in cohort_registry::HOSTS.iter().flat_map(|h| h.bench_scenarios()) {
@@ -236,7 +255,16 @@ fn cases(
         };
         let (name, n) = (s.scenario.name.clone(), s.n_agents());
         push("headline", n, "multi-process", &name, s.clone(), false);
-        push("headline", n, "reference", &name, s, true);
+        push("headline", n, "reference", &name, s.clone(), true);
+        // `--live` against none, on each headline with a 3-D scene (live.rs).
+        if cohort_registry::hosts_of(&s).iter().any(|h| !h.scene(&s).is_empty()) {
+            live_rows.push((name, n, s));
+        }
+    }
+    for (name, n, s) in live_rows {
+        for variant in LIVE_VARIANTS.map(|v| v.0) {
+            push("live", n, variant, &name, s.clone(), false);
+        }
     }
     for &n in ns {
         for wait in ["event", "poll", "adaptive"] {
@@ -270,11 +298,33 @@ fn cases(
     // Agents behind a plant paced at 10 Hz (dt 0.1 s, real time): how much CPU do they burn?
     let idle = ring(6, if quick { 20 } else { 50 }, RingRun { dt_s: 0.1, realtime: true, ..RING })?;
     push("idle", 6, "10Hz", "idle", idle, false);
+    for c in out.iter_mut().filter(|c| c.group == "live") {
+        c.live = LIVE_VARIANTS.iter().find(|v| v.0 == c.variant).map(|v| v.1);
+    }
     out.extend(zenoh_cases(quick, repo, lab_dir)?);
     if only.is_none_or(python::may_choose) {
         out.extend(python::cases(quick, repo, scratch)?);
     }
     Ok(out)
+}
+
+/// Before a run: the live server on (started on a free port at the first `live` row) with the
+/// row's client connected, or off.
+fn live_clients(live: Option<LiveClient>) -> Result<Vec<crate::live::client::Client>, String> {
+    let on = matches!(live, Some(LiveClient::Reader | LiveClient::Stalled));
+    let server = match crate::live::started() {
+        Some(s) => s,
+        None if on => crate::live::start(crate::live::Options { addr: "127.0.0.1:0".into(), rate_hz: 20.0 })
+            .map_err(|e| e.to_string())?,
+        None => return Ok(Vec::new()),
+    };
+    server.set_enabled(on);
+    let reads = match live {
+        Some(LiveClient::Reader) => true,
+        Some(LiveClient::Stalled) => false,
+        _ => return Ok(Vec::new()),
+    };
+    Ok(vec![crate::live::client::Client::start(server.port(), reads)?])
 }
 
 /// The lab's "1 ms" rows: every namespace delays what it sends by 1 ms.
@@ -301,6 +351,7 @@ fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<C
             reference: false,
             hogs: false,
             lab,
+            live: None,
         });
     };
     let mut sets: Vec<(String, u32, Box<LoadFn>)> = Vec::new();
@@ -653,7 +704,11 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
             if let (Some(l), Some(delay)) = (&lab, c.lab) {
                 l.set_delay(delay)?;
             }
+            let clients = live_clients(c.live)?;
             let (outcome, summary) = crate::run_once(&c.scenario, &dirs, c.reference, false);
+            for client in clients {
+                client.stop();
+            }
             if let (Some(l), Some(_)) = (&lab, c.lab) {
                 l.set_delay(Duration::ZERO)?;
             }
@@ -705,6 +760,7 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     md.push_str(&mac_markdown(&aggregates, &mac));
     md.push_str(&zenoh_markdown(&aggregates, &rtts, links));
     md.push_str(&python::markdown(&aggregates));
+    md.push_str(&live_markdown(&aggregates));
     std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let json = serde_json::json!({
         "machine": machine(),
@@ -725,6 +781,28 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     write("results.json", serde_json::to_string_pretty(&json).map_err(|e| e.to_string())? + "\n")?;
     write("results.md", md.clone())?;
     Ok(md)
+}
+
+/// The `live` rows: steps/s with `--live` and one client (reading, or never reading) against the
+/// same scenario without `--live`, in the same bench run.
+fn live_markdown(a: &[Aggregate]) -> String {
+    let rows: Vec<&Aggregate> = a.iter().filter(|x| x.group == "live").collect();
+    let Some(off) = rows.iter().find(|x| x.variant == "off").copied() else { return String::new() };
+    let mut md = format!(
+        "\n## Live view (`launch --live`), {}\n\n| variant | steps/s (median) | min | max | vs off |\n|---|---:|---:|---:|---:|\n",
+        off.label
+    );
+    for r in rows {
+        md.push_str(&format!(
+            "| {} | {} | {} | {} | {:.3} |\n",
+            r.variant,
+            f0(r.steps_per_s_median),
+            f0(r.steps_per_s_min),
+            f0(r.steps_per_s_max),
+            r.steps_per_s_median / off.steps_per_s_median
+        ));
+    }
+    md
 }
 
 /// The loaded rows (goal: adaptive under load within 1.2× the time of event under load) and the

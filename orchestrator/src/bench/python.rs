@@ -23,6 +23,7 @@ fn case(key: String, n: u32, variant: &str, scenario: cohort_runtime::paper::Set
         reference,
         hogs: false,
         lab: None,
+        live: None,
     }
 }
 

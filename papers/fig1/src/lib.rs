@@ -19,7 +19,7 @@ pub mod verdict;
 
 use std::path::Path;
 
-use cohort_host::{FigureSource, Metrics, PaperHost, RunView, VerdictInput, VerdictLine};
+use cohort_host::{FigureSource, Metrics, PaperHost, RunView, SceneBody, ScenePosition, VerdictInput, VerdictLine};
 use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind, Setup};
 use cohort_runtime::record::TimelineEvent;
 
@@ -44,7 +44,32 @@ fn is_servicing(setup: &Setup) -> bool {
     setup.algorithm_as::<config::LbDnnSetup>().is_some() && setup.plant_as::<config::OrbitalSetup>().is_some()
 }
 
+/// Body `b`'s (0 the defunct spacecraft) or an agent's three position columns, `<stem>_{x,y,z}_m`.
+fn position(process: &str, stem: &str) -> ScenePosition {
+    ScenePosition { process: process.into(), columns: ["x", "y", "z"].map(|ax| format!("{stem}_{ax}_m")) }
+}
+
+/// The live view's bodies: each spacecraft at its LVLH position from the plant; servicer i's
+/// ghost is where it estimates the defunct spacecraft, qᵢ + η̂ᵢ (η̂ᵢ estimates eᵢ = q₀ − qᵢ, Sec. 4).
+fn scene_bodies(setup: &Setup) -> Vec<SceneBody> {
+    let mut bodies =
+        vec![SceneBody { name: "b0".into(), agent: None, truth: position("plant", "b0_q_lvlh"), estimate: Vec::new() }];
+    for i in 1..=setup.n_agents() {
+        let own = position("plant", &format!("b{i}_q_lvlh"));
+        bodies.push(SceneBody {
+            name: format!("agent-{i}"),
+            agent: Some(i),
+            truth: own.clone(),
+            estimate: vec![own, position(&format!("agent-{i}"), "eta_hat")],
+        });
+    }
+    bodies
+}
+
 impl PaperHost for Fig1 {
+    fn scene(&self, setup: &Setup) -> Vec<SceneBody> {
+        if is_servicing(setup) { scene_bodies(setup) } else { Vec::new() }
+    }
     fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
         if is_servicing(run.setup) { analysis::servicing(run.setup, run.dirs) } else { Ok(Metrics::new()) }
     }

@@ -1,0 +1,41 @@
+//! `--live [ADDR]`: a live Foxglove view of a running launch (or of each run of a soak), served
+//! over the Foxglove WebSocket protocol by the `foxglove` crate from the orchestrator alone.
+//!
+//! **Where the data come from.** Nothing is added to the lockstep processes: the plant and every
+//! agent already append their telemetry rows to a journal (`telemetry/<proc>.rows`, raw f64s, a
+//! `write` every few rows; see `cohort_runtime::parquet_out`), and the orchestrator already sees
+//! the progress (its progress hook) and the timeline (faults carried out, roster changes; through
+//! `cohort_supervisor::observe`). A thread of the orchestrator ([`run`]) reads them every 50 ms
+//! of wall time, keeps the rows of every `1 / (rate · dt)`-th step (`--live-rate HZ`, default 20
+//! messages per sim second, shown as they come, at wall speed) and publishes them. So the run's
+//! speed and its telemetry are the same with or without `--live` (tested bit for bit); the cost is
+//! the orchestrator's thread reading files, on cores the lockstep shares.
+//!
+//! **Channels.** `/scene` (`foxglove.SceneUpdate`, [`scene`]): each body the paper declares
+//! (`PaperHost::scene`: which telemetry columns are its position, and which make its
+//! algorithm's estimate) as a sphere at its truth and a ghost at the estimate, and the
+//! communication graph as lines coloured by link state (green alive, orange delayed, red
+//! dropped or corrupted, grey a dead end). `/telemetry/<proc>` (JSON, a JSON schema with every
+//! Parquet column's name and unit): the process's row, values bit for bit as in its file (JSON
+//! numbers in shortest round-trip form; a non-finite value is null). `/roster`
+//! (`foxglove.Log`): the roster at the start and every timeline event. `/progress` (JSON): step,
+//! steps, sim time, steps/s, clients. Log times are sim time (step × `dt_s`, ns), as in the MCAP
+//! recording; the recording's channels (`/measurement/plant`, `/share/agent-<j>`) are the
+//! agents' messages, which the orchestrator does not see, so the two share no channel.
+//!
+//! **Clients.** Any number; each has a bounded queue ([`server`]) whose oldest messages go when
+//! it stalls, so a slow or stalled client costs the run nothing. A client that subscribes late
+//! gets the latest scene, rows and progress and the whole roster log at once.
+//!
+//! **Limits.** Only Parquet telemetry (the default) is followed: with `run.telemetry = "csv"` the
+//! view has the roster and progress only. In a multi-host run the rows of processes on other
+//! machines reach `telemetry/` only when they end, so their bodies and rows show at the end.
+
+pub mod client;
+mod run;
+mod scene;
+mod server;
+mod tail;
+
+pub use run::LiveRun;
+pub use server::{Options, STEP, start, started};
