@@ -27,8 +27,8 @@
 //! it stalls, so a slow or stalled client costs the run nothing. A client that subscribes late
 //! gets the latest scene, rows and progress and the whole roster log at once.
 //!
-//! **Limits.** Only Parquet telemetry (the default) is followed: with `run.telemetry = "csv"` the
-//! view has the roster and progress only. In a multi-host run the rows of processes on other
+//! **Limits.** CSV telemetry (`run.telemetry = "csv"`) is followed as its writers' 64 KiB buffers
+//! reach the file, so its rows come in bursts. In a multi-host run the rows of processes on other
 //! machines reach `telemetry/` only when they end, so their bodies and rows show at the end.
 
 pub mod client;

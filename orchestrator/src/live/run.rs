@@ -18,7 +18,7 @@ use foxglove::messages::{Log, SceneUpdate, Timestamp, log};
 use foxglove::{Encode, RawChannel, Schema};
 
 use super::scene::{self, Frame};
-use super::server::{self, STEP, Server};
+use super::server::{self, STEP, Server, Subscription};
 use super::tail::Journal;
 
 /// How often the thread looks for new rows, events and progress (wall time).
@@ -54,6 +54,7 @@ struct View {
     dead: BTreeSet<u32>,
     log: Vec<(u64, Vec<u8>)>,
     scene: Option<(u64, Vec<u8>)>,
+    progress: Option<(u64, Vec<u8>)>,
     last_step: u64,
     started: Instant,
 }
@@ -80,6 +81,7 @@ impl LiveRun {
             dead: BTreeSet::new(),
             log: Vec::new(),
             scene: None,
+            progress: None,
             last_step: u64::MAX,
             started: Instant::now(),
             setup,
@@ -163,11 +165,34 @@ impl View {
     }
 
     fn poll(&mut self) {
-        let resend = self.server.take_resend();
+        let subscribed = self.server.take_subscriptions();
         self.follow_new_journals();
-        self.read_rows(resend);
-        self.timeline(resend);
-        self.progress(resend);
+        self.read_rows();
+        self.timeline();
+        self.progress();
+        for s in &subscribed {
+            self.send_latest(s);
+        }
+    }
+
+    /// A client that just subscribed to a topic gets its latest state (the whole log for
+    /// `/roster`), and no other client gets it again.
+    fn send_latest(&self, s: &Subscription) {
+        let latest = |m: &Option<(u64, Vec<u8>)>| m.iter().map(|(k, b)| (*k, b.clone())).collect::<Vec<_>>();
+        let (channel, messages) = match s.topic.as_str() {
+            "/scene" => (typed_channel::<SceneUpdate>(self.server, "/scene"), latest(&self.scene)),
+            "/roster" => (typed_channel::<Log>(self.server, "/roster"), self.log.clone()),
+            "/progress" => (self.server.existing("/progress"), latest(&self.progress)),
+            topic => {
+                let p = topic.strip_prefix("/telemetry/").and_then(|name| self.procs.get(name));
+                (p.and_then(|p| p.channel.clone()), p.map(|p| latest(&p.latest)).unwrap_or_default())
+            }
+        };
+        if let Some(c) = channel {
+            for (k, bytes) in &messages {
+                server::log_to(&c, bytes, self.t_ns(*k), s.sink);
+            }
+        }
     }
 
     /// Start following every journal that appeared in `telemetry/` (one per process).
@@ -187,7 +212,7 @@ impl View {
 
     /// New decimated rows of every process, each published as `/telemetry/<proc>`; a scene for
     /// each new plant row.
-    fn read_rows(&mut self, resend: bool) {
+    fn read_rows(&mut self) {
         let every = self.every;
         let mut plant_steps = Vec::new();
         let names: Vec<String> = self.procs.keys().cloned().collect();
@@ -214,18 +239,9 @@ impl View {
             while p.rows.len() > KEEP_ROWS {
                 p.rows.pop_first();
             }
-            if resend && let (Some(c), Some((k, bytes))) = (&p.channel, &p.latest) {
-                server::log(c, bytes, t(*k));
-            }
         }
         for k in plant_steps {
             self.publish_scene(k);
-        }
-        if resend
-            && let Some((k, bytes)) = &self.scene
-            && let Some(c) = typed_channel::<SceneUpdate>(self.server, "/scene")
-        {
-            server::log(&c, bytes, self.t_ns(*k));
         }
     }
 
@@ -292,14 +308,8 @@ impl View {
         self.log.push((step, bytes));
     }
 
-    /// Every timeline event since the last poll on `/roster` (and the roster the links show);
-    /// the whole log again for a client that just subscribed.
-    fn timeline(&mut self, resend: bool) {
-        if resend && let Some(c) = typed_channel::<Log>(self.server, "/roster") {
-            for (step, bytes) in &self.log {
-                server::log(&c, bytes, self.t_ns(*step));
-            }
-        }
+    /// Every timeline event since the last poll on `/roster` (and the roster the links show).
+    fn timeline(&mut self) {
         let events: Vec<TimelineEvent> = self.events.try_iter().collect();
         for e in events {
             match e.event.as_str() {
@@ -322,9 +332,9 @@ impl View {
     }
 
     /// `/progress`: step, steps of the run, sim time, steps/s since the start, clients.
-    fn progress(&mut self, resend: bool) {
+    fn progress(&mut self) {
         let step = STEP.load(Ordering::Relaxed);
-        if step == self.last_step && !resend {
+        if step == self.last_step {
             return;
         }
         self.last_step = step;
@@ -342,9 +352,11 @@ impl View {
             "steps_per_s": step as f64 / wall_s.max(1e-9),
             "clients": self.server.clients(),
         });
+        let bytes = serde_json::to_vec(&msg).unwrap_or_default();
         if let Some(c) = json_channel(self.server, "/progress", "cohort.progress", props) {
-            server::log(&c, &serde_json::to_vec(&msg).unwrap_or_default(), self.t_ns(step));
+            server::log(&c, &bytes, self.t_ns(step));
         }
+        self.progress = Some((step, bytes));
     }
 }
 
@@ -362,9 +374,10 @@ impl<I: Iterator<Item = Option<[f64; 3]>>> SumPositions for I {
     }
 }
 
-/// `telemetry/agent-3.rows` → `agent-3` (a hidden or other file → none).
+/// `telemetry/agent-3.rows` (a Parquet writer's journal) or `telemetry/agent-3.csv` → `agent-3`
+/// (a hidden or other file → none).
 fn journal_process(path: &Path) -> Option<String> {
     let name = path.file_name()?.to_str()?;
-    let stem = name.strip_suffix(".rows")?;
+    let stem = name.strip_suffix(".rows").or_else(|| name.strip_suffix(".csv"))?;
     (!stem.starts_with('.')).then(|| stem.to_string())
 }

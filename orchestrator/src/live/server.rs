@@ -2,14 +2,14 @@
 //! that a port in use is an input error before anything runs, and kept for every run of the
 //! command (a soak's many runs share it). Channels are made on first use and kept by topic; the
 //! latest message of each is kept too, so that a client that subscribes late gets the latest
-//! state at once (see [`Server::take_resend`]).
+//! state at once, and only that client (see [`Server::take_subscriptions`]).
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use foxglove::websocket::{ChannelView, Client, ServerListener};
-use foxglove::{Context, PartialMetadata, RawChannel, Schema, WebSocketServerHandle};
+use foxglove::{Context, PartialMetadata, RawChannel, Schema, SinkId, WebSocketServerHandle};
 
 /// Messages a client's queue holds before its oldest are dropped: a client that stalls loses
 /// messages, it never slows the server (nor the run, which never waits for the server at all).
@@ -29,7 +29,7 @@ pub struct Server {
     ctx: Arc<Context>,
     handle: WebSocketServerHandle,
     channels: Mutex<HashMap<String, Arc<RawChannel>>>,
-    resend: Arc<AtomicBool>,
+    subscribed: Arc<Mutex<Vec<Subscription>>>,
     /// Whether runs are followed (the bench turns it off for its rows without `--live`).
     enabled: AtomicBool,
 }
@@ -38,12 +38,20 @@ static SERVER: OnceLock<Server> = OnceLock::new();
 /// The latest step the run's progress hook saw (the supervisor's or the reference run's).
 pub static STEP: AtomicU64 = AtomicU64::new(0);
 
-/// Sets [`Server::resend`] whenever a client subscribes.
-struct Subscribed(Arc<AtomicBool>);
+/// A client's subscription to a topic: the client (its sink) is sent that topic's latest state.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Subscription {
+    pub sink: Option<SinkId>,
+    pub topic: String,
+}
+
+/// Queues every subscription for [`Server::take_subscriptions`].
+struct Subscribed(Arc<Mutex<Vec<Subscription>>>);
 
 impl ServerListener for Subscribed {
-    fn on_subscribe(&self, _client: Client, _channel: ChannelView) {
-        self.0.store(true, Ordering::Relaxed);
+    fn on_subscribe(&self, client: Client, channel: ChannelView) {
+        let mut q = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        q.push(Subscription { sink: client.sink_id(), topic: channel.topic().to_string() });
     }
 }
 
@@ -71,17 +79,23 @@ pub fn start(options: Options) -> Result<&'static Server, StartError> {
         .and_then(|(h, p)| Some((h.trim_start_matches('[').trim_end_matches(']').to_string(), p.parse::<u16>().ok()?)))
         .ok_or_else(|| StartError::Address { addr: addr.clone() })?;
     let ctx = Context::new();
-    let resend = Arc::new(AtomicBool::new(false));
+    let subscribed = Arc::new(Mutex::new(Vec::new()));
     let handle = ctx
         .websocket_server()
         .name(format!("cohort {}", cohort_wire::BUILD_ID))
         .bind(host, port)
         .message_backlog_size(BACKLOG)
-        .listener(Arc::new(Subscribed(Arc::clone(&resend))))
+        .listener(Arc::new(Subscribed(Arc::clone(&subscribed))))
         .start_blocking()
         .map_err(|e| StartError::Bind { addr: addr.clone(), why: e.to_string() })?;
-    let server =
-        Server { options, ctx, handle, channels: Mutex::new(HashMap::new()), resend, enabled: AtomicBool::new(true) };
+    let server = Server {
+        options,
+        ctx,
+        handle,
+        channels: Mutex::new(HashMap::new()),
+        subscribed,
+        enabled: AtomicBool::new(true),
+    };
     Ok(SERVER.get_or_init(|| server))
 }
 
@@ -111,9 +125,15 @@ impl Server {
         self.handle.client_count()
     }
 
-    /// Whether a client subscribed since the last call (the caller then sends the latest state).
-    pub fn take_resend(&self) -> bool {
-        self.resend.swap(false, Ordering::Relaxed)
+    /// The subscriptions made since the last call (the caller sends each subscriber, and only
+    /// it, the topic's latest state, so the clients already there get no duplicates).
+    pub fn take_subscriptions(&self) -> Vec<Subscription> {
+        std::mem::take(&mut *self.subscribed.lock().unwrap_or_else(|p| p.into_inner()))
+    }
+
+    /// The channel `topic` if it was made.
+    pub fn existing(&self, topic: &str) -> Option<Arc<RawChannel>> {
+        self.channels.lock().unwrap_or_else(|p| p.into_inner()).get(topic).cloned()
     }
 
     /// The channel `topic` with this schema and encoding, made on first use. A topic whose
@@ -132,7 +152,14 @@ impl Server {
     }
 }
 
-/// Log `bytes` on `channel` at sim time `t_ns`.
+/// Log `bytes` on `channel` at sim time `t_ns`, to every subscriber.
 pub fn log(channel: &RawChannel, bytes: &[u8], t_ns: u64) {
     channel.log_with_meta(bytes, PartialMetadata::with_log_time(t_ns));
+}
+
+/// Log `bytes` on `channel` at sim time `t_ns` to one subscriber only.
+pub fn log_to(channel: &RawChannel, bytes: &[u8], t_ns: u64, sink: Option<SinkId>) {
+    if sink.is_some() {
+        channel.log_with_meta_to_sink(bytes, PartialMetadata::with_log_time(t_ns), sink);
+    }
 }

@@ -1,6 +1,8 @@
 //! Reading a process's telemetry journal (`telemetry/<proc>.rows`, see
-//! `cohort_runtime::parquet_out`) while the process still appends to it: the header once, then
-//! whatever complete rows arrived since the last read. A journal the process replaced (a
+//! `cohort_runtime::parquet_out`), or its CSV file when the run writes CSV
+//! (`telemetry/<proc>.csv`, numbers in shortest round-trip form, so read back bit for bit), while
+//! the process still appends to it: the header once, then whatever complete rows arrived since
+//! the last read (a CSV writer's buffer reaches the file every 64 KiB). A journal the process replaced (a
 //! relaunched agent starts a new one at the same path) is reopened from its header; one the
 //! process removed (its clean end: the rows are in the Parquet file) is read to its end through
 //! the open handle.
@@ -13,9 +15,19 @@ use std::path::{Path, PathBuf};
 /// The journal's first line (`parquet_out::new_journal`).
 const MAGIC: &[u8] = b"COHORT-ROWS 2\n";
 
+/// How the followed file holds its rows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Format {
+    /// A Parquet writer's journal: a header, then rows of little-endian 8-byte words.
+    Rows,
+    /// A CSV file: a header line of names, then a line per row.
+    Csv,
+}
+
 /// One journal being followed.
 pub struct Journal {
     path: PathBuf,
+    format: Format,
     file: Option<(File, u64)>,
     /// Column names, `k` first, once the header has been read.
     columns: Vec<String>,
@@ -24,8 +36,10 @@ pub struct Journal {
 }
 
 impl Journal {
+    /// Follow `path`: a `.csv` file as CSV, any other as a Parquet writer's journal.
     pub fn new(path: &Path) -> Self {
-        Self { path: path.to_path_buf(), file: None, columns: Vec::new(), pending: Vec::new() }
+        let format = if path.extension().is_some_and(|e| e == "csv") { Format::Csv } else { Format::Rows };
+        Self { path: path.to_path_buf(), format, file: None, columns: Vec::new(), pending: Vec::new() }
     }
 
     /// Its columns (`k` first); empty until the header was read.
@@ -43,6 +57,9 @@ impl Journal {
             return Vec::new();
         }
         self.pending.extend_from_slice(&fresh);
+        if self.format == Format::Csv {
+            return self.csv_rows(keep);
+        }
         if self.columns.is_empty() && !self.read_header() {
             return Vec::new();
         }
@@ -56,6 +73,27 @@ impl Journal {
             .collect();
         self.pending.drain(..whole);
         rows
+    }
+
+    /// The complete lines of a CSV file read so far (the first is its header); a line that is not
+    /// `k` and numbers is skipped.
+    fn csv_rows(&mut self, keep: impl Fn(u64) -> bool) -> Vec<(u64, Vec<f64>)> {
+        let Some(end) = self.pending.iter().rposition(|&b| b == b'\n') else { return Vec::new() };
+        let text = String::from_utf8_lossy(&self.pending[..=end]).into_owned();
+        self.pending.drain(..=end);
+        let mut lines = text.lines();
+        if self.columns.is_empty() {
+            let Some(header) = lines.next() else { return Vec::new() };
+            self.columns = header.split(',').map(str::to_string).collect();
+        }
+        lines
+            .filter_map(|line| {
+                let mut fields = line.split(',');
+                let k = fields.next()?.parse::<u64>().ok().filter(|&k| keep(k))?;
+                let values: Vec<f64> = fields.map(|f| f.parse::<f64>().ok()).collect::<Option<_>>()?;
+                (values.len() + 1 == self.columns.len()).then_some((k, values))
+            })
+            .collect()
     }
 
     /// Open the journal, or reopen it when the path now names another file (its inode changed).
@@ -94,6 +132,7 @@ impl Journal {
 mod tests {
     use super::*;
     use cohort_runtime::parquet_out::ParquetWriter;
+    use std::io::Write as _;
 
     #[test]
     fn reads_the_rows_a_writer_flushed_bit_for_bit() {
@@ -118,6 +157,31 @@ mod tests {
         assert_eq!(rows.len(), 1);
         assert!(rows[0].1[1].is_nan());
         w.finish().unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn reads_a_csv_file_bit_for_bit_as_its_lines_arrive() {
+        let dir = std::env::temp_dir().join(format!("cohort-live-tail-csv-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("agent-1.csv");
+        let columns: Vec<String> = ["k", "t_s", "x_m"].map(String::from).to_vec();
+        let mut w = cohort_runtime::record::CsvWriter::create(&path, &columns).unwrap();
+        let mut j = Journal::new(&path);
+        for k in 0..4u64 {
+            w.row(k, &[k as f64 * 0.01, 1.0 / 3.0 * k as f64]).unwrap();
+        }
+        w.flush().unwrap();
+        // Half a line more: not read until it is whole.
+        std::fs::OpenOptions::new().append(true).open(&path).unwrap().write_all(b"4,0.04,0.").unwrap();
+        let rows = j.poll(|_| true);
+        assert_eq!(j.columns(), columns.as_slice());
+        assert_eq!(rows.iter().map(|r| r.0).collect::<Vec<_>>(), [0, 1, 2, 3]);
+        assert_eq!(rows[3].1[1].to_bits(), (1.0f64 / 3.0 * 3.0).to_bits());
+        std::fs::OpenOptions::new().append(true).open(&path).unwrap().write_all(b"5\nnot,a,row\n").unwrap();
+        let rows = j.poll(|_| true);
+        assert_eq!(rows.len(), 1);
+        assert_eq!(rows[0].1[1].to_bits(), 0.5f64.to_bits());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
