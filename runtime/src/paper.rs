@@ -8,7 +8,7 @@
 //!
 //! Kinds compose across papers: a plant kind of one paper can run an algorithm kind of another
 //! (a coasting agent flies any plant); an algorithm that needs a particular plant checks
-//! `ctx.scenario.plant.kind` and downcasts the plant's setup ([`PlantSetup::as_any`]) to read its
+//! `ctx.scenario.plant.kind` and downcasts the plant's setup (`dyn PlantSetup::downcast_ref`, trait upcasting to `Any`) to read its
 //! typed configuration.
 
 use std::any::Any;
@@ -94,7 +94,13 @@ pub trait PlantSetup: Send + Sync + Any {
     fn roster_warnings(&self, _s: &Scenario, _live: &[bool]) -> Vec<String> {
         Vec::new()
     }
-    fn as_any(&self) -> &dyn Any;
+}
+
+impl dyn PlantSetup {
+    /// This setup as the paper's own type `T`, when it is one (trait upcasting to `Any`).
+    pub fn downcast_ref<T: Any>(&self) -> Option<&T> {
+        (self as &dyn Any).downcast_ref()
+    }
 }
 
 /// An algorithm kind: parses `[algorithm]`.
@@ -136,7 +142,13 @@ pub trait AlgorithmSetup: Send + Sync + Any {
     fn labels(&self) -> BTreeMap<String, String> {
         BTreeMap::new()
     }
-    fn as_any(&self) -> &dyn Any;
+}
+
+impl dyn AlgorithmSetup {
+    /// This setup as the paper's own type `T`, when it is one (trait upcasting to `Any`).
+    pub fn downcast_ref<T: Any>(&self) -> Option<&T> {
+        (self as &dyn Any).downcast_ref()
+    }
 }
 
 /// A coupled in-process run (see [`AlgorithmSetup::coupled`]): it writes the same telemetry files
@@ -249,11 +261,11 @@ impl Setup {
 
     /// The plant's typed setup, when it is a `T`.
     pub fn plant_as<T: 'static>(&self) -> Option<&T> {
-        self.plant.as_any().downcast_ref()
+        self.plant.downcast_ref()
     }
     /// The algorithm's typed setup, when it is a `T`.
     pub fn algorithm_as<T: 'static>(&self) -> Option<&T> {
-        self.algorithm.as_any().downcast_ref()
+        self.algorithm.downcast_ref()
     }
     /// Every roster warning: the graph's (if the algorithm needs it connected), then the plant's.
     pub fn roster_warnings(&self, live: &[bool]) -> Vec<String> {

@@ -1,6 +1,5 @@
 //! The generic kinds' scenario sections, their checks, and how each builds its model.
 
-use std::any::Any;
 use std::sync::Arc;
 
 use cohort_runtime::model::{Algorithm, PlantModel};
@@ -138,9 +137,6 @@ impl PlantSetup for DoubleIntegratorSetup {
             slots,
         ))
     }
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -183,9 +179,6 @@ impl PlantSetup for NullPlant {
     }
     fn build(&self, _setup: &Setup) -> Box<dyn PlantModel> {
         Box::new(crate::null_plant::NullPlant { readings: self.readings })
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 
@@ -282,9 +275,6 @@ impl AlgorithmSetup for ConsensusFormationSetup {
             &setup.agent(id).neighbours,
         ))
     }
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -339,9 +329,6 @@ impl AlgorithmSetup for Coast {
     fn build(&self, _setup: &Setup, _id: u32) -> Box<dyn Algorithm> {
         Box::new(crate::coast::Coast)
     }
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
 }
 
 /// Zero command and `share_values` zeros shared, no computation (`orchestrator bench`).
@@ -382,9 +369,6 @@ impl AlgorithmSetup for NullAlgorithm {
     }
     fn build(&self, _setup: &Setup, _id: u32) -> Box<dyn Algorithm> {
         Box::new(crate::null_algorithm::Null { share_values: self.share_values })
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 

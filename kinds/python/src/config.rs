@@ -24,7 +24,6 @@
 //! A Python plant takes any per-agent keys (`[[agents]]` beyond `id`, `neighbours`, `host`): they
 //! reach its constructor as `ctx.agents`.
 
-use std::any::Any;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -186,9 +185,6 @@ impl AlgorithmSetup for PythonAlgorithmSetup {
     fn labels(&self) -> BTreeMap<String, String> {
         BTreeMap::from([("python_algorithm".into(), format!("{}:{}", self.file.display(), self.config.class))])
     }
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
 }
 
 pub struct PythonPlantKind;
@@ -244,8 +240,5 @@ impl PlantSetup for PythonPlantSetup {
     }
     fn build(&self, setup: &Setup) -> Box<dyn PlantModel> {
         Box::new(crate::instance::plant(self, setup))
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }

@@ -1,7 +1,6 @@
 //! The `rigid-body` plant and `dai-attitude` algorithm sections, their validation, and the
 //! configured setups that build the models.
 
-use std::any::Any;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
@@ -397,9 +396,6 @@ impl PlantSetup for RigidBodyPlant {
             self.gyro_noise_std_rad_s,
         ))
     }
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
 }
 
 pub struct DaiAttitudeKind;
@@ -419,7 +415,7 @@ impl AlgorithmKind for DaiAttitudeKind {
             c.fail("algorithm.kind", "\"dai-attitude\"", "needs plant.kind = \"rigid-body\"");
         }
         let a = a?;
-        let plant = plant.and_then(|p| p.as_any().downcast_ref::<RigidBodyPlant>());
+        let plant = plant.and_then(|p| p.downcast_ref::<RigidBodyPlant>());
         validate_algorithm(c, ctx.scenario, plant, &a);
         Some(Arc::new(a))
     }
@@ -450,8 +446,5 @@ impl AlgorithmSetup for DaiAttitude {
             m.insert("specific_torque".into(), self.specific_torque.unwrap_or(SpecificTorque::Modified).name().into());
         }
         m
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }

@@ -1,7 +1,6 @@
 //! The `orbital` plant and `lb-dnn-servicing` algorithm sections, their checks (including the
 //! paper's trackability condition, Def. 1), and the configured setups that build the models.
 
-use std::any::Any;
 use std::sync::Arc;
 
 use cohort_astro::orbit::{
@@ -321,9 +320,6 @@ impl PlantSetup for OrbitalSetup {
             _ => Vec::new(),
         }
     }
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
 }
 
 impl OrbitalSetup {
@@ -530,9 +526,6 @@ impl AlgorithmSetup for LbDnnSetup {
             setup.agent(id).neighbours.clone(),
             &mut rng,
         ))
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 

@@ -11,7 +11,6 @@
 //! bound — is the `tsnr-net` plant's (one source of truth in the file; [`TsnrModel::of`]). A
 //! model-mismatch study would add keys here.
 
-use std::any::Any;
 use std::sync::Arc;
 
 use cohort_runtime::model::Algorithm;
@@ -509,9 +508,6 @@ impl AlgorithmSetup for TsnrFormation {
             Method::Dmpc => Box::new(TsnrDmpc::new(self, &model, dt_s, id)),
             Method::Smc => Box::new(TsnrSmc::new(self, &model, id)),
         }
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 

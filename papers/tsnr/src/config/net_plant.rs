@@ -1,7 +1,6 @@
 //! The `tsnr-net` plant table and its validation. The net model itself is `crate::net`; the
 //! defaults are the project's choices where the paper is silent (see the crate README).
 
-use std::any::Any;
 use std::sync::Arc;
 
 use cohort_runtime::model::PlantModel;
@@ -206,9 +205,6 @@ impl PlantSetup for TsnrNetSetup {
             p.snapshot_steps(dt_s),
         );
         Box::new(plant.expect("validated: the net parameters passed NetParams::validate"))
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 

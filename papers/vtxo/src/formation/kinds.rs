@@ -10,7 +10,6 @@
 //! reads the other's shares (Sec. 2.10: the follower needs û_L, r̂_L, v̂_L and ã_L; the leader
 //! û_F, r̂_rel, v̂_rel for (70)).
 
-use std::any::Any;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
@@ -65,9 +64,6 @@ impl PlantSetup for VtxoPlantConfig {
     }
     fn build(&self, setup: &Setup) -> Box<dyn PlantModel> {
         Box::new(crate::model::plant::VtxoPlant::new(self, setup.scenario.dt_s, setup.scenario.seed))
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 
@@ -131,7 +127,7 @@ impl AlgorithmKind for VtxoFormationKind {
         check_links(ctx.scenario, c);
         let a = a?;
         c.problems.extend(a.validate("algorithm"));
-        if let Some(p) = plant.and_then(|p| p.as_any().downcast_ref::<VtxoPlantConfig>()) {
+        if let Some(p) = plant.and_then(|p| p.downcast_ref::<VtxoPlantConfig>()) {
             c.problems.extend(crate::config::check_pair(p, &a));
         }
         Some(Arc::new(a))
@@ -186,8 +182,5 @@ impl AlgorithmSetup for VtxoAlgorithmConfig {
         };
         m.insert("mekf".into(), mekf.into());
         m
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }

@@ -14,7 +14,6 @@
 //! (a file of another model, e.g. the transient DNN's, is refused too: it has no science
 //! network). The loaded networks are shared by both agents of a process.
 
-use std::any::Any;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -70,7 +69,7 @@ impl AlgorithmKind for VtxoHandoffKind {
             c,
         );
         let mut a = a?;
-        let plant = plant.and_then(|p| p.as_any().downcast_ref::<VtxoPlantConfig>());
+        let plant = plant.and_then(|p| p.downcast_ref::<VtxoPlantConfig>());
         if let Some(p) = plant {
             c.problems.extend(a.supervisor.timers.follow_plant("algorithm.supervisor", p));
         }
@@ -174,9 +173,6 @@ impl AlgorithmSetup for HandoffSetup {
         m.insert("transient_predictor".into(), t.into());
         m.insert("science_gains".into(), self.config.handoff.science_gains.name().into());
         m
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 

@@ -19,7 +19,6 @@
 //! time in s and days, dwell), the summary metrics below, and the figure `vtxo_mission_timeline.png`
 //! ([`crate::mission::figure`]).
 
-use std::any::Any;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Instant;
@@ -65,7 +64,7 @@ impl AlgorithmKind for VtxoMissionKind {
             c,
         );
         let mut a = a?;
-        if let Some(p) = plant.and_then(|p| p.as_any().downcast_ref::<VtxoPlantConfig>()) {
+        if let Some(p) = plant.and_then(|p| p.downcast_ref::<VtxoPlantConfig>()) {
             c.problems.extend(a.timers.follow_plant("algorithm", p));
         }
         let dt = ctx.scenario.scenario.dt_s;
@@ -114,9 +113,6 @@ impl AlgorithmSetup for VtxoMissionConfig {
         m.insert("supervisor".into(), "discrete-event".into());
         m.insert("transient_predictor".into(), "fixed".into());
         m
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 

@@ -17,7 +17,6 @@
 //!   `algorithm.c_sn` if given) whenever it is given; the loaded network is shared by every
 //!   agent of the process.
 
-use std::any::Any;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -87,9 +86,6 @@ impl PlantSetup for IsoEncounterConfig {
         let plant = build_plant(self, setup.n_agents(), setup.scenario.dt_s, setup.scenario.seed)
             .unwrap_or_else(|p| panic!("validated while configuring: {p:?}"));
         Box::new(plant)
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 
@@ -190,9 +186,6 @@ impl AlgorithmSetup for NrSetup {
     }
     fn labels(&self) -> BTreeMap<String, String> {
         BTreeMap::from([("method".to_string(), self.config.method.name().to_string())])
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 

@@ -16,7 +16,6 @@
 //!   ([`DeepSetPolicy::load`]); a file that does not load is a problem at `algorithm.weights`
 //!   naming the file and the reason. The loaded policy is shared by every agent of the process.
 
-use std::any::Any;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -95,9 +94,6 @@ impl PlantSetup for SwarmConfig {
         let plant = SwarmPlant::new(self.params(), setup.n_agents() as usize, self.problem_seed(seed), seed)
             .unwrap_or_else(|e| panic!("validated while configuring: {e}"));
         Box::new(plant)
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 
@@ -182,7 +178,7 @@ impl AlgorithmKind for NrSwarmKind {
         let mut config = a?;
         c.problems.extend(config.validate());
         c.problems.extend(config.validate_dt(s.scenario.dt_s));
-        let swarm = plant.and_then(|p| p.as_any().downcast_ref::<SwarmConfig>());
+        let swarm = plant.and_then(|p| p.downcast_ref::<SwarmConfig>());
         let a_max_mps2 = swarm.map_or(crate::swarm::dynamics::setup::A_MAX_MPS2, |p| p.a_max_mps2);
         let t_reconfig_s = swarm.map_or(crate::swarm::dynamics::setup::T_RECONFIG_S, |p| p.t_reconfig_s);
         if let Some(safety) = &config.safety {
@@ -225,9 +221,6 @@ impl AlgorithmSetup for SwarmSetup {
             ("method".to_string(), self.config.method.name().to_string()),
             ("policy".to_string(), self.config.policy.name().to_string()),
         ])
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
 }
 
