@@ -86,9 +86,12 @@ fn choose(mut cases: Vec<Case>, only: Option<&str>) -> Result<Vec<Case>, BenchEr
     Ok(cases)
 }
 
+/// The cases left to run, the namespace lab (if built) and the round trips measured.
+type CasesAndLab = (Vec<Case>, Option<Lab>, Vec<Rtt>);
+
 /// The namespace lab when a chosen case crosses it (the cases that cross it dropped when none
 /// can be made here), and the round trips measured before the runs.
-fn lab_and_rtts(mut cases: Vec<Case>, only: Option<&str>) -> Result<(Vec<Case>, Option<Lab>, Vec<Rtt>), BenchError> {
+fn lab_and_rtts(mut cases: Vec<Case>, only: Option<&str>) -> Result<CasesAndLab, BenchError> {
     let wants_lab = cases.iter().any(|c| c.lab.is_some());
     let (lab, veth_rtt) = if wants_lab {
         start_lab()
