@@ -100,6 +100,13 @@ pub trait PaperHost: Paper {
     fn run_trainer(&self, name: &str, _matches: &clap::ArgMatches) -> Result<String, CommandError> {
         Err(CommandError::invalid(format!("{} has no trainer {name:?}", self.name())))
     }
+    /// A section of `orchestrator sweep`'s Markdown for a sweep of `setup` (a scenario of this
+    /// paper's kinds): the paper's published criterion checked on each seed's summary metrics
+    /// (`rows`: seed, metrics, in the order run), appended after the sweep's generic tables.
+    /// Default: none.
+    fn sweep_section(&self, _setup: &Setup, _rows: &[(u64, Metrics)]) -> Option<String> {
+        None
+    }
     /// Scenario files (relative to the repository root) that `orchestrator bench` measures
     /// multi-process against the in-process reference: the paper's headline case.
     fn bench_scenarios(&self) -> Vec<&'static str> {

@@ -44,7 +44,9 @@ use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use cohort_host::{CommandError, PaperHost, RunStatus};
 use cohort_registry::HOSTS;
 use cohort_runtime::paper::Setup;
+use cohort_runtime::record::RunDirs;
 use cohort_scenario::Overrides;
+use cohort_supervisor::supervise::LaunchOutcome;
 use cohort_supervisor::{daemon, supervise, zping};
 use tracing::{error, info, warn};
 
@@ -488,58 +490,9 @@ fn generic(command: Cmd) -> ExitCode {
             if let Err(code) = live.start() {
                 return code;
             }
-            let wall = match soak::parse_wall(&wall) {
-                Ok(w) => w,
-                Err(e) => {
-                    error!("{e}");
-                    return ExitCode::from(EXIT_INVALID);
-                }
-            };
-            let faults = match faults.as_deref().map(soak::parse_fault_kinds).transpose() {
-                Ok(f) => f.unwrap_or_default(),
-                Err(e) => {
-                    error!("{e}");
-                    return ExitCode::from(EXIT_INVALID);
-                }
-            };
-            if realtime && !(rate.is_finite() && rate > 0.0) {
-                error!("--rate {rate}: must be a positive number");
-                return ExitCode::from(EXIT_INVALID);
-            }
-            let out = out.unwrap_or_else(|| {
-                let stem = file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
-                PathBuf::from(format!("runs/{stem}-soak-{}", cohort_host::utc_stamp()))
-            });
-            let o = soak::Options { file, wall, realtime, rate, faults, out, seed };
-            match soak::run(&o) {
-                Ok((md, ok)) => {
-                    outln!("{md}");
-                    outln!("written: {} (soak.md, soak.json, *.png)", o.out.display());
-                    if ok { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILED) }
-                }
-                Err(e) => {
-                    error!("{e}");
-                    ExitCode::from(EXIT_INVALID)
-                }
-            }
+            soak_command(file, &wall, realtime, rate, faults.as_deref(), out, seed)
         }
-        Cmd::Bench { quick, reps, out, only } => {
-            match bench::run(quick, reps.unwrap_or(if quick { 1 } else { 3 }), only.as_deref(), &out) {
-                Ok(md) => {
-                    outln!("{md}");
-                    outln!("written: {} and {}", out.join("results.md").display(), out.join("results.json").display());
-                    ExitCode::SUCCESS
-                }
-                Err(bench::BenchError::Invalid(e)) => {
-                    error!("{e}");
-                    ExitCode::from(EXIT_INVALID)
-                }
-                Err(bench::BenchError::Failed(e)) => {
-                    error!("{e}");
-                    ExitCode::from(EXIT_FAILED)
-                }
-            }
-        }
+        Cmd::Bench { quick, reps, out, only } => bench_command(quick, reps, &out, only.as_deref()),
         Cmd::Completions { shell } => {
             let mut cmd = command_line();
             let mut buf = Vec::new();
@@ -602,6 +555,72 @@ fn generic(command: Cmd) -> ExitCode {
                 ExitCode::from(EXIT_INVALID)
             }
         },
+    }
+}
+
+/// `orchestrator soak`: the arguments checked (exit 2), then the soak (exit 1 when it found a
+/// problem).
+fn soak_command(
+    file: PathBuf,
+    wall: &str,
+    realtime: bool,
+    rate: f64,
+    faults: Option<&str>,
+    out: Option<PathBuf>,
+    seed: Option<u64>,
+) -> ExitCode {
+    let wall = match soak::parse_wall(wall) {
+        Ok(w) => w,
+        Err(e) => {
+            error!("{e}");
+            return ExitCode::from(EXIT_INVALID);
+        }
+    };
+    let faults = match faults.map(soak::parse_fault_kinds).transpose() {
+        Ok(f) => f.unwrap_or_default(),
+        Err(e) => {
+            error!("{e}");
+            return ExitCode::from(EXIT_INVALID);
+        }
+    };
+    if realtime && !(rate.is_finite() && rate > 0.0) {
+        error!("--rate {rate}: must be a positive number");
+        return ExitCode::from(EXIT_INVALID);
+    }
+    let out = out.unwrap_or_else(|| {
+        let stem = file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+        PathBuf::from(format!("runs/{stem}-soak-{}", cohort_host::utc_stamp()))
+    });
+    let o = soak::Options { file, wall, realtime, rate, faults, out, seed };
+    match soak::run(&o) {
+        Ok((md, ok)) => {
+            outln!("{md}");
+            outln!("written: {} (soak.md, soak.json, *.png)", o.out.display());
+            if ok { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILED) }
+        }
+        Err(e) => {
+            error!("{e}");
+            ExitCode::from(EXIT_INVALID)
+        }
+    }
+}
+
+/// `orchestrator bench`: exit 2 when `--only` chooses nothing, 1 when a case failed.
+fn bench_command(quick: bool, reps: Option<u32>, out: &Path, only: Option<&str>) -> ExitCode {
+    match bench::run(quick, reps.unwrap_or(if quick { 1 } else { 3 }), only, out) {
+        Ok(md) => {
+            outln!("{md}");
+            outln!("written: {} and {}", out.join("results.md").display(), out.join("results.json").display());
+            ExitCode::SUCCESS
+        }
+        Err(bench::BenchError::Invalid(e)) => {
+            error!("{e}");
+            ExitCode::from(EXIT_INVALID)
+        }
+        Err(bench::BenchError::Failed(e)) => {
+            error!("{e}");
+            ExitCode::from(EXIT_FAILED)
+        }
     }
 }
 
@@ -701,28 +720,56 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     if let Some(code) = interrupted_before_the_run() {
         return code;
     }
+    if let Some(code) = refused(&s, file, reference) {
+        return code;
+    }
+    let dirs = match prepare(&s, out) {
+        Ok(d) => d,
+        Err(code) => return code,
+    };
+    announce(&s, file, reference, &dirs);
+    let (outcome, summary) = run_once(&s, &dirs, reference, !QUIET.load(std::sync::atomic::Ordering::Relaxed));
+    if let Some(code) = failed(&s, &outcome, &summary, &dirs, json) {
+        return code;
+    }
+    print_done(&s, &outcome, &summary, &dirs, json);
+    if plots && let Some(code) = draw_plots(&dirs, json) {
+        return code;
+    }
+    if json {
+        print_json(&dirs.root);
+    }
+    ExitCode::from(outcome.exit_code())
+}
+
+/// What `launch` refuses before it creates anything: process faults in a reference run; hosts
+/// that are not reachable, named as the scenario says and of this build (a signal while asking
+/// them ends it too).
+fn refused(s: &Setup, file: &Path, reference: bool) -> Option<ExitCode> {
     if reference && let Some(f) = s.faults.iter().find(|f| f.is_process_fault()) {
         error!(
             "--reference runs every process as a thread of this one, so it cannot {} agent {} \
              (process faults signal processes); drop --reference, or keep only delay, drop and corrupt faults",
             f.kind, f.agent
         );
-        return ExitCode::from(EXIT_INVALID);
+        return Some(ExitCode::from(EXIT_INVALID));
     }
     if !reference && !s.hosts.is_empty() {
         // Every daemon reachable, named as the scenario says, of this build: before anything starts.
         if let Err(e) = cohort_supervisor::preflight(&s.hosts) {
             error!("{}: {e}", file.display());
-            return ExitCode::from(EXIT_INVALID);
+            return Some(ExitCode::from(EXIT_INVALID));
         }
         if let Some(code) = interrupted_before_the_run() {
-            return code;
+            return Some(code);
         }
     }
-    let dirs = match prepare(&s, out) {
-        Ok(d) => d,
-        Err(code) => return code,
-    };
+    None
+}
+
+/// The launch's first lines: the mode, the scenario's notes, what --reference and run.record do
+/// not do here.
+fn announce(s: &Setup, file: &Path, reference: bool, dirs: &RunDirs) {
     let mode = match s.algorithm.coupled() {
         Some(c) => c.describe(),
         None if reference => "reference",
@@ -752,7 +799,17 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
             c.describe()
         );
     }
-    let (outcome, summary) = run_once(&s, &dirs, reference, !QUIET.load(std::sync::atomic::Ordering::Relaxed));
+}
+
+/// A run that failed, said (root cause first, then what it left undone) with its exit code; a
+/// divergence is a result, said and not a failure.
+fn failed(
+    s: &Setup,
+    outcome: &LaunchOutcome,
+    summary: &summary::Summary,
+    dirs: &RunDirs,
+    json: bool,
+) -> Option<ExitCode> {
     let expect_divergence = s.scenario.expect == cohort_scenario::Expect::Diverge;
     if matches!(outcome.status, RunStatus::Diverged { .. }) {
         // A divergence is a result: its time and last metrics are printed and plotted like a
@@ -773,11 +830,17 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         if json {
             print_json(&dirs.root);
         }
-        return ExitCode::from(outcome.exit_code());
+        return Some(ExitCode::from(outcome.exit_code()));
     }
     if expect_divergence && outcome.status == RunStatus::Ok {
         warn!("scenario.expect = \"diverge\", but the run completed every step");
     }
+    None
+}
+
+/// The end of a run that did not fail: steps, speed, its metrics, real-time deadline misses and
+/// where its recording is.
+fn print_done(s: &Setup, outcome: &LaunchOutcome, summary: &summary::Summary, dirs: &RunDirs, json: bool) {
     humanln!(
         json,
         "{}: {} steps in {:.3} s wall ({:.0} steps/s); run directory: {}",
@@ -787,7 +850,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         summary.steps_per_s,
         dirs.root.display()
     );
-    let text = terminal::render(&summary);
+    let text = terminal::render(summary);
     if !text.is_empty() {
         humanln!(json, "{}", text.trim_end());
     }
@@ -811,24 +874,23 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
             dirs.root.display()
         );
     }
-    if plots {
-        match report_unless_signalled(&dirs.root) {
-            Ok(Ok(_)) => humanln!(json, "plots: {}", dirs.root.join("plots").display()),
-            Ok(Err(e)) => warn!("plots not drawn: {e}"),
-            Err(sig) => {
-                errln!(
-                    "interrupted by signal {sig} while drawing the plots; the run directory {} is complete \
-                     (orchestrator report draws them)",
-                    dirs.root.display()
-                );
-                return ExitCode::from(128 + sig);
-            }
+}
+
+/// The run's plots (a signal while drawing ends the orchestrator: its exit code).
+fn draw_plots(dirs: &RunDirs, json: bool) -> Option<ExitCode> {
+    match report_unless_signalled(&dirs.root) {
+        Ok(Ok(_)) => humanln!(json, "plots: {}", dirs.root.join("plots").display()),
+        Ok(Err(e)) => warn!("plots not drawn: {e}"),
+        Err(sig) => {
+            errln!(
+                "interrupted by signal {sig} while drawing the plots; the run directory {} is complete \
+                 (orchestrator report draws them)",
+                dirs.root.display()
+            );
+            return Some(ExitCode::from(128 + sig));
         }
     }
-    if json {
-        print_json(&dirs.root);
-    }
-    ExitCode::from(outcome.exit_code())
+    None
 }
 
 /// The plots of a finished run, drawn on a thread while this one watches for a signal: Ctrl-C or
@@ -915,7 +977,9 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
         }
         rows.push((seed, summary.metrics));
     }
-    match sweep_report::write(&root, file, mode, &rows) {
+    let sections: Vec<String> =
+        cohort_registry::hosts_of(&first).iter().filter_map(|h| h.sweep_section(&first, &rows)).collect();
+    match sweep_report::write(&root, file, mode, &rows, &sections) {
         Ok(md) => {
             outln!("{md}");
             outln!("sweep results: {} and {}", root.join("sweep.md").display(), root.join("sweep.csv").display());

@@ -285,31 +285,70 @@ fn steady_growth(samples: &[u64]) -> Option<(u64, u64)> {
     (grew > threshold && rising * 10 >= (half.len() - 1) * 8).then_some((first, last))
 }
 
+/// Run the soak: one run after another until the budget is spent, then the checks over all of
+/// them, `soak.json`, `soak.md` and the plots. Returns the Markdown and whether it passed.
 pub fn run(o: &Options) -> Result<(String, bool), String> {
-    let base = load_for_soak(&o.file, o)?;
-    std::fs::create_dir_all(&o.out).map_err(|e| format!("{}: {e}", o.out.display()))?;
-    let started = Instant::now();
-    let shm_before = shm_entries();
-    let mut rss: Vec<RssSample> = Vec::new();
-    let mut shm: Vec<ShmSample> = vec![ShmSample { wall_s: 0.0, entries: shm_before }];
-    let mut runs: Vec<RunRecord> = Vec::new();
-    let mut links: BTreeMap<String, LatencyHist> = BTreeMap::new();
-    let mut problems: Vec<String> = Vec::new();
-    let seed0 = o.seed.unwrap_or(base.scenario.seed);
-    let mut index = 0usize;
-    while started.elapsed() < o.wall {
-        if cohort_supervisor::supervise::SIGNALLED.load(Ordering::SeqCst) != 0 {
-            problems.push("interrupted".into());
-            break;
+    let mut soak = Soak::open(o)?;
+    while soak.next_run(o)? {}
+    soak.finish(o)
+}
+
+/// What the soak has gathered so far.
+struct Soak {
+    base: Setup,
+    started: Instant,
+    shm_before: usize,
+    rss: Vec<RssSample>,
+    shm: Vec<ShmSample>,
+    runs: Vec<RunRecord>,
+    links: BTreeMap<String, LatencyHist>,
+    problems: Vec<String>,
+    seed0: u64,
+    /// The next run's number.
+    index: usize,
+}
+
+impl Soak {
+    /// Validate the scenario once and create the output directory.
+    fn open(o: &Options) -> Result<Self, String> {
+        let base = load_for_soak(&o.file, o)?;
+        std::fs::create_dir_all(&o.out).map_err(|e| format!("{}: {e}", o.out.display()))?;
+        let started = Instant::now();
+        let shm_before = shm_entries();
+        let seed0 = o.seed.unwrap_or(base.scenario.seed);
+        Ok(Self {
+            base,
+            started,
+            shm_before,
+            rss: Vec::new(),
+            shm: vec![ShmSample { wall_s: 0.0, entries: shm_before }],
+            runs: Vec::new(),
+            links: BTreeMap::new(),
+            problems: Vec::new(),
+            seed0,
+            index: 0,
+        })
+    }
+
+    /// The next run's scenario (its seed, its random faults, in real time cut to what is left of
+    /// the budget); none when the budget is spent or the soak was interrupted.
+    fn next_setup(&mut self, o: &Options) -> Result<Option<(Setup, u64)>, String> {
+        if self.started.elapsed() >= o.wall {
+            return Ok(None);
         }
-        let remaining = o.wall.saturating_sub(started.elapsed()).as_secs_f64();
-        let seed = seed0 + index as u64;
+        if cohort_supervisor::supervise::SIGNALLED.load(Ordering::SeqCst) != 0 {
+            self.problems.push("interrupted".into());
+            return Ok(None);
+        }
+        let base = &self.base;
+        let remaining = o.wall.saturating_sub(self.started.elapsed()).as_secs_f64();
+        let seed = self.seed0 + self.index as u64;
         let mut ov = Overrides { seed: Some(seed), realtime_rate: o.realtime.then_some(o.rate), ..Default::default() };
         // Real time: a run cannot outlast the budget (sim time = wall time × rate).
         if o.realtime {
             let fit = ((remaining * o.rate) / base.scenario.dt_s).floor() * base.scenario.dt_s;
             if fit < base.scenario.dt_s * 10.0 {
-                break;
+                return Ok(None);
             }
             if fit < base.scenario.duration_s {
                 ov.duration_s = Some(fit);
@@ -318,39 +357,18 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
         let mut s = crate::load(&o.file, &ov).map_err(|e| e.to_string())?;
         let extra = random_faults(&o.faults, &s, seed);
         s.parsed.faults.extend(extra);
+        Ok(Some((s, seed)))
+    }
+
+    /// One run, its processes sampled while it runs. Returns whether the soak goes on.
+    fn next_run(&mut self, o: &Options) -> Result<bool, String> {
+        let Some((s, seed)) = self.next_setup(o)? else { return Ok(false) };
+        let index = self.index;
         let dirs = crate::prepare(&s, Some(&o.out.join(format!("run-{index:03}"))))
             .map_err(|_| "cannot create the run directory".to_string())?;
-        let run_dir = dirs.root.display().to_string();
         let stop = Arc::new(AtomicBool::new(false));
-        let sampler = {
-            let (stop, run_dir) = (Arc::clone(&stop), run_dir.clone());
-            let t0 = started;
-            std::thread::spawn(move || {
-                let (mut r, mut m) = (Vec::new(), Vec::new());
-                while !stop.load(Ordering::SeqCst) {
-                    let wall_s = t0.elapsed().as_secs_f64();
-                    let procs = run_processes(&run_dir);
-                    // The orchestrator is watched while it supervises (its processes are alive):
-                    // afterwards it reads the whole run's telemetry for the summary, a one-off
-                    // that is not a leak (its RSS from run to run stays in the table).
-                    if !procs.is_empty()
-                        && let Some(kb) = rss_kb("/proc/self/status")
-                    {
-                        r.push(RssSample { wall_s, run: index, process: "orchestrator".into(), rss_kb: kb });
-                    }
-                    for (process, rss_kb) in procs {
-                        r.push(RssSample { wall_s, run: index, process, rss_kb });
-                    }
-                    m.push(ShmSample { wall_s, entries: shm_entries() });
-                    let until = Instant::now() + SAMPLE_EVERY;
-                    while Instant::now() < until && !stop.load(Ordering::SeqCst) {
-                        std::thread::sleep(Duration::from_millis(20));
-                    }
-                }
-                (r, m)
-            })
-        };
-        let wall_start_s = started.elapsed().as_secs_f64();
+        let sampler = sampler(Arc::clone(&stop), dirs.root.display().to_string(), self.started, index);
+        let wall_start_s = self.started.elapsed().as_secs_f64();
         tracing::info!(
             "soak run {index}: seed {seed}, {} steps{}",
             s.n_steps(),
@@ -363,20 +381,54 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
         let (outcome, summary) = crate::run_once(&s, &dirs, false, false);
         stop.store(true, Ordering::SeqCst);
         let (r, m) = sampler.join().map_err(|_| "the sampler thread panicked".to_string())?;
-        rss.extend(r);
-        shm.extend(m);
-        shm.push(ShmSample { wall_s: started.elapsed().as_secs_f64(), entries: shm_entries() });
+        self.rss.extend(r);
+        self.shm.extend(m);
+        self.shm.push(ShmSample { wall_s: self.started.elapsed().as_secs_f64(), entries: shm_entries() });
+        let record = self.record(&s, seed, wall_start_s, &outcome, &summary);
+        if outcome.status.is_interrupted() {
+            self.problems.push(format!("run {index} was interrupted"));
+            self.runs.push(record);
+            return Ok(false);
+        }
+        if outcome.error.is_some() {
+            self.problems.push(format!(
+                "run {index} (seed {seed}) {}: {}",
+                outcome.status,
+                record.error.clone().unwrap_or_default()
+            ));
+        }
+        for u in &record.unaccounted {
+            self.problems.push(format!("run {index}: message lost without being counted: {u}"));
+        }
+        // Telemetry of a soak is large and not its point; summaries stay.
+        for d in ["telemetry", "timing", "derived", "checkpoints"] {
+            let _ = std::fs::remove_dir_all(dirs.root.join(d));
+        }
+        self.runs.push(record);
+        self.index += 1;
+        Ok(true)
+    }
+
+    /// The run's record; its latency histograms added to the soak's per link.
+    fn record(
+        &mut self,
+        s: &Setup,
+        seed: u64,
+        wall_start_s: f64,
+        outcome: &cohort_supervisor::supervise::LaunchOutcome,
+        summary: &crate::summary::Summary,
+    ) -> RunRecord {
         let plant = summary.processes.iter().find(|p| p.process == "plant");
         // The histograms were read from `timing/` by the run's summary; the run's own figures
-        // are taken here, before that directory is deleted below.
+        // are taken here, before that directory is deleted.
         let mut run_latency = LatencyHist::default();
         for ((from, to), b) in &summary.histograms {
             let h = LatencyHist::from_buckets(b);
             run_latency.add(&h);
-            links.entry(format!("{from} → {to}")).or_default().add(&h);
+            self.links.entry(format!("{from} → {to}")).or_default().add(&h);
         }
-        let record = RunRecord {
-            run: index,
+        RunRecord {
+            run: self.index,
             seed,
             status: outcome.status,
             error: outcome.error.clone(),
@@ -392,77 +444,109 @@ pub fn run(o: &Options) -> Result<(String, bool), String> {
             unaccounted: summary.messages_unaccounted.clone(),
             faults: s.faults.iter().map(describe).collect(),
             latency: LinkStats::of(&run_latency),
+        }
+    }
+
+    /// The checks over every run (shm entries, RSS), the report and its files.
+    fn finish(mut self, o: &Options) -> Result<(String, bool), String> {
+        let shm_after = shm_entries();
+        self.shm_problems(shm_after);
+        let rss_first_last = self.rss_problems();
+        let link_stats: BTreeMap<String, LinkStats> =
+            self.links.iter().filter_map(|(k, h)| LinkStats::of(h).map(|st| (k.clone(), st))).collect();
+        let report = SoakReport {
+            scenario: self.base.scenario.name.clone(),
+            wall_budget_s: o.wall.as_secs_f64(),
+            wall_s: self.started.elapsed().as_secs_f64(),
+            realtime_rate: o.realtime.then_some(o.rate),
+            deadline_misses: self.runs.iter().map(|r| r.deadline_misses).sum(),
+            runs: self.runs,
+            links: link_stats,
+            rss_first_last_kb: rss_first_last,
+            shm_entries_before: self.shm_before,
+            shm_entries_after: shm_after,
+            problems: self.problems,
         };
-        if outcome.status.is_interrupted() {
-            problems.push(format!("run {index} was interrupted"));
-            runs.push(record);
-            break;
+        let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        std::fs::write(o.out.join("soak.json"), json).map_err(|e| format!("{}: {e}", o.out.display()))?;
+        let md = markdown(&report);
+        std::fs::write(o.out.join("soak.md"), &md).map_err(|e| format!("{}: {e}", o.out.display()))?;
+        plots(&o.out, &self.rss, &self.shm, &report)?;
+        Ok((md, report.problems.is_empty()))
+    }
+
+    /// iceoryx2 entries left after the soak, or climbing from one run to the next.
+    fn shm_problems(&mut self, shm_after: usize) {
+        let shm_before = self.shm_before;
+        if shm_after > shm_before {
+            self.problems.push(format!("iceoryx2 entries grew over the soak: {shm_before} before, {shm_after} after"));
         }
-        if outcome.error.is_some() {
-            problems.push(format!(
-                "run {index} (seed {seed}) {}: {}",
-                outcome.status,
-                record.error.clone().unwrap_or_default()
-            ));
+        // Within runs: shm entries must not climb from one run to the next.
+        let (runs, shm) = (&self.runs, &self.shm);
+        let mut per_run_max: BTreeMap<usize, usize> = BTreeMap::new();
+        for (i, r) in runs.iter().enumerate() {
+            let end = runs.get(i + 1).map_or(f64::INFINITY, |n| n.wall_start_s);
+            let m = shm.iter().filter(|x| x.wall_s >= r.wall_start_s && x.wall_s < end).map(|x| x.entries).max();
+            per_run_max.insert(r.run, m.unwrap_or(0));
         }
-        for u in &record.unaccounted {
-            problems.push(format!("run {index}: message lost without being counted: {u}"));
-        }
-        // Telemetry of a soak is large and not its point; summaries stay.
-        for d in ["telemetry", "timing", "derived", "checkpoints"] {
-            let _ = std::fs::remove_dir_all(dirs.root.join(d));
-        }
-        runs.push(record);
-        index += 1;
-    }
-    let shm_after = shm_entries();
-    if shm_after > shm_before {
-        problems.push(format!("iceoryx2 entries grew over the soak: {shm_before} before, {shm_after} after"));
-    }
-    // Within runs: shm entries must not climb from one run to the next.
-    let mut per_run_max: BTreeMap<usize, usize> = BTreeMap::new();
-    for (i, r) in runs.iter().enumerate() {
-        let end = runs.get(i + 1).map_or(f64::INFINITY, |n| n.wall_start_s);
-        let m = shm.iter().filter(|x| x.wall_s >= r.wall_start_s && x.wall_s < end).map(|x| x.entries).max();
-        per_run_max.insert(r.run, m.unwrap_or(0));
-    }
-    let maxes: Vec<usize> = per_run_max.values().copied().collect();
-    if maxes.len() >= 3 && maxes.windows(2).all(|w| w[1] > w[0]) {
-        problems.push(format!("iceoryx2 entries during the runs grew run after run: {maxes:?}"));
-    }
-    let mut rss_first_last: BTreeMap<String, (u64, u64)> = BTreeMap::new();
-    let mut by_proc_run: BTreeMap<(String, usize), Vec<u64>> = BTreeMap::new();
-    for x in &rss {
-        by_proc_run.entry((x.process.clone(), x.run)).or_default().push(x.rss_kb);
-        let e = rss_first_last.entry(x.process.clone()).or_insert((x.rss_kb, x.rss_kb));
-        e.1 = x.rss_kb;
-    }
-    for ((process, run), samples) in &by_proc_run {
-        if let Some((a, b)) = steady_growth(samples) {
-            problems.push(format!("RSS of {process} grew steadily in run {run}: {a} kB → {b} kB over its second half"));
+        let maxes: Vec<usize> = per_run_max.values().copied().collect();
+        if maxes.len() >= 3 && maxes.windows(2).all(|w| w[1] > w[0]) {
+            self.problems.push(format!("iceoryx2 entries during the runs grew run after run: {maxes:?}"));
         }
     }
-    let link_stats: BTreeMap<String, LinkStats> =
-        links.iter().filter_map(|(k, h)| LinkStats::of(h).map(|st| (k.clone(), st))).collect();
-    let report = SoakReport {
-        scenario: base.scenario.name.clone(),
-        wall_budget_s: o.wall.as_secs_f64(),
-        wall_s: started.elapsed().as_secs_f64(),
-        realtime_rate: o.realtime.then_some(o.rate),
-        deadline_misses: runs.iter().map(|r| r.deadline_misses).sum(),
-        runs,
-        links: link_stats,
-        rss_first_last_kb: rss_first_last,
-        shm_entries_before: shm_before,
-        shm_entries_after: shm_after,
-        problems,
-    };
-    let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
-    std::fs::write(o.out.join("soak.json"), json).map_err(|e| format!("{}: {e}", o.out.display()))?;
-    let md = markdown(&report);
-    std::fs::write(o.out.join("soak.md"), &md).map_err(|e| format!("{}: {e}", o.out.display()))?;
-    plots(&o.out, &rss, &shm, &report)?;
-    Ok((md, report.problems.is_empty()))
+
+    /// A process whose RSS grew steadily within a run. Returns each process's first and last
+    /// RSS over the soak.
+    fn rss_problems(&mut self) -> BTreeMap<String, (u64, u64)> {
+        let mut rss_first_last: BTreeMap<String, (u64, u64)> = BTreeMap::new();
+        let mut by_proc_run: BTreeMap<(String, usize), Vec<u64>> = BTreeMap::new();
+        for x in &self.rss {
+            by_proc_run.entry((x.process.clone(), x.run)).or_default().push(x.rss_kb);
+            let e = rss_first_last.entry(x.process.clone()).or_insert((x.rss_kb, x.rss_kb));
+            e.1 = x.rss_kb;
+        }
+        for ((process, run), samples) in &by_proc_run {
+            if let Some((a, b)) = steady_growth(samples) {
+                self.problems
+                    .push(format!("RSS of {process} grew steadily in run {run}: {a} kB → {b} kB over its second half"));
+            }
+        }
+        rss_first_last
+    }
+}
+
+/// A thread sampling the RSS of run `index`'s processes (in `run_dir`) and the shm entries every
+/// [`SAMPLE_EVERY`] until `stop`; joined, it returns its samples.
+fn sampler(
+    stop: Arc<AtomicBool>,
+    run_dir: String,
+    t0: Instant,
+    index: usize,
+) -> std::thread::JoinHandle<(Vec<RssSample>, Vec<ShmSample>)> {
+    std::thread::spawn(move || {
+        let (mut r, mut m) = (Vec::new(), Vec::new());
+        while !stop.load(Ordering::SeqCst) {
+            let wall_s = t0.elapsed().as_secs_f64();
+            let procs = run_processes(&run_dir);
+            // The orchestrator is watched while it supervises (its processes are alive):
+            // afterwards it reads the whole run's telemetry for the summary, a one-off
+            // that is not a leak (its RSS from run to run stays in the table).
+            if !procs.is_empty()
+                && let Some(kb) = rss_kb("/proc/self/status")
+            {
+                r.push(RssSample { wall_s, run: index, process: "orchestrator".into(), rss_kb: kb });
+            }
+            for (process, rss_kb) in procs {
+                r.push(RssSample { wall_s, run: index, process, rss_kb });
+            }
+            m.push(ShmSample { wall_s, entries: shm_entries() });
+            let until = Instant::now() + SAMPLE_EVERY;
+            while Instant::now() < until && !stop.load(Ordering::SeqCst) {
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        }
+        (r, m)
+    })
 }
 
 fn us(ns: u64) -> String {

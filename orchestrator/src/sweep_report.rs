@@ -1,7 +1,7 @@
 //! The results of `orchestrator sweep`: every seed's summary metrics (`sweep.csv`) and their
 //! distribution (`sweep.md`: min, median, max, mean and the 99th percentile, by the one quantile
-//! rule of `cohort_report::stats`), with seed 000's published criterion checked when its metrics
-//! are present.
+//! rule of `cohort_report::stats`), followed by the sections the scenario's papers add
+//! (`PaperHost::sweep_section`: a published criterion checked per seed).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
@@ -10,16 +10,19 @@ use std::path::Path;
 use cohort_report::markdown::MdTable;
 use cohort_report::stats::describe;
 
-/// The paper's "≈ 5 m after ≈ 200 s" and "≈ 5 m/s after ≈ 150 s" (seed 000, Figs. 3–4).
-const E_BOUND_M: f64 = 5.0;
-const ZETA_BOUND_MPS: f64 = 5.0;
-
 fn g(x: f64) -> String {
     if x != 0.0 && (x.abs() >= 1e5 || x.abs() < 1e-3) { format!("{x:.3e}") } else { format!("{x:.4}") }
 }
 
-/// Write `sweep.csv` and `sweep.md` under `root`; returns the Markdown.
-pub fn write(root: &Path, file: &Path, mode: &str, rows: &[(u64, BTreeMap<String, f64>)]) -> Result<String, String> {
+/// Write `sweep.csv` and `sweep.md` under `root`, the papers' `sections` at the end of the
+/// Markdown; returns the Markdown.
+pub fn write(
+    root: &Path,
+    file: &Path,
+    mode: &str,
+    rows: &[(u64, BTreeMap<String, f64>)],
+    sections: &[String],
+) -> Result<String, String> {
     let keys: BTreeSet<&String> = rows.iter().flat_map(|(_, m)| m.keys()).collect();
     let mut csv = String::from("seed");
     for k in &keys {
@@ -84,27 +87,8 @@ pub fn write(root: &Path, file: &Path, mode: &str, rows: &[(u64, BTreeMap<String
         }
         let _ = writeln!(md, "{t}");
     }
-    // Seed 000's criterion: every servicer, every seed.
-    let crit = |m: &BTreeMap<String, f64>, stem: &str| -> Option<f64> {
-        let xs: Vec<f64> = m.iter().filter(|(k, _)| k.contains(stem)).map(|(_, v)| *v).collect();
-        (!xs.is_empty()).then(|| xs.into_iter().fold(f64::MIN, f64::max))
-    };
-    let has = rows.iter().all(|(_, m)| crit(m, ".e_rms_200_").is_some() && crit(m, ".zeta_err_rms_150_").is_some());
-    if has && !rows.is_empty() {
-        let _ = writeln!(
-            md,
-            "Seed 000 criterion (paper: ‖eᵢ‖ ≈ {E_BOUND_M} m after 200 s, ‖ζ̃ᵢ‖ ≈ {ZETA_BOUND_MPS} m/s after 150 s): \
-             worst servicer per seed.\n\n| seed | max e_rms_200_end (m) | max zeta_err_rms_150_end (m/s) | within both |\n|---|---|---|---|"
-        );
-        let mut pass = 0;
-        for (seed, m) in rows {
-            let (e, z) =
-                (crit(m, ".e_rms_200_").unwrap_or(f64::NAN), crit(m, ".zeta_err_rms_150_").unwrap_or(f64::NAN));
-            let ok = e <= E_BOUND_M && z <= ZETA_BOUND_MPS;
-            pass += usize::from(ok);
-            let _ = writeln!(md, "| {seed} | {} | {} | {} |", g(e), g(z), if ok { "yes" } else { "no" });
-        }
-        let _ = writeln!(md, "\n{pass} of {} seeds meet both bounds for every servicer.", rows.len());
+    for section in sections {
+        md.push_str(section);
     }
     let md_path = root.join("sweep.md");
     std::fs::write(&md_path, &md).map_err(|e| format!("{}: {e}", md_path.display()))?;
@@ -121,7 +105,7 @@ mod tests {
         std::fs::create_dir_all(&root).unwrap();
         let rows: Vec<(u64, BTreeMap<String, f64>)> =
             (1..=10).map(|s| (s, BTreeMap::from([("x_m".to_string(), s as f64)]))).collect();
-        let md = write(&root, Path::new("f.toml"), "reference", &rows).unwrap();
+        let md = write(&root, Path::new("f.toml"), "reference", &rows, &[]).unwrap();
         let _ = std::fs::remove_dir_all(&root);
         // 1..=10: median 5.5, P99 by linear interpolation 9.91 (the nearest rank would say 10)
         assert!(md.contains("| x_m | 1.0000 | 5.5000 | 10.0000 | 5.5000 | 9.9100 |"), "{md}");

@@ -35,7 +35,7 @@ use cohort_scenario::faults::FaultPlan;
 use cohort_wire::auth::MacKey;
 use cohort_wire::msg::{
     PLANT_ID, Roster, STATUS_ALIVE, STATUS_DEAD, STATUS_HOLDING, STATUS_IDLE, STATUS_PROGRESS, STATUS_READY,
-    STATUS_WAITING,
+    STATUS_WAITING, Status,
 };
 use cohort_wire::transport::iox::{IoxRun, IoxServices, RunClaim};
 use cohort_wire::transport::zenoh::{ZenohHub, ZenohRun};
@@ -500,17 +500,7 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) ->
         Err(e) => return failed(e),
     };
     let spawner = Spawner { s, dirs, run, bins, remote: resources.remote().cloned(), scenario_toml };
-    let mut kids: Vec<Kid> = Vec::new();
-    let mut failure: Option<String> = None;
-    for p in std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)) {
-        match spawner.spawn(p, None) {
-            Ok(child) => kids.push(Kid::new(p, child)),
-            Err(e) => {
-                failure = Some(e);
-                break;
-            }
-        }
-    }
+    let (mut kids, failure) = spawn_all(s, &spawner);
     let mut sup = Supervisor {
         s,
         dirs,
@@ -552,6 +542,36 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) ->
     {
         let _ = cohort_runtime::record::write_atomic(&dirs.root.join("timeline.json"), text.as_bytes());
     }
+    launch_outcome(signal, failure, &unplanned, wall_s, startup_s, timeline)
+}
+
+/// Spawn the plant, then every agent, in order; the first that cannot be spawned ends it (its
+/// error returned beside the children spawned so far).
+fn spawn_all(s: &Setup, spawner: &Spawner<'_>) -> (Vec<Kid>, Option<String>) {
+    let mut kids: Vec<Kid> = Vec::new();
+    let mut failure: Option<String> = None;
+    for p in std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)) {
+        match spawner.spawn(p, None) {
+            Ok(child) => kids.push(Kid::new(p, child)),
+            Err(e) => {
+                failure = Some(e);
+                break;
+            }
+        }
+    }
+    (kids, failure)
+}
+
+/// How the launch ended: interrupted by `signal`, failed with `failure`, degraded by the
+/// `unplanned` losses, or ok.
+fn launch_outcome(
+    signal: Option<usize>,
+    failure: Option<String>,
+    unplanned: &[String],
+    wall_s: f64,
+    startup_s: Option<f64>,
+    timeline: Vec<TimelineEvent>,
+) -> LaunchOutcome {
     match (signal, failure) {
         (Some(sig), _) => LaunchOutcome {
             status: RunStatus::Interrupted(sig as i32),
@@ -603,6 +623,49 @@ struct Hold {
     relaunching: Vec<u32>,
     dead: Roster,
     alive: Roster,
+}
+
+/// How the supervision loop ends: the failure message and the signal, if any.
+type Ending = (Option<String>, Option<usize>);
+
+/// The supervision loop's state from one tick to the next.
+struct Watch {
+    /// run.on_agent_loss = "degrade".
+    degrade: bool,
+    startup_limit: Duration,
+    /// The build id every child's handshake must carry.
+    my_hash: u64,
+    start_granted: bool,
+    stop_sent: bool,
+    /// The plant's step, as it last reported it.
+    plant_step: u64,
+    /// Latest "waiting for X at step k" per sender.
+    waiting: Vec<Option<Waiting>>,
+    /// When a process was first seen failed.
+    failed_since: Option<Instant>,
+    hold: Option<Hold>,
+    /// The plant's roster, as it reported it.
+    off_roster: Vec<bool>,
+    /// Graph conditions that stopped holding (warned once until they hold again).
+    warned: Vec<String>,
+}
+
+impl Watch {
+    fn new(s: &Setup) -> Self {
+        Self {
+            degrade: s.run.on_agent_loss == cohort_scenario::OnAgentLoss::Degrade,
+            startup_limit: Duration::from_secs_f64(s.run.startup_timeout_s),
+            my_hash: cohort_wire::build_id_hash(),
+            start_granted: false,
+            stop_sent: false,
+            plant_step: 0,
+            waiting: vec![None; s.n_agents() as usize + 1],
+            failed_since: None,
+            hold: None,
+            off_roster: vec![false; s.n_agents() as usize + 1],
+            warned: Vec::new(),
+        }
+    }
 }
 
 impl Supervisor<'_> {
@@ -726,190 +789,204 @@ impl Supervisor<'_> {
     }
 
     /// Watch until every child has finished, one fails, or a signal arrives. Returns the failure
-    /// message and the signal, if any.
-    fn supervise(
-        &mut self,
-        kids: &mut [Kid],
-        on_step: &dyn Fn(u64),
-        startup_s: &mut Option<f64>,
-    ) -> (Option<String>, Option<usize>) {
-        let s = self.s;
-        let degrade = s.run.on_agent_loss == cohort_scenario::OnAgentLoss::Degrade;
-        let startup_limit = Duration::from_secs_f64(s.run.startup_timeout_s);
-        let my_hash = cohort_wire::build_id_hash();
-        let mut start_granted = false;
-        let mut stop_sent = false;
-        let mut plant_step = 0u64;
-        // Latest "waiting for X at step k" per sender.
-        let mut waiting: Vec<Option<Waiting>> = vec![None; s.n_agents() as usize + 1];
-        let mut failed_since: Option<Instant> = None;
-        let mut hold: Option<Hold> = None;
-        // The plant's roster, as it reported it.
-        let mut off_roster = vec![false; s.n_agents() as usize + 1];
-        // Graph conditions that stopped holding (warned once until they hold again).
-        let mut warned: Vec<String> = Vec::new();
+    /// message and the signal, if any. Each tick: read the statuses, the handshake, the faults,
+    /// the end.
+    fn supervise(&mut self, kids: &mut [Kid], on_step: &dyn Fn(u64), startup_s: &mut Option<f64>) -> Ending {
+        let mut w = Watch::new(self.s);
         loop {
             let sig = SIGNALLED.load(Ordering::SeqCst);
             if sig != 0 {
                 return (None, Some(sig));
             }
-            let mut mismatch = None;
-            let mut statuses = Vec::new();
-            let _ = self.services.poll_status(&mut |st| statuses.push(*st));
-            for st in statuses {
-                let idx = st.sender as usize;
-                if idx >= kids.len() {
-                    continue;
-                }
-                match st.kind {
-                    STATUS_READY => {
-                        if st.build_hash != my_hash {
-                            mismatch = Some(idx);
-                        }
-                        kids[idx].ready = true;
-                    }
-                    STATUS_PROGRESS if st.sender == PLANT_ID => plant_step = st.step,
-                    STATUS_WAITING => {
-                        let rejected = (st.detail as usize).checked_sub(1).and_then(|r| Rejection::ALL.get(r));
-                        waiting[idx] =
-                            Some(Waiting { step: st.step, who: st.waiting_for, rejected: rejected.copied() });
-                        self.waiting = waiting.clone();
-                    }
-                    STATUS_IDLE => kids[idx].idle_at = Some(st.step),
-                    STATUS_HOLDING if st.sender == PLANT_ID => {
-                        plant_step = st.step;
-                        hold = Some(Hold {
-                            step: st.step,
-                            since: Instant::now(),
-                            acted: false,
-                            relaunching: Vec::new(),
-                            dead: Roster::EMPTY,
-                            alive: Roster::EMPTY,
-                        });
-                    }
-                    STATUS_DEAD | STATUS_ALIVE if st.sender == PLANT_ID => {
-                        let a = st.waiting_for;
-                        let dead = st.kind == STATUS_DEAD;
-                        if let Some(slot) = off_roster.get_mut(a as usize) {
-                            *slot = dead;
-                        }
-                        let detail = if dead { self.dead_detail(a, st.step) } else { "back on the roster".to_string() };
-                        self.event(st.step, a, if dead { "dead" } else { "alive" }, detail);
-                        if dead && !self.planned_loss(a, st.step) {
-                            self.report_full_disk(a);
-                        }
-                        // What the survivors' graph still satisfies.
-                        let live: Vec<bool> = off_roster.iter().skip(1).map(|off| !off).collect();
-                        let now = s.roster_warnings(&live);
-                        for w in now.iter().filter(|w| !warned.contains(*w)) {
-                            tracing::warn!(
-                                "from step {} (t = {:.3} s): {w}",
-                                st.step,
-                                st.step as f64 * s.scenario.dt_s
-                            );
-                            self.event(st.step, 0, "warning", w.clone());
-                        }
-                        warned = now;
-                        let known = (1..kids.len()).contains(&(a as usize));
-                        if dead && known && !self.planned_loss(a, st.step) && !kids[a as usize].reported_dead {
-                            let alive = kids[a as usize].exit.is_none();
-                            let why = silence_of(s, a, st.step, &self.waiting, alive);
-                            self.unplanned.push(format!("{why}; it was marked dead"));
-                        }
-                    }
-                    _ => {}
-                }
+            let mismatch = self.poll(&mut w, kids);
+            if let Err(e) = self.handshake(&mut w, kids, mismatch, startup_s) {
+                return (Some(e), None);
             }
-            if let Some(idx) = mismatch {
-                let name = kids[idx].proc_.name();
-                return (
-                    Some(format!(
-                        "{name} was built from other sources than the orchestrator (handshake build id differs): rebuild the workspace"
-                    )),
-                    None,
-                );
+            if let Err(e) = self.faults(&mut w, kids) {
+                return (Some(e), None);
             }
-            if !start_granted && kids.iter().all(|k| k.ready) {
-                if let Err(e) = self.services.grant_start() {
-                    return (Some(format!("cannot send the start signal: {e}")), None);
-                }
-                start_granted = true;
-                *startup_s = Some(self.started.elapsed().as_secs_f64());
-            }
-            if !start_granted && self.started.elapsed() > startup_limit {
-                let slow: Vec<String> = kids.iter().filter(|k| !k.ready).map(|k| k.proc_.name()).collect();
-                return (
-                    Some(format!(
-                        "start-up timeout: {} not ready after {:.0} s (run.startup_timeout_s)",
-                        slow.join(", "),
-                        startup_limit.as_secs_f64()
-                    )),
-                    None,
-                );
-            }
-            // Reap.
-            for k in kids.iter_mut() {
-                k.reap();
-            }
-            self.note_lost_hosts(kids, plant_step);
-            if let Some(h) = &mut hold {
-                match self.advance_hold(h, kids) {
-                    Ok(true) => hold = None,
-                    Ok(false) => {}
-                    Err(e) => return (Some(e), None),
-                }
-            }
-            // Degrade: an agent that ended outside the plan is reported to the plant at once.
-            if degrade {
-                for i in 1..kids.len() {
-                    let k = &kids[i];
-                    let unplanned = k.exit.is_some_and(|st| !st.success()) && !k.planned_exit && !k.reported_dead;
-                    if unplanned && !off_roster[i] && kids[0].exit.is_none() {
-                        let mut r = Roster::EMPTY;
-                        r.set(i as u32, true);
-                        let _ = self.services.report_dead(r);
-                        let msg = format!(
-                            "{} at or after step {plant_step} (t = {:.3} s)",
-                            self.describe_kid(&kids[i]),
-                            plant_step as f64 * s.scenario.dt_s
-                        );
-                        self.event(plant_step, i as u32, "died", msg.clone());
-                        self.unplanned.push(msg);
-                        kids[i].reported_dead = true;
-                    }
-                }
-            }
-            on_step(plant_step);
-            let plant_ok = kids[0].exit.is_some_and(|st| st.success());
-            if plant_ok && !stop_sent {
-                // Every last share has been read: the agents keeping their ports open for it
-                // (see `keeps_ports_until_stopped`) may leave.
-                let _ = self.services.request_stop();
-                stop_sent = true;
-            }
-            // Done when the plant is, and every agent on its roster has finished.
-            let agents_done =
-                kids.iter().enumerate().skip(1).all(|(i, k)| k.exit.is_some_and(|st| st.success()) || off_roster[i]);
-            if plant_ok && agents_done {
-                on_step(s.n_steps());
-                return (None, None);
-            }
-            let failed_kid = |k: &Kid| k.exit.is_some_and(|st| !st.success()) && !k.planned_exit;
-            let failing =
-                if degrade { kids[0].exit.is_some_and(|st| !st.success()) } else { kids.iter().any(failed_kid) };
-            if failing {
-                // When one process fails the others usually follow within moments (everyone times
-                // out waiting for the same silent peer). Collect for a short window, then name the
-                // root cause rather than whichever consequence exited first.
-                let since = *failed_since.get_or_insert_with(Instant::now);
-                if since.elapsed() < BLAME_WAIT {
-                    std::thread::sleep(TICK);
-                    continue;
-                }
-                return (Some(blame(s, self.dirs, kids, &waiting, plant_step)), None);
+            if let Some(end) = self.end(&mut w, kids, on_step) {
+                return end;
             }
             std::thread::sleep(TICK);
         }
+    }
+
+    /// Read the statuses the children sent since the last tick. Returns a child whose handshake
+    /// build id differs from the orchestrator's.
+    fn poll(&mut self, w: &mut Watch, kids: &mut [Kid]) -> Option<usize> {
+        let mut mismatch = None;
+        let mut statuses = Vec::new();
+        let _ = self.services.poll_status(&mut |st| statuses.push(*st));
+        for st in statuses {
+            let idx = st.sender as usize;
+            if idx >= kids.len() {
+                continue;
+            }
+            match st.kind {
+                STATUS_READY => {
+                    if st.build_hash != w.my_hash {
+                        mismatch = Some(idx);
+                    }
+                    kids[idx].ready = true;
+                }
+                STATUS_PROGRESS if st.sender == PLANT_ID => w.plant_step = st.step,
+                STATUS_WAITING => {
+                    let rejected = (st.detail as usize).checked_sub(1).and_then(|r| Rejection::ALL.get(r));
+                    w.waiting[idx] = Some(Waiting { step: st.step, who: st.waiting_for, rejected: rejected.copied() });
+                    self.waiting = w.waiting.clone();
+                }
+                STATUS_IDLE => kids[idx].idle_at = Some(st.step),
+                STATUS_HOLDING if st.sender == PLANT_ID => {
+                    w.plant_step = st.step;
+                    w.hold = Some(Hold {
+                        step: st.step,
+                        since: Instant::now(),
+                        acted: false,
+                        relaunching: Vec::new(),
+                        dead: Roster::EMPTY,
+                        alive: Roster::EMPTY,
+                    });
+                }
+                STATUS_DEAD | STATUS_ALIVE if st.sender == PLANT_ID => self.roster_change(w, kids, &st),
+                _ => {}
+            }
+        }
+        mismatch
+    }
+
+    /// The plant took an agent off its roster or back on: the timeline, the warnings about what
+    /// the survivors' graph no longer satisfies, and an unplanned loss named.
+    fn roster_change(&mut self, w: &mut Watch, kids: &[Kid], st: &Status) {
+        let s = self.s;
+        let a = st.waiting_for;
+        let dead = st.kind == STATUS_DEAD;
+        if let Some(slot) = w.off_roster.get_mut(a as usize) {
+            *slot = dead;
+        }
+        let detail = if dead { self.dead_detail(a, st.step) } else { "back on the roster".to_string() };
+        self.event(st.step, a, if dead { "dead" } else { "alive" }, detail);
+        if dead && !self.planned_loss(a, st.step) {
+            self.report_full_disk(a);
+        }
+        // What the survivors' graph still satisfies.
+        let live: Vec<bool> = w.off_roster.iter().skip(1).map(|off| !off).collect();
+        let now = s.roster_warnings(&live);
+        for warning in now.iter().filter(|x| !w.warned.contains(*x)) {
+            tracing::warn!("from step {} (t = {:.3} s): {warning}", st.step, st.step as f64 * s.scenario.dt_s);
+            self.event(st.step, 0, "warning", warning.clone());
+        }
+        w.warned = now;
+        let known = (1..kids.len()).contains(&(a as usize));
+        if dead && known && !self.planned_loss(a, st.step) && !kids[a as usize].reported_dead {
+            let alive = kids[a as usize].exit.is_none();
+            let why = silence_of(s, a, st.step, &self.waiting, alive);
+            self.unplanned.push(format!("{why}; it was marked dead"));
+        }
+    }
+
+    /// The start barrier: a build mismatch fails the run; once every child is ready, grant the
+    /// start (and note the start-up time); no start within run.startup_timeout_s fails the run.
+    fn handshake(
+        &mut self,
+        w: &mut Watch,
+        kids: &[Kid],
+        mismatch: Option<usize>,
+        startup_s: &mut Option<f64>,
+    ) -> Result<(), String> {
+        if let Some(idx) = mismatch {
+            let name = kids[idx].proc_.name();
+            return Err(format!(
+                "{name} was built from other sources than the orchestrator (handshake build id differs): rebuild the workspace"
+            ));
+        }
+        if !w.start_granted && kids.iter().all(|k| k.ready) {
+            if let Err(e) = self.services.grant_start() {
+                return Err(format!("cannot send the start signal: {e}"));
+            }
+            w.start_granted = true;
+            *startup_s = Some(self.started.elapsed().as_secs_f64());
+        }
+        if !w.start_granted && self.started.elapsed() > w.startup_limit {
+            let slow: Vec<String> = kids.iter().filter(|k| !k.ready).map(|k| k.proc_.name()).collect();
+            return Err(format!(
+                "start-up timeout: {} not ready after {:.0} s (run.startup_timeout_s)",
+                slow.join(", "),
+                w.startup_limit.as_secs_f64()
+            ));
+        }
+        Ok(())
+    }
+
+    /// Reap the children, note lost hosts, carry the plant's hold for process faults on, and in
+    /// degrade mode report an agent that ended outside the plan to the plant at once.
+    fn faults(&mut self, w: &mut Watch, kids: &mut [Kid]) -> Result<(), String> {
+        let s = self.s;
+        for k in kids.iter_mut() {
+            k.reap();
+        }
+        self.note_lost_hosts(kids, w.plant_step);
+        if let Some(h) = &mut w.hold
+            && self.advance_hold(h, kids)?
+        {
+            w.hold = None;
+        }
+        if w.degrade {
+            let plant_step = w.plant_step;
+            for i in 1..kids.len() {
+                let k = &kids[i];
+                let unplanned = k.exit.is_some_and(|st| !st.success()) && !k.planned_exit && !k.reported_dead;
+                if unplanned && !w.off_roster[i] && kids[0].exit.is_none() {
+                    let mut r = Roster::EMPTY;
+                    r.set(i as u32, true);
+                    let _ = self.services.report_dead(r);
+                    let msg = format!(
+                        "{} at or after step {plant_step} (t = {:.3} s)",
+                        self.describe_kid(&kids[i]),
+                        plant_step as f64 * s.scenario.dt_s
+                    );
+                    self.event(plant_step, i as u32, "died", msg.clone());
+                    self.unplanned.push(msg);
+                    kids[i].reported_dead = true;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Progress; the stop request once the plant is done; the end when every agent on its roster
+    /// is done too, or (after a short window to see who failed first) when a process failed.
+    /// None: go on.
+    fn end(&mut self, w: &mut Watch, kids: &[Kid], on_step: &dyn Fn(u64)) -> Option<Ending> {
+        let s = self.s;
+        on_step(w.plant_step);
+        let plant_ok = kids[0].exit.is_some_and(|st| st.success());
+        if plant_ok && !w.stop_sent {
+            // Every last share has been read: the agents keeping their ports open for it
+            // (see `keeps_ports_until_stopped`) may leave.
+            let _ = self.services.request_stop();
+            w.stop_sent = true;
+        }
+        // Done when the plant is, and every agent on its roster has finished.
+        let agents_done =
+            kids.iter().enumerate().skip(1).all(|(i, k)| k.exit.is_some_and(|st| st.success()) || w.off_roster[i]);
+        if plant_ok && agents_done {
+            on_step(s.n_steps());
+            return Some((None, None));
+        }
+        let failed_kid = |k: &Kid| k.exit.is_some_and(|st| !st.success()) && !k.planned_exit;
+        let failing =
+            if w.degrade { kids[0].exit.is_some_and(|st| !st.success()) } else { kids.iter().any(failed_kid) };
+        if failing {
+            // When one process fails the others usually follow within moments (everyone times
+            // out waiting for the same silent peer). Collect for a short window, then name the
+            // root cause rather than whichever consequence exited first.
+            let since = *w.failed_since.get_or_insert_with(Instant::now);
+            if since.elapsed() >= BLAME_WAIT {
+                return Some((Some(blame(s, self.dirs, kids, &w.waiting, w.plant_step)), None));
+            }
+        }
+        None
     }
 
     fn dead_detail(&self, agent: u32, step: u64) -> String {

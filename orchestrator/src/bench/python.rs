@@ -9,7 +9,9 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::{Aggregate, Case, RING, RingRun, get, median, ring};
+use super::report::get;
+use super::ring::{RING, RingRun, ring};
+use super::types::{Aggregate, Case, median};
 
 /// What the rows' ratios are taken of.
 fn case(key: String, n: u32, variant: &str, scenario: cohort_runtime::paper::Setup, reference: bool) -> Case {
@@ -89,7 +91,7 @@ pub(super) fn cases(quick: bool, repo: &Path, scratch: &Path) -> Result<Vec<Case
 }
 
 /// Per repetition, a / b of `f` (the ratios of one run each, taken in the same repetition).
-fn ratios(a: &Aggregate, b: &Aggregate, f: impl Fn(&super::Sample) -> f64) -> Vec<f64> {
+fn ratios(a: &Aggregate, b: &Aggregate, f: impl Fn(&super::types::Sample) -> f64) -> Vec<f64> {
     a.samples.iter().zip(&b.samples).map(|(x, y)| f(x) / f(y)).collect()
 }
 

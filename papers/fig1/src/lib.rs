@@ -15,6 +15,7 @@ pub mod figures;
 pub mod lbdnn_network;
 pub mod lbdnn_servicing;
 pub mod servicing;
+pub mod sweep;
 pub mod verdict;
 
 use std::path::Path;
@@ -85,6 +86,9 @@ impl PaperHost for Fig1 {
     }
     fn bench_scenarios(&self) -> Vec<&'static str> {
         vec!["topologies/fig1.toml"]
+    }
+    fn sweep_section(&self, _setup: &Setup, rows: &[(u64, Metrics)]) -> Option<String> {
+        sweep::section(rows)
     }
     fn figures(&self, setup: &Setup, run_dir: &Path) -> Option<Box<dyn FigureSource>> {
         // Only a run whose analysis wrote the joined series gets the paper's figures (and leaves

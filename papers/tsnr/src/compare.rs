@@ -217,293 +217,372 @@ type Row = (String, Vec<Option<f64>>, Vec<Option<f64>>);
 /// Write `compare.csv` and `compare.md` under `root`; returns the Markdown. `runs` holds each
 /// method's summary metrics, in the order run.
 pub fn write(root: &Path, ctx: &Context, runs: &[(String, BTreeMap<String, f64>)]) -> Result<String, String> {
-    let case = paper_case(ctx.scenario_name);
-    let methods: Vec<&str> = runs.iter().map(|(m, _)| m.as_str()).collect();
-    let get = |m: &BTreeMap<String, f64>, k: &str| m.get(k).copied();
-    let aemc = runs.iter().find(|(m, _)| m == "aemc").map(|(_, m)| m);
-    let with_paper = case.filter(|_| ctx.n_mus as usize == PAPER_MUS);
-    let mu_ids: Vec<u32> = (1..=ctx.n_mus).collect();
-
-    // ---- compare.csv: one row per metric, one column per method (and per published method).
-    // Values are the summaries' own (`{:?}` round-trips), so a reader can check them exactly.
-    let mut rows: Vec<Row> = Vec::new();
-    let ours = |key: &str| -> Vec<Option<f64>> { runs.iter().map(|(_, m)| get(m, key)).collect() };
-    let theirs = |f: &dyn Fn(&PaperFuel) -> f64| -> Vec<Option<f64>> {
-        methods.iter().map(|m| with_paper.and_then(|c| paper(c, m)).map(f)).collect()
-    };
-    for &id in &mu_ids {
-        let i = id as usize - 1;
-        let key = format!("mu_{id}.fuel_ns");
-        rows.push((key.clone(), ours(&key), theirs(&|p| p.per_mu[i])));
-    }
-    rows.push(("fuel_total_ns".into(), ours("fuel_total_ns"), theirs(&|p| p.total)));
-    let paper_aemc = with_paper.and_then(|c| paper(c, "aemc"));
-    let ratio_of = |key: &str, base: Option<f64>| -> Vec<Option<f64>> {
-        runs.iter().map(|(_, m)| Some(get(m, key)? / base?)).collect()
-    };
-    for &id in &mu_ids {
-        let i = id as usize - 1;
-        let key = format!("mu_{id}.fuel_ns");
-        let base = aemc.and_then(|m| get(m, &key));
-        let paper_ratio = theirs(&|p| p.per_mu[i]).into_iter().map(|x| Some(x? / paper_aemc?.per_mu[i])).collect();
-        rows.push((format!("mu_{id}.fuel_ratio_to_aemc"), ratio_of(&key, base), paper_ratio));
-    }
-    let base = aemc.and_then(|m| get(m, "fuel_total_ns"));
-    let paper_ratio = theirs(&|p| p.total).into_iter().map(|x| Some(x? / paper_aemc?.total)).collect();
-    rows.push(("fuel_total_ratio_to_aemc".into(), ratio_of("fuel_total_ns", base), paper_ratio));
-    let none = vec![None; runs.len()];
-    let plain = |key: String, rows: &mut Vec<_>| {
-        let v = ours(&key);
-        rows.push((key, v, none.clone()));
-    };
-    for &id in &mu_ids {
-        for k in windowed(runs, id, "err_rms").into_iter().chain(windowed(runs, id, "err_peak")) {
-            plain(k, &mut rows);
-        }
-        for s in ["terminal_err_m", "terminal_err_v_mps", "terminal_ok"] {
-            plain(format!("mu_{id}.{s}"), &mut rows);
-        }
-    }
-    plain("thrust_bound_violations".into(), &mut rows);
-    for ax in ["x", "y", "z"] {
-        plain(format!("thrust_max_abs_{ax}_n"), &mut rows);
-    }
-    for &id in &mu_ids {
-        plain(format!("mu_{id}.tension_max_n"), &mut rows);
-    }
-    for &id in &mu_ids {
-        for s in ["qp_p50_s", "qp_p99_s", "qp_max_s"] {
-            plain(format!("mu_{id}.{s}"), &mut rows);
-        }
-    }
-    plain("qp_not_converged".into(), &mut rows);
-    plain("qp_infeasible".into(), &mut rows);
-
-    let mut csv = String::from("metric");
-    for m in &methods {
-        let _ = write!(csv, ",{m}");
-    }
-    if with_paper.is_some() {
-        for m in &methods {
-            let _ = write!(csv, ",paper_{m}");
-        }
-    }
-    csv.push('\n');
-    let cell = |x: &Option<f64>| x.map_or(String::new(), |v| format!("{v:?}"));
-    for (key, ours, paper) in &rows {
-        csv.push_str(key);
-        for x in ours {
-            let _ = write!(csv, ",{}", cell(x));
-        }
-        if with_paper.is_some() {
-            for x in paper {
-                let _ = write!(csv, ",{}", cell(x));
-            }
-        }
-        csv.push('\n');
-    }
+    let c = Compare::new(root, ctx, runs);
+    let rows = c.rows();
     let csv_path = root.join("compare.csv");
-    std::fs::write(&csv_path, csv).map_err(|e| format!("{}: {e}", csv_path.display()))?;
-
-    // ---- compare.md
-    let mut md = format!(
-        "# `{}`: {}\n\nScenario `{}`, seed {}, {} MUs, {} steps of {} s; each method run multi-process (one \
-         process per MU, the plant, the orchestrator). Run directories: {}.\n\n",
-        ctx.file.display(),
-        methods.join(", "),
-        ctx.scenario_name,
-        ctx.seed,
-        ctx.n_mus,
-        ctx.steps,
-        ctx.dt_s,
-        methods.iter().map(|m| format!("`{m}/`")).collect::<Vec<_>>().join(", "),
-    );
-    match (case, with_paper) {
-        (Some(c), Some(_)) => {
-            let _ = writeln!(md, "Published values: Case {c}, Table {c} of the paper.\n");
-        }
-        (Some(c), None) => {
-            let _ =
-                writeln!(md, "Case {c} by name, but {} MUs: the paper's table has 4, so it is not shown.\n", ctx.n_mus);
-        }
-        _ => md.push_str("Not one of the paper's cases (`tsnr-case1`, `tsnr-case2`): no published column.\n\n"),
-    }
-    md.push_str(
-        "## Fuel\n\nOurs: ∫‖uᵢ‖dt over the run, N·s. The paper's Tables 1–2 give \"the total control input \
-         generated\" in N without saying how it is summed, so the absolute figures are not comparable: we \
-         compare the methods by their ratio to AEMC and by their order.\n\n| MU |",
-    );
-    for m in &methods {
-        let _ = write!(md, " {m} (N·s) |");
-    }
-    if with_paper.is_some() {
-        for m in &methods {
-            let _ = write!(md, " paper {m} (N) |");
-        }
-    }
-    let ncols = methods.len() * if with_paper.is_some() { 2 } else { 1 };
-    let _ = writeln!(md, "\n|---|{}", "---|".repeat(ncols));
-    let fuel_rows = mu_ids.len() + 1;
-    for (r, (key, ours, paper)) in rows.iter().take(fuel_rows).enumerate() {
-        let label = if key == "fuel_total_ns" { "total".to_string() } else { (r + 1).to_string() };
-        let _ = write!(md, "| {label} |");
-        for x in ours {
-            let _ = write!(md, " {} |", x.map_or("–".into(), |v| format!("{v:.2}")));
-        }
-        if with_paper.is_some() {
-            for x in paper {
-                let _ = write!(md, " {} |", x.map_or("–".into(), |v| format!("{v:.2}")));
-            }
-        }
-        md.push('\n');
-    }
-    if let Some((_, ours, paper)) = rows.iter().find(|(k, _, _)| k == "fuel_total_ratio_to_aemc") {
-        md.push_str("| total / AEMC |");
-        for x in ours {
-            let _ = write!(md, " {} |", x.map_or("–".into(), |v| format!("{v:.4}")));
-        }
-        if with_paper.is_some() {
-            for x in paper {
-                let _ = write!(md, " {} |", x.map_or("–".into(), |v| format!("{v:.4}")));
-            }
-        }
-        md.push('\n');
-    }
-    if aemc.is_none() {
-        md.push_str("\nAEMC was not run: no ratios of ours.\n");
-    }
-    // The paper's unit: Σ‖u_k‖ over the control steps. With the thrust held over each step it is
-    // ∫‖u‖dt / Δt exactly, so the published totals (≈ 140 N in Case 1) would be ≈ 14 N·s of
-    // ours, a thirtieth of what our net demands.
-    let per_step: Vec<String> = runs
-        .iter()
-        .map(|(m, r)| format!("{m} {}", get(r, "fuel_total_ns").map_or("–".into(), |f| format!("{:.0}", f / ctx.dt_s))))
-        .collect();
-    let _ = writeln!(
-        md,
-        "\nIn the paper's unit, Σₖ‖uᵢ(t_k)‖ over the {} s steps summed over the MUs (∫‖u‖dt / Δt, the thrust being \
-         held over each step): {} N.",
-        ctx.dt_s,
-        per_step.join(", ")
-    );
-    // Orders, least fuel first.
-    let order = |vals: Vec<(&str, Option<f64>)>| -> Option<Vec<String>> {
-        let mut v: Vec<(&str, f64)> = vals.into_iter().map(|(m, x)| Some((m, x?))).collect::<Option<_>>()?;
-        v.sort_by(|a, b| a.1.total_cmp(&b.1));
-        Some(v.into_iter().map(|(m, _)| m.to_string()).collect())
-    };
-    let ours_order = order(runs.iter().map(|(m, r)| (m.as_str(), get(r, "fuel_total_ns"))).collect());
-    let paper_order =
-        with_paper.and_then(|c| order(methods.iter().map(|m| (*m, paper(c, m).map(|p| p.total))).collect()));
-    md.push('\n');
-    if let Some(o) = &ours_order {
-        let _ = writeln!(md, "Order by total fuel, least first — ours: {}.", o.join(" < "));
-    }
-    if let Some(p) = &paper_order {
-        let same = ours_order.as_ref() == Some(p);
-        let _ =
-            writeln!(md, "Paper: {} ({}).", p.join(" < "), if same { "the same order" } else { "a different order" });
-    }
-    if with_paper == Some(2) && methods.contains(&"dmpc") {
-        md.push_str(
-            "\nTable 2's DMPC column sums to 222.37, not the printed total 223.53; the total ratio uses the printed \
-             total.\n",
-        );
-    }
-
-    // Tracking.
-    let _ = write!(
-        md,
-        "\n## Tracking error ‖r − r_d‖\n\nRMS per phase of the trajectory, peak around the end of deployment (the \
-         paper has DMPC and SMC peak at 10 s, AEMC not), and the terminal error in the last row (t = T − Δt) \
-         against {TERMINAL_POSITION_TOL_M} m and {TERMINAL_VELOCITY_TOL_MPS} m/s.\n\n| MU | method |"
-    );
-    let rms_keys = windowed(runs, 1, "err_rms");
-    let peak_keys = windowed(runs, 1, "err_peak");
-    for k in &rms_keys {
-        let _ = write!(md, " RMS {} (m) |", window_label(k, "err_rms"));
-    }
-    for k in &peak_keys {
-        let _ = write!(md, " peak {} (m) |", window_label(k, "err_peak"));
-    }
-    md.push_str(" terminal ‖e‖ (m) | terminal ‖v − v_d‖ (m/s) | terminal ok |\n|---|---|");
-    md.push_str(&"---|".repeat(rms_keys.len() + peak_keys.len() + 3));
-    md.push('\n');
-    let num = |m: &BTreeMap<String, f64>, k: &str| get(m, k).map_or("–".into(), g);
-    for &id in &mu_ids {
-        let swap = |k: &str| k.replacen("mu_1.", &format!("mu_{id}."), 1);
-        for (method, m) in runs {
-            let _ = write!(md, "| {id} | {method} |");
-            for k in rms_keys.iter().chain(&peak_keys) {
-                let _ = write!(md, " {} |", num(m, &swap(k)));
-            }
-            let ok = match get(m, &format!("mu_{id}.terminal_ok")) {
-                Some(1.0) => "yes",
-                Some(_) => "**no**",
-                None => "–",
-            };
-            let _ = writeln!(
-                md,
-                " {} | {} | {ok} |",
-                num(m, &format!("mu_{id}.terminal_err_m")),
-                num(m, &format!("mu_{id}.terminal_err_v_mps"))
-            );
-        }
-    }
-    if let Some(pk) = peak_keys.first() {
-        md.push_str("\nLargest peak over the MUs: ");
-        let parts: Vec<String> = runs
-            .iter()
-            .map(|(method, m)| {
-                let peak = mu_ids
-                    .iter()
-                    .filter_map(|id| get(m, &pk.replacen("mu_1.", &format!("mu_{id}."), 1)))
-                    .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))));
-                format!("{method} {} m", peak.map_or("–".into(), g))
-            })
-            .collect();
-        let _ = writeln!(md, "{}.", parts.join(", "));
-    }
-
-    // Thrust and solver.
-    md.push_str(
-        "\n## Thrust and solver\n\nQP solve wall times per MU (1 / 2 / 3 / …), ms; failures summed over the MUs. \
-         SMC solves no QP.\n\n| method | thrust-bound violations | largest thrust component (N) | QP p50 (ms) | QP p99 \
-         (ms) | QP max (ms) | not converged | infeasible |\n|---|---|---|---|---|---|---|---|\n",
-    );
-    for (method, m) in runs {
-        let per_mu = |s: &str| -> String {
-            let xs: Vec<String> =
-                mu_ids.iter().map(|id| get(m, &format!("mu_{id}.{s}")).map_or("–".into(), |v| g(v * 1e3))).collect();
-            if xs.iter().all(|x| x == "–") { "–".into() } else { xs.join(" / ") }
-        };
-        let umax = ["x", "y", "z"]
-            .iter()
-            .filter_map(|ax| get(m, &format!("thrust_max_abs_{ax}_n")))
-            .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))));
-        let _ = writeln!(
-            md,
-            "| {method} | {} | {} | {} | {} | {} | {} | {} |",
-            num(m, "thrust_bound_violations"),
-            umax.map_or("–".into(), g),
-            per_mu("qp_p50_s"),
-            per_mu("qp_p99_s"),
-            per_mu("qp_max_s"),
-            num(m, "qp_not_converged"),
-            num(m, "qp_infeasible"),
-        );
-    }
-    if !ctx.figures.is_empty() {
-        md.push_str("\n## Figures\n\n");
-        for f in ctx.figures {
-            let shown = f.strip_prefix(root).unwrap_or(f);
-            let _ = writeln!(md, "- `{}`", shown.display());
-        }
-    }
-    md.push_str("\nEvery number above is in `compare.csv` (exact) and the runs' `summary.json`.\n");
+    std::fs::write(&csv_path, c.csv(&rows)).map_err(|e| format!("{}: {e}", csv_path.display()))?;
+    let mut md = c.intro();
+    c.fuel(&mut md, &rows);
+    c.tracking(&mut md);
+    c.thrust_and_solver(&mut md);
+    c.figures(&mut md);
     let md_path = root.join("compare.md");
     std::fs::write(&md_path, &md).map_err(|e| format!("{}: {e}", md_path.display()))?;
     Ok(md)
+}
+
+/// A metric of a run's summary.
+fn get(m: &BTreeMap<String, f64>, k: &str) -> Option<f64> {
+    m.get(k).copied()
+}
+
+/// What every part of the comparison reads: the runs, their methods, and the paper's case when
+/// its table applies.
+struct Compare<'a> {
+    root: &'a Path,
+    ctx: &'a Context<'a>,
+    runs: &'a [(String, BTreeMap<String, f64>)],
+    case: Option<u32>,
+    methods: Vec<&'a str>,
+    aemc: Option<&'a BTreeMap<String, f64>>,
+    /// The paper's case, when the scenario is one and has the table's 4 MUs.
+    with_paper: Option<u32>,
+    mu_ids: Vec<u32>,
+}
+
+impl<'a> Compare<'a> {
+    fn new(root: &'a Path, ctx: &'a Context<'a>, runs: &'a [(String, BTreeMap<String, f64>)]) -> Self {
+        let case = paper_case(ctx.scenario_name);
+        Self {
+            root,
+            ctx,
+            runs,
+            case,
+            methods: runs.iter().map(|(m, _)| m.as_str()).collect(),
+            aemc: runs.iter().find(|(m, _)| m == "aemc").map(|(_, m)| m),
+            with_paper: case.filter(|_| ctx.n_mus as usize == PAPER_MUS),
+            mu_ids: (1..=ctx.n_mus).collect(),
+        }
+    }
+
+    /// compare.csv's rows: one per metric, one column per method (and per published method).
+    /// Values are the summaries' own (`{:?}` round-trips), so a reader can check them exactly.
+    fn rows(&self) -> Vec<Row> {
+        let (runs, methods, aemc, with_paper, mu_ids) =
+            (self.runs, self.methods.clone(), self.aemc, self.with_paper, self.mu_ids.clone());
+        let mut rows: Vec<Row> = Vec::new();
+        let ours = |key: &str| -> Vec<Option<f64>> { runs.iter().map(|(_, m)| get(m, key)).collect() };
+        let theirs = |f: &dyn Fn(&PaperFuel) -> f64| -> Vec<Option<f64>> {
+            methods.iter().map(|m| with_paper.and_then(|c| paper(c, m)).map(f)).collect()
+        };
+        for &id in &mu_ids {
+            let i = id as usize - 1;
+            let key = format!("mu_{id}.fuel_ns");
+            rows.push((key.clone(), ours(&key), theirs(&|p| p.per_mu[i])));
+        }
+        rows.push(("fuel_total_ns".into(), ours("fuel_total_ns"), theirs(&|p| p.total)));
+        let paper_aemc = with_paper.and_then(|c| paper(c, "aemc"));
+        let ratio_of = |key: &str, base: Option<f64>| -> Vec<Option<f64>> {
+            runs.iter().map(|(_, m)| Some(get(m, key)? / base?)).collect()
+        };
+        for &id in &mu_ids {
+            let i = id as usize - 1;
+            let key = format!("mu_{id}.fuel_ns");
+            let base = aemc.and_then(|m| get(m, &key));
+            let paper_ratio = theirs(&|p| p.per_mu[i]).into_iter().map(|x| Some(x? / paper_aemc?.per_mu[i])).collect();
+            rows.push((format!("mu_{id}.fuel_ratio_to_aemc"), ratio_of(&key, base), paper_ratio));
+        }
+        let base = aemc.and_then(|m| get(m, "fuel_total_ns"));
+        let paper_ratio = theirs(&|p| p.total).into_iter().map(|x| Some(x? / paper_aemc?.total)).collect();
+        rows.push(("fuel_total_ratio_to_aemc".into(), ratio_of("fuel_total_ns", base), paper_ratio));
+        let none = vec![None; runs.len()];
+        let plain = |key: String, rows: &mut Vec<_>| {
+            let v = ours(&key);
+            rows.push((key, v, none.clone()));
+        };
+        for &id in &mu_ids {
+            for k in windowed(runs, id, "err_rms").into_iter().chain(windowed(runs, id, "err_peak")) {
+                plain(k, &mut rows);
+            }
+            for s in ["terminal_err_m", "terminal_err_v_mps", "terminal_ok"] {
+                plain(format!("mu_{id}.{s}"), &mut rows);
+            }
+        }
+        plain("thrust_bound_violations".into(), &mut rows);
+        for ax in ["x", "y", "z"] {
+            plain(format!("thrust_max_abs_{ax}_n"), &mut rows);
+        }
+        for &id in &mu_ids {
+            plain(format!("mu_{id}.tension_max_n"), &mut rows);
+        }
+        for &id in &mu_ids {
+            for s in ["qp_p50_s", "qp_p99_s", "qp_max_s"] {
+                plain(format!("mu_{id}.{s}"), &mut rows);
+            }
+        }
+        plain("qp_not_converged".into(), &mut rows);
+        plain("qp_infeasible".into(), &mut rows);
+        rows
+    }
+
+    /// compare.csv: `rows` under a header of the methods (and the published methods).
+    fn csv(&self, rows: &[Row]) -> String {
+        let (methods, with_paper) = (self.methods.clone(), self.with_paper);
+        let mut csv = String::from("metric");
+        for m in &methods {
+            let _ = write!(csv, ",{m}");
+        }
+        if with_paper.is_some() {
+            for m in &methods {
+                let _ = write!(csv, ",paper_{m}");
+            }
+        }
+        csv.push('\n');
+        let cell = |x: &Option<f64>| x.map_or(String::new(), |v| format!("{v:?}"));
+        for (key, ours, paper) in rows {
+            csv.push_str(key);
+            for x in ours {
+                let _ = write!(csv, ",{}", cell(x));
+            }
+            if with_paper.is_some() {
+                for x in paper {
+                    let _ = write!(csv, ",{}", cell(x));
+                }
+            }
+            csv.push('\n');
+        }
+        csv
+    }
+
+    /// compare.md's heading: the scenario, the runs, and which published table applies.
+    fn intro(&self) -> String {
+        let (ctx, methods, case, with_paper) = (self.ctx, self.methods.clone(), self.case, self.with_paper);
+        let mut md = format!(
+            "# `{}`: {}\n\nScenario `{}`, seed {}, {} MUs, {} steps of {} s; each method run multi-process (one \
+             process per MU, the plant, the orchestrator). Run directories: {}.\n\n",
+            ctx.file.display(),
+            methods.join(", "),
+            ctx.scenario_name,
+            ctx.seed,
+            ctx.n_mus,
+            ctx.steps,
+            ctx.dt_s,
+            methods.iter().map(|m| format!("`{m}/`")).collect::<Vec<_>>().join(", "),
+        );
+        match (case, with_paper) {
+            (Some(c), Some(_)) => {
+                let _ = writeln!(md, "Published values: Case {c}, Table {c} of the paper.\n");
+            }
+            (Some(c), None) => {
+                let _ = writeln!(
+                    md,
+                    "Case {c} by name, but {} MUs: the paper's table has 4, so it is not shown.\n",
+                    ctx.n_mus
+                );
+            }
+            _ => md.push_str("Not one of the paper's cases (`tsnr-case1`, `tsnr-case2`): no published column.\n\n"),
+        }
+        md
+    }
+
+    /// The fuel table (ours against the published), the paper's unit, and the methods' order.
+    fn fuel(&self, md: &mut String, rows: &[Row]) {
+        let (ctx, runs, methods, aemc, with_paper, mu_ids) =
+            (self.ctx, self.runs, self.methods.clone(), self.aemc, self.with_paper, self.mu_ids.clone());
+        md.push_str(
+            "## Fuel\n\nOurs: ∫‖uᵢ‖dt over the run, N·s. The paper's Tables 1–2 give \"the total control input \
+             generated\" in N without saying how it is summed, so the absolute figures are not comparable: we \
+             compare the methods by their ratio to AEMC and by their order.\n\n| MU |",
+        );
+        for m in &methods {
+            let _ = write!(md, " {m} (N·s) |");
+        }
+        if with_paper.is_some() {
+            for m in &methods {
+                let _ = write!(md, " paper {m} (N) |");
+            }
+        }
+        let ncols = methods.len() * if with_paper.is_some() { 2 } else { 1 };
+        let _ = writeln!(md, "\n|---|{}", "---|".repeat(ncols));
+        let fuel_rows = mu_ids.len() + 1;
+        for (r, (key, ours, paper)) in rows.iter().take(fuel_rows).enumerate() {
+            let label = if key == "fuel_total_ns" { "total".to_string() } else { (r + 1).to_string() };
+            let _ = write!(md, "| {label} |");
+            for x in ours {
+                let _ = write!(md, " {} |", x.map_or("–".into(), |v| format!("{v:.2}")));
+            }
+            if with_paper.is_some() {
+                for x in paper {
+                    let _ = write!(md, " {} |", x.map_or("–".into(), |v| format!("{v:.2}")));
+                }
+            }
+            md.push('\n');
+        }
+        if let Some((_, ours, paper)) = rows.iter().find(|(k, _, _)| k == "fuel_total_ratio_to_aemc") {
+            md.push_str("| total / AEMC |");
+            for x in ours {
+                let _ = write!(md, " {} |", x.map_or("–".into(), |v| format!("{v:.4}")));
+            }
+            if with_paper.is_some() {
+                for x in paper {
+                    let _ = write!(md, " {} |", x.map_or("–".into(), |v| format!("{v:.4}")));
+                }
+            }
+            md.push('\n');
+        }
+        if aemc.is_none() {
+            md.push_str("\nAEMC was not run: no ratios of ours.\n");
+        }
+        // The paper's unit: Σ‖u_k‖ over the control steps. With the thrust held over each step it is
+        // ∫‖u‖dt / Δt exactly, so the published totals (≈ 140 N in Case 1) would be ≈ 14 N·s of
+        // ours, a thirtieth of what our net demands.
+        let per_step: Vec<String> = runs
+            .iter()
+            .map(|(m, r)| {
+                format!("{m} {}", get(r, "fuel_total_ns").map_or("–".into(), |f| format!("{:.0}", f / ctx.dt_s)))
+            })
+            .collect();
+        let _ = writeln!(
+            md,
+            "\nIn the paper's unit, Σₖ‖uᵢ(t_k)‖ over the {} s steps summed over the MUs (∫‖u‖dt / Δt, the thrust being \
+             held over each step): {} N.",
+            ctx.dt_s,
+            per_step.join(", ")
+        );
+        // Orders, least fuel first.
+        let order = |vals: Vec<(&str, Option<f64>)>| -> Option<Vec<String>> {
+            let mut v: Vec<(&str, f64)> = vals.into_iter().map(|(m, x)| Some((m, x?))).collect::<Option<_>>()?;
+            v.sort_by(|a, b| a.1.total_cmp(&b.1));
+            Some(v.into_iter().map(|(m, _)| m.to_string()).collect())
+        };
+        let ours_order = order(runs.iter().map(|(m, r)| (m.as_str(), get(r, "fuel_total_ns"))).collect());
+        let paper_order =
+            with_paper.and_then(|c| order(methods.iter().map(|m| (*m, paper(c, m).map(|p| p.total))).collect()));
+        md.push('\n');
+        if let Some(o) = &ours_order {
+            let _ = writeln!(md, "Order by total fuel, least first — ours: {}.", o.join(" < "));
+        }
+        if let Some(p) = &paper_order {
+            let same = ours_order.as_ref() == Some(p);
+            let _ = writeln!(
+                md,
+                "Paper: {} ({}).",
+                p.join(" < "),
+                if same { "the same order" } else { "a different order" }
+            );
+        }
+        if with_paper == Some(2) && methods.contains(&"dmpc") {
+            md.push_str(
+                "\nTable 2's DMPC column sums to 222.37, not the printed total 223.53; the total ratio uses the printed \
+                 total.\n",
+            );
+        }
+    }
+
+    /// The tracking errors per MU and method: RMS per phase, peaks, terminal error.
+    fn tracking(&self, md: &mut String) {
+        let (runs, mu_ids) = (self.runs, self.mu_ids.clone());
+        let _ = write!(
+            md,
+            "\n## Tracking error ‖r − r_d‖\n\nRMS per phase of the trajectory, peak around the end of deployment (the \
+             paper has DMPC and SMC peak at 10 s, AEMC not), and the terminal error in the last row (t = T − Δt) \
+             against {TERMINAL_POSITION_TOL_M} m and {TERMINAL_VELOCITY_TOL_MPS} m/s.\n\n| MU | method |"
+        );
+        let rms_keys = windowed(runs, 1, "err_rms");
+        let peak_keys = windowed(runs, 1, "err_peak");
+        for k in &rms_keys {
+            let _ = write!(md, " RMS {} (m) |", window_label(k, "err_rms"));
+        }
+        for k in &peak_keys {
+            let _ = write!(md, " peak {} (m) |", window_label(k, "err_peak"));
+        }
+        md.push_str(" terminal ‖e‖ (m) | terminal ‖v − v_d‖ (m/s) | terminal ok |\n|---|---|");
+        md.push_str(&"---|".repeat(rms_keys.len() + peak_keys.len() + 3));
+        md.push('\n');
+        let num = |m: &BTreeMap<String, f64>, k: &str| get(m, k).map_or("–".into(), g);
+        for &id in &mu_ids {
+            let swap = |k: &str| k.replacen("mu_1.", &format!("mu_{id}."), 1);
+            for (method, m) in runs {
+                let _ = write!(md, "| {id} | {method} |");
+                for k in rms_keys.iter().chain(&peak_keys) {
+                    let _ = write!(md, " {} |", num(m, &swap(k)));
+                }
+                let ok = match get(m, &format!("mu_{id}.terminal_ok")) {
+                    Some(1.0) => "yes",
+                    Some(_) => "**no**",
+                    None => "–",
+                };
+                let _ = writeln!(
+                    md,
+                    " {} | {} | {ok} |",
+                    num(m, &format!("mu_{id}.terminal_err_m")),
+                    num(m, &format!("mu_{id}.terminal_err_v_mps"))
+                );
+            }
+        }
+        if let Some(pk) = peak_keys.first() {
+            md.push_str("\nLargest peak over the MUs: ");
+            let parts: Vec<String> = runs
+                .iter()
+                .map(|(method, m)| {
+                    let peak = mu_ids
+                        .iter()
+                        .filter_map(|id| get(m, &pk.replacen("mu_1.", &format!("mu_{id}."), 1)))
+                        .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))));
+                    format!("{method} {} m", peak.map_or("–".into(), g))
+                })
+                .collect();
+            let _ = writeln!(md, "{}.", parts.join(", "));
+        }
+    }
+
+    /// Thrust bounds and QP solve times per method.
+    fn thrust_and_solver(&self, md: &mut String) {
+        let (runs, mu_ids) = (self.runs, self.mu_ids.clone());
+        let num = |m: &BTreeMap<String, f64>, k: &str| get(m, k).map_or("–".into(), g);
+        md.push_str(
+            "\n## Thrust and solver\n\nQP solve wall times per MU (1 / 2 / 3 / …), ms; failures summed over the MUs. \
+             SMC solves no QP.\n\n| method | thrust-bound violations | largest thrust component (N) | QP p50 (ms) | QP p99 \
+             (ms) | QP max (ms) | not converged | infeasible |\n|---|---|---|---|---|---|---|---|\n",
+        );
+        for (method, m) in runs {
+            let per_mu = |s: &str| -> String {
+                let xs: Vec<String> = mu_ids
+                    .iter()
+                    .map(|id| get(m, &format!("mu_{id}.{s}")).map_or("–".into(), |v| g(v * 1e3)))
+                    .collect();
+                if xs.iter().all(|x| x == "–") { "–".into() } else { xs.join(" / ") }
+            };
+            let umax = ["x", "y", "z"]
+                .iter()
+                .filter_map(|ax| get(m, &format!("thrust_max_abs_{ax}_n")))
+                .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))));
+            let _ = writeln!(
+                md,
+                "| {method} | {} | {} | {} | {} | {} | {} | {} |",
+                num(m, "thrust_bound_violations"),
+                umax.map_or("–".into(), g),
+                per_mu("qp_p50_s"),
+                per_mu("qp_p99_s"),
+                per_mu("qp_max_s"),
+                num(m, "qp_not_converged"),
+                num(m, "qp_infeasible"),
+            );
+        }
+    }
+
+    /// The figures' list and the closing line.
+    fn figures(&self, md: &mut String) {
+        let (ctx, root) = (self.ctx, self.root);
+        if !ctx.figures.is_empty() {
+            md.push_str("\n## Figures\n\n");
+            for f in ctx.figures {
+                let shown = f.strip_prefix(root).unwrap_or(f);
+                let _ = writeln!(md, "- `{}`", shown.display());
+            }
+        }
+        md.push_str("\nEvery number above is in `compare.csv` (exact) and the runs' `summary.json`.\n");
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,83 @@
+//! What one run of a case measured, from its summary and its timing files.
+
+use std::path::Path;
+
+use cohort_runtime::paper::Setup;
+
+use super::types::{Sample, median};
+use crate::summary::Summary;
+
+/// One column of a process's timing file (Parquet or CSV), as f64.
+fn timing_column(dir: &Path, process: &str, col: &str) -> Vec<f64> {
+    cohort_runtime::record::timing_column(&dir.join("timing"), process, col).into_iter().map(|v| v as f64).collect()
+}
+
+pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> Sample {
+    let round = summary.latency_ns.get("plant_round");
+    let steps = summary.steps_completed.max(1);
+    let per_k = |cpu: f64| cpu / steps as f64 * 1000.0;
+    let mut agent_cpu: Vec<f64> = Vec::new();
+    let mut agent_rss: Vec<f64> = Vec::new();
+    let mut agent_share: Vec<f64> = Vec::new();
+    let mut plant_cpu = f64::NAN;
+    let mut plant_rss = f64::NAN;
+    let (mut solver_p50, mut solver_p99, mut solver_max): (Vec<f64>, Vec<f64>, Vec<f64>) = Default::default();
+    for st in summary.processes.iter().filter_map(|p| p.solver.as_ref()).filter(|st| st.solves > 0) {
+        solver_p50.push(st.solve_time_p50_s * 1e6);
+        solver_p99.push(st.solve_time_p99_s * 1e6);
+        solver_max.push(st.solve_time_max_s * 1e6);
+    }
+    let largest = |xs: &[f64]| xs.iter().copied().reduce(f64::max);
+    let mut wait = cohort_runtime::record::WaitStats::default();
+    for p in &summary.processes {
+        wait.waits += p.wait.waits;
+        wait.spun += p.wait.spun;
+        wait.spin_stalls += p.wait.spin_stalls;
+        wait.spin_expired += p.wait.spin_expired;
+        wait.spin_s += p.wait.spin_s;
+        if p.process == "plant" {
+            plant_cpu = per_k(p.cpu_s);
+            plant_rss = p.max_rss_kb as f64 / 1024.0;
+        } else {
+            agent_cpu.push(per_k(p.cpu_s));
+            agent_rss.push(p.max_rss_kb as f64 / 1024.0);
+            if p.wall_s > 0.0 {
+                agent_share.push(p.cpu_s / p.wall_s);
+            }
+        }
+    }
+    // Compute share of the round: agent compute (median agent) over plant round, per step.
+    let rounds = timing_column(dir, "plant", "round_ns");
+    let compute = timing_column(dir, "agent-1", "compute_ns");
+    let compute_share = (!rounds.is_empty() && rounds.len() == compute.len()).then(|| {
+        let mut r: Vec<f64> = compute.iter().zip(&rounds).map(|(c, r)| c / r.max(1.0)).collect();
+        median(&mut r)
+    });
+    let mut per_agent: Vec<f64> = (1..=s.n_agents().min(8))
+        .filter_map(|i| {
+            let mut c = timing_column(dir, &format!("agent-{i}"), "compute_ns");
+            (!c.is_empty()).then(|| median(&mut c) / 1e3)
+        })
+        .collect();
+    let agent_compute_us = (!per_agent.is_empty()).then(|| median(&mut per_agent));
+    Sample {
+        wall_s,
+        steps: summary.steps_completed,
+        steps_per_s: summary.steps_per_s,
+        round_p50_us: round.map_or(f64::NAN, |p| p.p50 as f64 / 1e3),
+        round_p99_us: round.map_or(f64::NAN, |p| p.p99 as f64 / 1e3),
+        round_max_ms: round.map_or(f64::NAN, |p| p.max as f64 / 1e6),
+        startup_s: summary.startup_s,
+        agent_cpu_s_per_1000_steps: median(&mut agent_cpu),
+        plant_cpu_s_per_1000_steps: plant_cpu,
+        agent_cpu_share: median(&mut agent_share),
+        agent_rss_mb: median(&mut agent_rss),
+        plant_rss_mb: plant_rss,
+        compute_share,
+        solver_p50_us: (!solver_p50.is_empty()).then(|| median(&mut solver_p50)),
+        solver_p99_us: largest(&solver_p99),
+        solver_max_us: largest(&solver_max),
+        wait,
+        agent_compute_us,
+    }
+}

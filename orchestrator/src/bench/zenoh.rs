@@ -1,0 +1,225 @@
+//! The zenoh rows (issue 20): their cases (on one host and across the namespace lab), the round
+//! trips they are read against (one host, the lab without and with delay, a veth lab for the
+//! pump's own latency) and their Markdown section.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Duration;
+
+use cohort_runtime::paper::Setup;
+use cohort_scenario::Overrides;
+use cohort_supervisor::netlab::{Lab, Links};
+use serde::Serialize;
+
+use super::report::f0;
+use super::ring::{RING, RingRun, ring};
+use super::types::{Aggregate, Case};
+
+/// The lab's "1 ms" rows: every namespace delays what it sends by 1 ms.
+const DELAY_1MS: Duration = Duration::from_millis(1);
+
+/// Loads a zenoh-row scenario: (transport, hosts file) → the setup.
+type LoadFn = dyn Fn(&str, Option<&Path>) -> Result<Setup, String>;
+
+/// The zenoh rows: the headline shortened to 2 000 steps and the ring at N = 6 and 20, over
+/// iceoryx2 and zenoh on one host, and over zenoh across the lab (when there is one), without and
+/// with 1 ms delay.
+pub(super) fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<Case>, String> {
+    let steps: u64 = if quick { 500 } else { 2000 };
+    let mut out = Vec::new();
+    let mut push = |label: String, n: u32, variant: &str, scenario: Setup, lab: Option<Duration>| {
+        let key = format!("zenoh/{label}/N={n}/{variant}");
+        out.push(Case {
+            key,
+            group: "zenoh",
+            n,
+            variant: variant.into(),
+            label,
+            scenario,
+            reference: false,
+            hogs: false,
+            lab,
+            live: None,
+        });
+    };
+    let mut sets: Vec<(String, u32, Box<LoadFn>)> = Vec::new();
+    // Quick (a smoke run): the 6-agent ring only.
+    let headlines =
+        if quick { Vec::new() } else { cohort_registry::HOSTS.iter().flat_map(|h| h.bench_scenarios()).collect() };
+    for file in headlines {
+        let path = repo.join(file);
+        let probe = crate::load(&path, &Overrides::default()).map_err(|e| e.to_string())?;
+        let duration = steps as f64 * probe.scenario.dt_s;
+        let load = move |transport: &str, hosts: Option<&Path>| {
+            let hosts = hosts.map(cohort_scenario::hosts::HostsFile::load).transpose().map_err(|e| e.to_string())?;
+            let o = Overrides {
+                duration_s: Some(duration),
+                transport: Some(transport.into()),
+                hosts,
+                ..Default::default()
+            };
+            crate::load(&path, &o).map_err(|e| e.to_string())
+        };
+        sets.push((probe.scenario.name.clone(), probe.n_agents(), Box::new(load)));
+    }
+    for n in if quick { &[6u32][..] } else { &[6u32, 20][..] } {
+        let n = *n;
+        let load = move |transport: &str, hosts: Option<&Path>| {
+            let transport: &'static str = if transport == "zenoh" { "zenoh" } else { "iceoryx2" };
+            ring(n, steps, RingRun { transport, hosts, ..RING })
+        };
+        sets.push(("ring".into(), n, Box::new(load)));
+    }
+    for (label, n, load) in &sets {
+        push(label.clone(), *n, "iceoryx2", load("iceoryx2", None)?, None);
+        push(label.clone(), *n, "zenoh", load("zenoh", None)?, None);
+        if let Some(dir) = lab_dir {
+            let hosts = Lab::hosts_file(dir, *n)?;
+            push(label.clone(), *n, "zenoh-3ns", load("zenoh", Some(&hosts))?, Some(Duration::ZERO));
+            push(label.clone(), *n, "zenoh-3ns-1ms", load("zenoh", Some(&hosts))?, Some(DELAY_1MS));
+        }
+    }
+    Ok(out)
+}
+
+/// Round trips measured in this bench run: (where, p50 µs, p99 µs).
+#[derive(Debug, Clone, Serialize)]
+pub(super) struct Rtt {
+    place: String,
+    /// The zenoh case variant whose steps/s this round trip goes with (none: a reference row).
+    variant: Option<&'static str>,
+    p50_us: f64,
+    p99_us: f64,
+    max_ms: f64,
+}
+
+/// The zenoh round trip between an echo process and a ping process, on one host or from lab
+/// namespace a to b.
+pub(super) fn measure_rtt(lab: Option<&Lab>, place: &str, variant: Option<&'static str>) -> Result<Rtt, String> {
+    use std::process::Stdio;
+    let me = std::env::current_exe().map_err(|e| e.to_string())?;
+    let (listen, connect) = match lab {
+        Some(_) => {
+            let e = Lab::endpoint(1).replace(":7447", ":7500");
+            (e.clone(), e)
+        }
+        None => {
+            let port = std::net::TcpListener::bind("127.0.0.1:0")
+                .and_then(|l| l.local_addr())
+                .map_err(|e| e.to_string())?
+                .port();
+            (format!("tcp/127.0.0.1:{port}"), format!("tcp/127.0.0.1:{port}"))
+        }
+    };
+    let cmd = |x: &str| match lab {
+        Some(l) => l.command(x, &me),
+        None => std::process::Command::new(&me),
+    };
+    let mut echo = cmd("b")
+        .args(["zenoh-echo", "--listen", &listen])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .map_err(|e| format!("zenoh-echo: {e}"))?;
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let out = cmd("a").args(["zenoh-ping", "--connect", &connect]).output();
+    // SAFETY: kill(2) on the echo this bench started.
+    unsafe { libc::kill(echo.id() as libc::pid_t, libc::SIGKILL) };
+    let _ = echo.wait();
+    let out = out.map_err(|e| format!("zenoh-ping: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("zenoh-ping ({place}): {}", String::from_utf8_lossy(&out.stderr).trim()));
+    }
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).map_err(|e| format!("zenoh-ping output: {e}"))?;
+    let f = |k: &str| v[k].as_f64().unwrap_or(f64::NAN);
+    Ok(Rtt { place: place.into(), variant, p50_us: f("p50_us"), p99_us: f("p99_us"), max_ms: f("max_ms") })
+}
+
+/// The namespace lab (`None`: none can be made here, e.g. not root), with veth links where the
+/// kernel has netem and pumped links where it has not. With pumped links, first the round trip
+/// a → b across a veth lab made and removed for it (the two labs share names and addresses, so
+/// one at a time): the pump's own latency is the difference from the pumped lab's undelayed row.
+pub(super) fn start_lab() -> (Option<Lab>, Option<Rtt>) {
+    let links = match cohort_supervisor::netlab::netem_probe() {
+        Ok(()) => Links::Veth,
+        Err(e) => {
+            tracing::info!("no netem on this kernel ({e}): the lab's links are TAP pairs with a user-space pump");
+            Links::Pumped
+        }
+    };
+    let veth_rtt = (links == Links::Pumped)
+        .then(|| {
+            let veth = Lab::start_with(Links::Veth)?;
+            measure_rtt(Some(&veth), "namespace a → b across veth (no pump, no delay)", None)
+        })
+        .transpose()
+        .unwrap_or_else(|e| {
+            tracing::warn!("no veth lab for the pump's own latency: {e}");
+            None
+        });
+    match Lab::start_with(links) {
+        Ok(l) => (Some(l), veth_rtt),
+        Err(e) => {
+            tracing::warn!("no network-namespace lab (zenoh across namespaces not measured): {e}");
+            (None, None)
+        }
+    }
+}
+
+/// The round trip from namespace a to b in the lab, without and with the 1 ms delay.
+pub(super) fn lab_rtts(l: &Lab) -> Result<Vec<Rtt>, String> {
+    let how = l.links().describe();
+    let plain = measure_rtt(Some(l), &format!("namespace a → b ({how}, no delay)"), Some("zenoh-3ns"))?;
+    l.set_delay(DELAY_1MS)?;
+    let delayed = measure_rtt(Some(l), &format!("namespace a → b, 1 ms each way ({how})"), Some("zenoh-3ns-1ms"));
+    l.set_delay(Duration::ZERO)?;
+    Ok(vec![plain, delayed?])
+}
+
+/// The zenoh rows: steps/s and steps/s × the round trip of the same place; `links`: the lab's.
+pub(super) fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt], links: Option<Links>) -> String {
+    let mut md = String::from(
+        "\n## zenoh (multi-host transport)\n\nRound trip between two processes (256 B, 5 000 pings after 200 warm-up):\n\n| where | p50 µs | p99 µs | max ms |\n|---|---|---|---|\n",
+    );
+    for r in rtts {
+        let _ = writeln!(md, "| {} | {:.0} | {:.0} | {:.2} |", r.place, r.p50_us, r.p99_us, r.max_ms);
+    }
+    let rtt_of = |variant: &str| rtts.iter().find(|r| r.variant == Some(variant)).map(|r| r.p50_us);
+    if let (Some(veth), Some(pumped), Some(Links::Pumped)) =
+        (rtts.iter().find(|r| r.variant.is_none()), rtt_of("zenoh-3ns"), links)
+    {
+        let _ = writeln!(
+            md,
+            "\nThe pump's own latency: {:.0} µs per round trip at p50 (pumped links with no delay against veth; a round \
+             trip a → b → a passes four pumps).",
+            pumped - veth.p50_us
+        );
+    }
+    md.push_str(
+        "\n| case | N | transport, placement | steps/s | RTT p50 µs | steps/s × RTT |\n|---|---|---|---|---|---|\n",
+    );
+    let how = links.map_or("", Links::describe);
+    for x in a.iter().filter(|x| x.group == "zenoh") {
+        let place = match x.variant.as_str() {
+            "iceoryx2" => "iceoryx2, one host".to_string(),
+            "zenoh" => "zenoh, one host (TCP loopback)".to_string(),
+            "zenoh-3ns" => format!("zenoh, plant on a, agents on b and c ({how}, no delay)"),
+            "zenoh-3ns-1ms" => format!("zenoh, a / b / c, 1 ms each way ({how})"),
+            other => other.to_string(),
+        };
+        let rtt = rtt_of(&x.variant);
+        let ratio = rtt.map_or("–".to_string(), |r| format!("{:.2}", x.steps_per_s_median * r * 1e-6));
+        let _ = writeln!(
+            md,
+            "| {} | {} | {place} | {} [{}–{}] | {} | {ratio} |",
+            x.label,
+            x.n,
+            f0(x.steps_per_s_median),
+            f0(x.steps_per_s_min),
+            f0(x.steps_per_s_max),
+            rtt.map_or("–".to_string(), |r| format!("{r:.0}"))
+        );
+    }
+    md
+}
