@@ -32,4 +32,4 @@ mod remote;
 pub mod supervise;
 pub mod zping;
 
-pub use remote::preflight;
+pub use remote::{PreflightError, PreflightProblem, preflight};
