@@ -5,7 +5,7 @@
 use std::process::ExitCode;
 
 use clap::Parser;
-use cohort_runtime::checkpoint::{AgentState, Checkpoint, CheckpointError, path_for};
+use cohort_runtime::checkpoint::{AgentState, Checkpoint, CheckpointError, CheckpointProblem, path_for};
 use cohort_runtime::process::{CommonArgs, child_main};
 use cohort_runtime::record::{ErrorKind, ProcessError, ProcessReport};
 use cohort_runtime::recording::walk::Attachment;
@@ -81,10 +81,10 @@ fn load(
     (relaunch_step, n_steps): (u64, u64),
 ) -> Result<Checkpoint, String> {
     let path = path_for(run_dir, id);
-    let c = Checkpoint::decode(bytes, run_id, id, kind)
-        .map_err(|reason| format!("cannot restore: {}", CheckpointError { path: path.clone(), reason }))?;
-    c.check_resume(relaunch_step, n_steps)
-        .map_err(|e| format!("cannot restore: checkpoint {}: {e}", path.display()))?;
+    let refused =
+        |problem: CheckpointProblem| format!("cannot restore: {}", CheckpointError { path: path.clone(), problem });
+    let c = Checkpoint::decode(bytes, run_id, id, kind).map_err(|e| refused(e.into()))?;
+    c.check_resume(relaunch_step, n_steps).map_err(|e| refused(e.into()))?;
     algo.restore_state(&c.state.algorithm)
         .map_err(|e| format!("cannot restore: checkpoint {}: algorithm state: {e}", path.display()))?;
     let dir = path.parent().expect("checkpoints live in a directory");

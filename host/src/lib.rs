@@ -7,6 +7,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use cohort_runtime::exit::{FAILED, INVALID, ToExitCode};
 use cohort_runtime::paper::{Paper, Setup};
 use cohort_runtime::record::{RunDirs, TimelineEvent};
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
@@ -122,8 +123,9 @@ pub trait PaperHost: Paper {
     }
 }
 
-/// How a paper command failed: the message and the exit code (2 bad input, 1 failed, 128 + n
-/// interrupted by signal n).
+/// How a command failed (a paper's, or one of the orchestrator's own that has no error type of
+/// its own): the message and the exit code (2 bad input, 1 failed, 128 + n interrupted by
+/// signal n), which [`ToExitCode`] gives `main`.
 #[derive(Debug, Clone)]
 pub struct CommandError {
     pub message: String,
@@ -133,11 +135,17 @@ pub struct CommandError {
 impl CommandError {
     /// Bad input (exit 2): a wrong argument, an invalid scenario.
     pub fn invalid(message: impl Into<String>) -> Self {
-        Self { message: message.into(), exit_code: 2 }
+        Self { message: message.into(), exit_code: INVALID }
     }
     /// The work failed (exit 1).
     pub fn failed(message: impl Into<String>) -> Self {
-        Self { message: message.into(), exit_code: 1 }
+        Self { message: message.into(), exit_code: FAILED }
+    }
+}
+
+impl ToExitCode for CommandError {
+    fn exit_code(&self) -> u8 {
+        self.exit_code
     }
 }
 
@@ -187,6 +195,30 @@ pub struct RunResult {
     pub messages_rejected: BTreeMap<String, u64>,
 }
 
+/// Why a run directory could not be prepared, so that nothing was run (the orchestrator's
+/// `launch`, and [`Launcher::run`]'s only error).
+#[derive(Debug, thiserror::Error)]
+pub enum PrepareRunError {
+    /// The directory cannot be created or claimed (the reason names it).
+    #[error("{reason}")]
+    Directory { reason: String },
+    /// The resolved scenario does not serialise into `path`.
+    #[error("{}: the resolved scenario does not serialise: {source}", path.display())]
+    Serialise { path: PathBuf, source: cohort_runtime::paper::ScenarioToTomlError },
+    /// The resolved scenario cannot be written to `path`.
+    #[error("{}: {source}", path.display())]
+    Write { path: PathBuf, source: std::io::Error },
+}
+
+impl ToExitCode for PrepareRunError {
+    fn exit_code(&self) -> u8 {
+        match self {
+            Self::Directory { .. } | Self::Serialise { .. } => INVALID,
+            Self::Write { .. } => FAILED,
+        }
+    }
+}
+
 impl RunResult {
     /// The orchestrator's exit code for this run (see [`RunStatus::exit_code`]).
     pub fn exit_code(&self) -> u8 {
@@ -209,7 +241,7 @@ pub trait Launcher {
     /// Run a configured scenario into `dir` (absent or empty), write its summary, and return it.
     /// Err only when nothing could be run (the directory); a run that failed is an Ok with an
     /// error.
-    fn run(&self, setup: &Setup, dir: &Path, options: RunOptions) -> Result<RunResult, String>;
+    fn run(&self, setup: &Setup, dir: &Path, options: RunOptions) -> Result<RunResult, PrepareRunError>;
     /// Draw a run directory's plots.
     fn report(&self, run_dir: &Path) -> Result<Vec<PathBuf>, String>;
     /// The signal that interrupted the orchestrator (Ctrl-C, SIGTERM), if one did: a long command

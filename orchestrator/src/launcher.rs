@@ -3,10 +3,9 @@
 //! [`Launcher`] the papers' commands run scenarios through.
 
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 use std::sync::atomic::Ordering;
 
-use cohort_host::{Launcher, Mode, RunOptions, RunResult, RunView};
+use cohort_host::{Launcher, Mode, PrepareRunError, RunOptions, RunResult, RunView};
 use cohort_runtime::paper::{CoupledCtx, Setup};
 use cohort_runtime::record::RunDirs;
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
@@ -14,7 +13,7 @@ use cohort_supervisor::supervise::{self, LaunchOutcome, RunStatus, SIGNALLED};
 use cohort_wire::auth::MacKey;
 use cohort_wire::transport::iox::IoxRun;
 
-use crate::{EXIT_FAILED, EXIT_INVALID, progress, reference, rundir, summary};
+use crate::{progress, reference, rundir, summary};
 
 /// Read, validate and configure a scenario file with every registered paper.
 pub fn load(file: &Path, o: &Overrides) -> Result<Setup, ScenarioError> {
@@ -108,10 +107,10 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
     // timing's journals: turn them into their files, as its own clean exit would have. A failure
     // is a warning of the summary, printed after the run's error (on a full disk that error is
     // the cause).
-    let unsealed: Vec<String> = [dirs.telemetry(), dirs.timing()]
+    let unsealed: Vec<summary::Warning> = [dirs.telemetry(), dirs.timing()]
         .iter()
         .flat_map(|d| cohort_runtime::parquet_out::seal_dir(d).failures)
-        .map(|e| format!("cannot turn a telemetry journal into its file: {e}"))
+        .map(summary::Warning::UnsealedJournal)
         .collect();
     let mut summary = summary::build(
         s,
@@ -133,12 +132,16 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
     for host in cohort_registry::hosts_of(s) {
         match host.analyse(&view) {
             Ok(extra) => summary.metrics.extend(extra),
-            Err(e) => summary.warnings.push(format!("{} analysis skipped: {e}", host.name())),
+            Err(reason) => {
+                summary.warnings.push(summary::Warning::AnalysisSkipped { paper: host.name().to_string(), reason })
+            }
         }
         if !outcome.timeline.is_empty() {
             match host.fault_effects(&view, &outcome.timeline) {
                 Ok(extra) => summary.metrics.extend(extra),
-                Err(e) => summary.warnings.push(format!("{} fault effects skipped: {e}", host.name())),
+                Err(reason) => summary
+                    .warnings
+                    .push(summary::Warning::FaultEffectsSkipped { paper: host.name().to_string(), reason }),
             }
         }
     }
@@ -157,7 +160,9 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
         }
     }
     if let Err(e) = summary::write(dirs, &summary) {
-        summary.warnings.push(format!("cannot write {}: {e}", dirs.root.join("summary.json").display()));
+        summary
+            .warnings
+            .push(summary::Warning::SummaryNotWritten { path: dirs.root.join("summary.json"), reason: e.to_string() });
         if outcome.error.is_none() {
             tracing::error!("cannot write {}: {e}", dirs.root.join("summary.json").display());
         }
@@ -185,21 +190,18 @@ fn mark_divergence(s: &Setup, outcome: &mut LaunchOutcome, summary: &mut summary
     summary.status = status;
 }
 
-/// Create the run directory and write the resolved scenario into it.
-pub fn prepare(s: &Setup, out: Option<&Path>) -> Result<RunDirs, ExitCode> {
-    let dirs = rundir::create(out, &s.scenario.name).map_err(|e| {
+/// Create the run directory and write the resolved scenario into it. The error is logged here
+/// (callers that only need to stop may drop it).
+pub fn prepare(s: &Setup, out: Option<&Path>) -> Result<RunDirs, PrepareRunError> {
+    let logged = |e: PrepareRunError| {
         tracing::error!("{e}");
-        ExitCode::from(EXIT_INVALID)
-    })?;
+        e
+    };
+    let dirs = rundir::create(out, &s.scenario.name).map_err(|reason| logged(PrepareRunError::Directory { reason }))?;
     let path = dirs.root.join("scenario.toml");
-    let text = s.to_toml().map_err(|e| {
-        tracing::error!("{}: the resolved scenario does not serialise: {e}", path.display());
-        ExitCode::from(EXIT_INVALID)
-    })?;
-    cohort_runtime::record::write_atomic(&path, text.as_bytes()).map_err(|e| {
-        tracing::error!("{}: {e}", path.display());
-        ExitCode::from(EXIT_FAILED)
-    })?;
+    let text = s.to_toml().map_err(|source| logged(PrepareRunError::Serialise { path: path.clone(), source }))?;
+    cohort_runtime::record::write_atomic(&path, text.as_bytes())
+        .map_err(|source| logged(PrepareRunError::Write { path: path.clone(), source }))?;
     Ok(dirs)
 }
 
@@ -247,9 +249,8 @@ impl Launcher for Orchestrator {
         cohort_runtime::paper::configure(scenario, cohort_registry::PAPERS)
             .map_err(|problems| ScenarioError { file: PathBuf::from(name), problems })
     }
-    fn run(&self, setup: &Setup, dir: &Path, options: RunOptions) -> Result<RunResult, String> {
-        let dirs =
-            prepare(setup, Some(dir)).map_err(|_| format!("{}: cannot prepare the run directory", dir.display()))?;
+    fn run(&self, setup: &Setup, dir: &Path, options: RunOptions) -> Result<RunResult, PrepareRunError> {
+        let dirs = prepare(setup, Some(dir))?;
         let (outcome, summary) = run_once(setup, &dirs, options.mode == Mode::Reference, false);
         if options.plots
             && outcome.error.is_none()

@@ -43,6 +43,9 @@ use std::process::ExitCode;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use cohort_host::{CommandError, PaperHost, RunStatus};
 use cohort_registry::HOSTS;
+use cohort_runtime::exit::ToExitCode;
+/// The orchestrator's exit codes besides 0 and 128 + N (see [`cohort_runtime::exit`]).
+pub(crate) use cohort_runtime::exit::{FAILED as EXIT_FAILED, INVALID as EXIT_INVALID};
 use cohort_runtime::paper::Setup;
 use cohort_runtime::record::RunDirs;
 use cohort_scenario::Overrides;
@@ -54,9 +57,6 @@ pub(crate) use launcher::{load, prepare, run_once};
 
 /// `-q`: no progress bar either.
 static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-const EXIT_FAILED: u8 = 1;
-const EXIT_INVALID: u8 = 2;
 
 const EXIT_CODES_HELP: &str = "Exit codes:
   0        done (also a divergence study, scenario.expect = \"diverge\", that diverged)
@@ -429,8 +429,7 @@ fn main() -> ExitCode {
     if !matches!(matches.subcommand_name(), Some("check" | "report" | "salvage" | "train"))
         && let Err(e) = supervise::install_signal_handlers()
     {
-        error!("{e}");
-        return ExitCode::from(EXIT_FAILED);
+        return fail(e);
     }
     match matches.subcommand() {
         Some(("train", m)) => {
@@ -450,10 +449,7 @@ fn main() -> ExitCode {
                     }
                     finish(h.run_trainer(name, sub))
                 }
-                None => {
-                    error!("no trainer {name:?}");
-                    ExitCode::from(EXIT_INVALID)
-                }
+                None => fail(CommandError::invalid(format!("no trainer {name:?}"))),
             }
         }
         Some((name, sub)) if HOSTS.iter().any(|h| h.name() == name) => {
@@ -474,11 +470,15 @@ fn finish(result: Result<String, CommandError>) -> ExitCode {
             outln!("{text}");
             ExitCode::SUCCESS
         }
-        Err(e) => {
-            error!("{e}");
-            ExitCode::from(e.exit_code)
-        }
+        Err(e) => fail(e),
     }
+}
+
+/// An error on stderr (through the log) and the exit code its type gives: how a command ends
+/// when it fails.
+fn fail<E: std::fmt::Display + ToExitCode>(e: E) -> ExitCode {
+    error!("{e}");
+    e.to_exit()
 }
 
 fn generic(command: Cmd) -> ExitCode {
@@ -505,39 +505,24 @@ fn generic(command: Cmd) -> ExitCode {
                 outln!("written: {} pages in {}", pages.len(), out.display());
                 ExitCode::SUCCESS
             }
-            Err(e) => {
-                error!("{e}");
-                ExitCode::from(EXIT_FAILED)
-            }
+            Err(e) => fail(CommandError::failed(e)),
         },
         Cmd::Host { listen, name, security } => {
-            match security.install().map_err(daemon::DaemonError::Invalid).and_then(|()| daemon::run(&listen, name)) {
+            match security.install().map_err(daemon::DaemonError::from).and_then(|()| daemon::run(&listen, name)) {
                 Ok(()) => ExitCode::SUCCESS,
-                Err(e) => {
-                    error!("{e}");
-                    ExitCode::from(match e {
-                        daemon::DaemonError::Invalid(_) => EXIT_INVALID,
-                        daemon::DaemonError::Failed(_) => EXIT_FAILED,
-                    })
-                }
+                Err(e) => fail(e),
             }
         }
         Cmd::ZenohEcho { listen } => match zping::echo(&listen) {
             Ok(()) => ExitCode::SUCCESS,
-            Err(e) => {
-                error!("{e}");
-                ExitCode::from(EXIT_FAILED)
-            }
+            Err(e) => fail(e),
         },
         Cmd::ZenohPing { connect, warmup, count } => match zping::ping(&connect, warmup, count) {
             Ok(line) => {
                 outln!("{line}");
                 ExitCode::SUCCESS
             }
-            Err(e) => {
-                error!("{e}");
-                ExitCode::from(EXIT_FAILED)
-            }
+            Err(e) => fail(e),
         },
         Cmd::Replay { run_dir, agent, incarnation, out } => {
             replay::command(&run_dir, agent, incarnation, out.as_deref())
@@ -550,10 +535,7 @@ fn generic(command: Cmd) -> ExitCode {
                 }
                 ExitCode::SUCCESS
             }
-            Err(e) => {
-                error!("{e}");
-                ExitCode::from(EXIT_INVALID)
-            }
+            Err(e) => fail(CommandError::invalid(e)),
         },
     }
 }
@@ -571,21 +553,14 @@ fn soak_command(
 ) -> ExitCode {
     let wall = match soak::parse_wall(wall) {
         Ok(w) => w,
-        Err(e) => {
-            error!("{e}");
-            return ExitCode::from(EXIT_INVALID);
-        }
+        Err(e) => return fail(CommandError::invalid(e)),
     };
     let faults = match faults.map(soak::parse_fault_kinds).transpose() {
         Ok(f) => f.unwrap_or_default(),
-        Err(e) => {
-            error!("{e}");
-            return ExitCode::from(EXIT_INVALID);
-        }
+        Err(e) => return fail(CommandError::invalid(e)),
     };
     if realtime && !(rate.is_finite() && rate > 0.0) {
-        error!("--rate {rate}: must be a positive number");
-        return ExitCode::from(EXIT_INVALID);
+        return fail(CommandError::invalid(format!("--rate {rate}: must be a positive number")));
     }
     let out = out.unwrap_or_else(|| {
         let stem = file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
@@ -598,10 +573,7 @@ fn soak_command(
             outln!("written: {} (soak.md, soak.json, *.png)", o.out.display());
             if ok { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILED) }
         }
-        Err(e) => {
-            error!("{e}");
-            ExitCode::from(EXIT_INVALID)
-        }
+        Err(e) => fail(CommandError::invalid(e)),
     }
 }
 
@@ -613,14 +585,7 @@ fn bench_command(quick: bool, reps: Option<u32>, out: &Path, only: Option<&str>)
             outln!("written: {} and {}", out.join("results.md").display(), out.join("results.json").display());
             ExitCode::SUCCESS
         }
-        Err(bench::BenchError::Invalid(e)) => {
-            error!("{e}");
-            ExitCode::from(EXIT_INVALID)
-        }
-        Err(bench::BenchError::Failed(e)) => {
-            error!("{e}");
-            ExitCode::from(EXIT_FAILED)
-        }
+        Err(e) => fail(e),
     }
 }
 
@@ -643,14 +608,13 @@ fn check(files: &[PathBuf]) -> ExitCode {
 fn load_or_exit(file: &Path, o: &Overrides) -> Result<Setup, ExitCode> {
     load(file, o).map_err(|e| {
         errln!("{e}");
-        ExitCode::from(EXIT_INVALID)
+        e.to_exit()
     })
 }
 
 fn launch_command(a: LaunchArgs) -> ExitCode {
     if let Err(e) = a.security.install() {
-        error!("{e}");
-        return ExitCode::from(EXIT_INVALID);
+        return fail(e);
     }
     if let Err(code) = a.live.start() {
         return code;
@@ -659,17 +623,14 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
     for (k, f) in a.fault.iter().enumerate() {
         match cohort_scenario::faults::FaultSpec::parse_cli(f) {
             Ok(spec) => faults.push(spec),
-            Err(e) => {
-                error!("--fault (#{}): {e}", k + 1);
-                return ExitCode::from(EXIT_INVALID);
-            }
+            Err(e) => return fail(CommandError::invalid(format!("--fault (#{}): {e}", k + 1))),
         }
     }
     let hosts = match a.hosts.as_deref().map(cohort_scenario::hosts::HostsFile::load).transpose() {
         Ok(h) => h,
         Err(e) => {
             errln!("{e}");
-            return ExitCode::from(EXIT_INVALID);
+            return e.to_exit();
         }
     };
     let o = Overrides {
@@ -697,7 +658,7 @@ fn interrupted_before_the_run() -> Option<ExitCode> {
     let sig = supervise::SIGNALLED.load(std::sync::atomic::Ordering::SeqCst);
     (sig != 0).then(|| {
         errln!("interrupted by signal {sig} before the run started; nothing was created");
-        ExitCode::from(128 + sig as u8)
+        RunStatus::Interrupted(sig as i32).to_exit()
     })
 }
 
@@ -725,7 +686,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     }
     let dirs = match prepare(&s, out) {
         Ok(d) => d,
-        Err(code) => return code,
+        Err(e) => return e.to_exit(),
     };
     announce(&s, file, reference, &dirs);
     let (outcome, summary) = run_once(&s, &dirs, reference, !QUIET.load(std::sync::atomic::Ordering::Relaxed));
@@ -739,7 +700,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
     if json {
         print_json(&dirs.root);
     }
-    ExitCode::from(outcome.exit_code())
+    outcome.status.to_exit()
 }
 
 /// What `launch` refuses before it creates anything: process faults in a reference run; hosts
@@ -747,18 +708,17 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
 /// them ends it too).
 fn refused(s: &Setup, file: &Path, reference: bool) -> Option<ExitCode> {
     if reference && let Some(f) = s.faults.iter().find(|f| f.is_process_fault()) {
-        error!(
+        return Some(fail(CommandError::invalid(format!(
             "--reference runs every process as a thread of this one, so it cannot {} agent {} \
              (process faults signal processes); drop --reference, or keep only delay, drop and corrupt faults",
             f.kind, f.agent
-        );
-        return Some(ExitCode::from(EXIT_INVALID));
+        ))));
     }
     if !reference && !s.hosts.is_empty() {
         // Every daemon reachable, named as the scenario says, of this build: before anything starts.
         if let Err(e) = cohort_supervisor::preflight(&s.hosts) {
             error!("{}: {e}", file.display());
-            return Some(ExitCode::from(EXIT_INVALID));
+            return Some(e.to_exit());
         }
         if let Some(code) = interrupted_before_the_run() {
             return Some(code);
@@ -830,7 +790,7 @@ fn failed(
         if json {
             print_json(&dirs.root);
         }
-        return Some(ExitCode::from(outcome.exit_code()));
+        return Some(outcome.status.to_exit());
     }
     if expect_divergence && outcome.status == RunStatus::Ok {
         warn!("scenario.expect = \"diverge\", but the run completed every step");
@@ -887,7 +847,7 @@ fn draw_plots(dirs: &RunDirs, json: bool) -> Option<ExitCode> {
                  (orchestrator report draws them)",
                 dirs.root.display()
             );
-            return Some(ExitCode::from(128 + sig));
+            return Some(RunStatus::Interrupted(i32::from(sig)).to_exit());
         }
     }
     None
@@ -925,8 +885,10 @@ fn print_json(run_dir: &Path) {
 
 fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
     if args.first_seed.checked_add(args.seeds - 1).is_none_or(|last| last > cohort_scenario::validate::MAX_SEED) {
-        error!("--first-seed {} --seeds {}: the last seed passes 2^63 − 1", args.first_seed, args.seeds);
-        return ExitCode::from(EXIT_INVALID);
+        return fail(CommandError::invalid(format!(
+            "--first-seed {} --seeds {}: the last seed passes 2^63 − 1",
+            args.first_seed, args.seeds
+        )));
     }
     // Validate once up front, with the first seed, so a bad file fails before any run.
     let o = |seed| Overrides { seed: Some(seed), duration_s: args.duration, ..Default::default() };
@@ -938,8 +900,7 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
     let root =
         args.out.clone().unwrap_or_else(|| PathBuf::from(format!("runs/{name}-sweep-{}", cohort_host::utc_stamp())));
     if let Err(e) = std::fs::create_dir_all(&root) {
-        error!("{}: {e}", root.display());
-        return ExitCode::from(EXIT_INVALID);
+        return fail(CommandError::invalid(format!("{}: {e}", root.display())));
     }
     let mode = if args.multi_process { "multi-process" } else { "reference" };
     info!(
@@ -957,16 +918,16 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
         };
         let dirs = match prepare(&s, Some(&root.join(format!("seed-{seed}")))) {
             Ok(d) => d,
-            Err(code) => return code,
+            Err(e) => return e.to_exit(),
         };
         let (outcome, summary) = run_once(&s, &dirs, !args.multi_process, false);
         if outcome.status.is_interrupted() {
             warn!("interrupted at seed {seed}");
-            return ExitCode::from(outcome.exit_code());
+            return outcome.status.to_exit();
         }
         if let Some(e) = &outcome.error {
             error!("seed {seed}: {e}");
-            return ExitCode::from(outcome.exit_code());
+            return outcome.status.to_exit();
         }
         info!("seed {seed}: {} steps in {:.2} s", summary.steps_completed, outcome.wall_s);
         if !args.keep_telemetry {
@@ -985,9 +946,6 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
             outln!("sweep results: {} and {}", root.join("sweep.md").display(), root.join("sweep.csv").display());
             ExitCode::SUCCESS
         }
-        Err(e) => {
-            error!("{e}");
-            ExitCode::from(EXIT_FAILED)
-        }
+        Err(e) => fail(CommandError::failed(e)),
     }
 }

@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use cohort_wire::transport::zenoh_security::{self, Security};
+use cohort_wire::transport::zenoh_security::{self, Security, SecurityConfigError};
 
 #[derive(Args, Debug, Clone, Default)]
 pub struct SecurityArgs {
@@ -31,7 +31,7 @@ pub struct SecurityArgs {
 impl SecurityArgs {
     /// Check the files and install the settings for this process (and its children); the first
     /// problem, naming the flag, the file and the reason.
-    pub fn install(&self) -> Result<(), String> {
+    pub fn install(&self) -> Result<(), SecurityConfigError> {
         let s = Security::new(
             self.tls_ca.clone(),
             self.tls_cert.clone(),

@@ -101,7 +101,40 @@ pub struct Summary {
     pub verdict_overall: Option<&'static str>,
     /// What the analyses could not do (printed after the run's error when it failed).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
+}
+
+/// A problem the summary records without failing the run, by kind. `summary.json` lists their
+/// messages (`"warnings"`), the text the log shows.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum Warning {
+    /// The processes' latency logs cannot be read (latency is diagnostic).
+    #[error("latency histograms: {0}")]
+    LatencyHistograms(String),
+    /// The plant wrote no report: the steps completed are counted from the rest.
+    #[error(
+        "the plant left no report (status/plant.json): steps_completed = {steps} is a lower bound, from its \
+         telemetry and the agents' reports"
+    )]
+    NoPlantReport { steps: u64 },
+    /// A killed process's telemetry journal could not be sealed into its file.
+    #[error("cannot turn a telemetry journal into its file: {0}")]
+    UnsealedJournal(String),
+    /// A paper's analysis of the run failed.
+    #[error("{paper} analysis skipped: {reason}")]
+    AnalysisSkipped { paper: String, reason: String },
+    /// A paper's fault-effect analysis failed.
+    #[error("{paper} fault effects skipped: {reason}")]
+    FaultEffectsSkipped { paper: String, reason: String },
+    /// `summary.json` itself could not be written.
+    #[error("cannot write {}: {reason}", path.display())]
+    SummaryNotWritten { path: std::path::PathBuf, reason: String },
+}
+
+impl Serialize for Warning {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.to_string())
+    }
 }
 
 pub struct Outcome {
@@ -126,7 +159,7 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
     let mut warnings = Vec::new();
     // Latency is diagnostic: an unreadable log is a warning, never a lost summary.
     let histograms = cohort_runtime::record::read_latency_histograms(&dirs.root).unwrap_or_else(|e| {
-        warnings.push(format!("latency histograms: {e}"));
+        warnings.push(Warning::LatencyHistograms(e.to_string()));
         BTreeMap::new()
     });
     let (link_latency, process_latency) = percentiles(&histograms);
@@ -137,10 +170,7 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
             let n = steps_without_the_plants_report(dirs, &processes);
             // Only when the run got going: some process reported.
             if !processes.is_empty() {
-                warnings.push(format!(
-                    "the plant left no report (status/plant.json): steps_completed = {n} is a lower bound, from its \
-                 telemetry and the agents' reports"
-                ));
+                warnings.push(Warning::NoPlantReport { steps: n });
             }
             n
         }

@@ -36,11 +36,64 @@ pub struct Checkpoint {
     pub state: AgentState,
 }
 
+/// A checkpoint file refused: which file, and why.
 #[derive(Debug, thiserror::Error)]
-#[error("checkpoint {}: {reason}", path.display())]
+#[error("checkpoint {}: {problem}", path.display())]
 pub struct CheckpointError {
     pub path: PathBuf,
-    pub reason: String,
+    pub problem: CheckpointProblem,
+}
+
+/// Why a checkpoint file was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointProblem {
+    #[error("cannot read: {0}")]
+    Read(#[from] std::io::Error),
+    #[error(transparent)]
+    Decode(#[from] DecodeCheckpointError),
+    #[error(transparent)]
+    Resume(#[from] ResumeError),
+}
+
+/// Why bytes are not this agent's checkpoint of this run ([`Checkpoint::decode`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DecodeCheckpointError {
+    #[error("not a Cohort checkpoint (bad magic)")]
+    BadMagic,
+    #[error("schema version {found}, this build reads version {CHECKPOINT_VERSION}")]
+    Version { found: u32 },
+    #[error("truncated")]
+    Truncated,
+    #[error("checksum mismatch (stored {stored:08x}, computed {computed:08x}): the file is corrupted")]
+    Checksum { stored: u32, computed: u32 },
+    #[error(
+        "written by run {found:016x}, not this run ({expected:016x}): a checkpoint of another run \
+         (another seed or scenario, or an earlier run) is never restored"
+    )]
+    OtherRun { found: u64, expected: u64 },
+    #[error("written by agent {found}, not agent {expected}")]
+    OtherAgent { found: u32, expected: u32 },
+    #[error("algorithm name is not UTF-8")]
+    KindNotUtf8,
+    #[error("holds the state of algorithm {found:?}, this agent runs {expected:?}")]
+    OtherAlgorithm { found: String, expected: String },
+    #[error("{0} trailing bytes after the payload")]
+    Trailing(usize),
+    #[error("payload: {0}")]
+    Payload(String),
+    #[error("payload longer than its state")]
+    PayloadTooLong,
+}
+
+/// Why a valid checkpoint cannot resume an agent relaunched at a step ([`Checkpoint::check_resume`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ResumeError {
+    #[error("relaunch step {relaunch_step} is past the run's last step {last_step}")]
+    PastTheEnd { relaunch_step: u64, last_step: u64 },
+    #[error(
+        "holds the state at step {step}, after the relaunch step {relaunch_step}: it cannot be from this run's past"
+    )]
+    FromTheFuture { step: u64, relaunch_step: u64 },
 }
 
 /// Where agent `id`'s latest checkpoint lives in a run directory.
@@ -71,47 +124,45 @@ impl Checkpoint {
     }
 
     /// Decode and check `bytes` as run `run_id`'s checkpoint of agent `agent` for algorithm `kind`.
-    pub fn decode(bytes: &[u8], run_id: u64, agent: u32, kind: &str) -> Result<Self, String> {
+    pub fn decode(bytes: &[u8], run_id: u64, agent: u32, kind: &str) -> Result<Self, DecodeCheckpointError> {
+        use DecodeCheckpointError as E;
         if bytes.len() < MAGIC.len() + 4 || &bytes[..8] != MAGIC {
-            return Err("not a Cohort checkpoint (bad magic)".into());
+            return Err(E::BadMagic);
         }
         let (body, crc) = bytes.split_at(bytes.len().saturating_sub(4));
         let version = u32::from_le_bytes(body[8..12].try_into().expect("4 bytes"));
         if version != CHECKPOINT_VERSION {
-            return Err(format!("schema version {version}, this build reads version {CHECKPOINT_VERSION}"));
+            return Err(E::Version { found: version });
         }
         let want = crc32fast::hash(body);
-        let got = u32::from_le_bytes(crc.try_into().map_err(|_| "truncated".to_string())?);
+        let got = u32::from_le_bytes(crc.try_into().map_err(|_| E::Truncated)?);
         if want != got {
-            return Err(format!("checksum mismatch (stored {got:08x}, computed {want:08x}): the file is corrupted"));
+            return Err(E::Checksum { stored: got, computed: want });
         }
         let mut r = Reader { b: body, at: 12 };
         let run = r.u64()?;
         if run != run_id {
-            return Err(format!(
-                "written by run {run:016x}, not this run ({run_id:016x}): a checkpoint of another run \
-                 (another seed or scenario, or an earlier run) is never restored"
-            ));
+            return Err(E::OtherRun { found: run, expected: run_id });
         }
         let id = r.u32()?;
         if id != agent {
-            return Err(format!("written by agent {id}, not agent {agent}"));
+            return Err(E::OtherAgent { found: id, expected: agent });
         }
         let step = r.u64()?;
         let kind_len = r.u32()? as usize;
-        let k = std::str::from_utf8(r.take(kind_len)?).map_err(|_| "algorithm name is not UTF-8".to_string())?;
+        let k = std::str::from_utf8(r.take(kind_len)?).map_err(|_| E::KindNotUtf8)?;
         if k != kind {
-            return Err(format!("holds the state of algorithm {k:?}, this agent runs {kind:?}"));
+            return Err(E::OtherAlgorithm { found: k.to_string(), expected: kind.to_string() });
         }
         let len = r.u64()? as usize;
         let payload = r.take(len)?;
         if r.at != body.len() {
-            return Err(format!("{} trailing bytes after the payload", body.len() - r.at));
+            return Err(E::Trailing(body.len() - r.at));
         }
         let (state, used): (AgentState, usize) =
-            bincode::serde::decode_from_slice(payload, config()).map_err(|e| format!("payload: {e}"))?;
+            bincode::serde::decode_from_slice(payload, config()).map_err(|e| E::Payload(e.to_string()))?;
         if used != payload.len() {
-            return Err("payload longer than its state".into());
+            return Err(E::PayloadTooLong);
         }
         Ok(Self { run_id, agent, step, kind: k.to_string(), state })
     }
@@ -128,26 +179,20 @@ impl Checkpoint {
     /// `n_steps`: it must hold a state from before the relaunch (a CRC-valid file can still name
     /// any step, and one from the future would leave the agent waiting for measurements the plant
     /// already sent), and the relaunch must be inside the run.
-    pub fn check_resume(&self, relaunch_step: u64, n_steps: u64) -> Result<(), String> {
+    pub fn check_resume(&self, relaunch_step: u64, n_steps: u64) -> Result<(), ResumeError> {
         if relaunch_step >= n_steps {
-            return Err(format!(
-                "relaunch step {relaunch_step} is past the run's last step {}",
-                n_steps.saturating_sub(1)
-            ));
+            return Err(ResumeError::PastTheEnd { relaunch_step, last_step: n_steps.saturating_sub(1) });
         }
         if self.step > relaunch_step {
-            return Err(format!(
-                "holds the state at step {}, after the relaunch step {relaunch_step}: it cannot be from this run's past",
-                self.step
-            ));
+            return Err(ResumeError::FromTheFuture { step: self.step, relaunch_step });
         }
         Ok(())
     }
 
     pub fn read(path: &Path, run_id: u64, agent: u32, kind: &str) -> Result<Self, CheckpointError> {
-        let err = |reason: String| CheckpointError { path: path.to_path_buf(), reason };
-        let bytes = std::fs::read(path).map_err(|e| err(format!("cannot read: {e}")))?;
-        Self::decode(&bytes, run_id, agent, kind).map_err(err)
+        let err = |problem: CheckpointProblem| CheckpointError { path: path.to_path_buf(), problem };
+        let bytes = std::fs::read(path).map_err(|e| err(e.into()))?;
+        Self::decode(&bytes, run_id, agent, kind).map_err(|e| err(e.into()))
     }
 }
 
@@ -157,16 +202,16 @@ struct Reader<'a> {
 }
 
 impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
-        let end = self.at.checked_add(n).filter(|&e| e <= self.b.len()).ok_or("truncated")?;
+    fn take(&mut self, n: usize) -> Result<&'a [u8], DecodeCheckpointError> {
+        let end = self.at.checked_add(n).filter(|&e| e <= self.b.len()).ok_or(DecodeCheckpointError::Truncated)?;
         let s = &self.b[self.at..end];
         self.at = end;
         Ok(s)
     }
-    fn u32(&mut self) -> Result<u32, String> {
+    fn u32(&mut self) -> Result<u32, DecodeCheckpointError> {
         Ok(u32::from_le_bytes(self.take(4)?.try_into().expect("4 bytes")))
     }
-    fn u64(&mut self) -> Result<u64, String> {
+    fn u64(&mut self) -> Result<u64, DecodeCheckpointError> {
         Ok(u64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
     }
 }
@@ -177,12 +222,23 @@ pub fn encode_state<T: Serialize>(state: &T) -> Vec<u8> {
 }
 
 /// Decode an algorithm's state; the whole input must be used.
-pub fn decode_state<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, String> {
-    let (v, used) = bincode::serde::decode_from_slice(bytes, config()).map_err(|e| e.to_string())?;
+pub fn decode_state<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, DecodeStateError> {
+    let (v, used) =
+        bincode::serde::decode_from_slice(bytes, config()).map_err(|e| DecodeStateError::Bincode(e.to_string()))?;
     if used != bytes.len() {
-        return Err(format!("{} trailing bytes after the algorithm state", bytes.len() - used));
+        return Err(DecodeStateError::Trailing(bytes.len() - used));
     }
     Ok(v)
+}
+
+/// Why bytes are not an algorithm's state ([`decode_state`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DecodeStateError {
+    /// bincode's reason (a short or malformed input).
+    #[error("{0}")]
+    Bincode(String),
+    #[error("{0} trailing bytes after the algorithm state")]
+    Trailing(usize),
 }
 
 /// For a field holding scenario configuration inside an algorithm's state: bincode is not
@@ -248,7 +304,7 @@ mod tests {
             (Vec::new(), "bad magic", RUN, 2, "lb-dnn-servicing"),
         ];
         for (bytes, says, run, agent, kind) in cases {
-            let e = Checkpoint::decode(&bytes, run, agent, kind).unwrap_err();
+            let e = Checkpoint::decode(&bytes, run, agent, kind).unwrap_err().to_string();
             assert!(e.contains(says), "expected {says:?}, got {e:?}");
         }
     }
@@ -260,8 +316,8 @@ mod tests {
         let mut c = sample(); // step 1200
         assert_eq!(c.check_resume(1200, 36_000), Ok(()));
         assert_eq!(c.check_resume(3000, 36_000), Ok(()));
-        assert!(c.check_resume(1199, 36_000).unwrap_err().contains("after the relaunch step 1199"));
-        assert!(c.check_resume(36_000, 36_000).unwrap_err().contains("past the run's last step"));
+        assert!(c.check_resume(1199, 36_000).unwrap_err().to_string().contains("after the relaunch step 1199"));
+        assert!(c.check_resume(36_000, 36_000).unwrap_err().to_string().contains("past the run's last step"));
         c.step = 1 << 63;
         let bytes = c.encode();
         let decoded = Checkpoint::decode(&bytes, RUN, 2, "lb-dnn-servicing").unwrap();

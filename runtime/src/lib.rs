@@ -3,10 +3,11 @@
 //! lockstep step drivers generic over the transport ([`drive`]), what a process records
 //! ([`record`]), per-process random generators ([`rng`]), and the message recordings of
 //! `run.record` with the replay of one agent against them ([`recording`]), and every process's
-//! logging ([`logging`]).
+//! logging ([`logging`]) and exit codes ([`exit`]).
 
 pub mod checkpoint;
 pub mod drive;
+pub mod exit;
 pub mod logging;
 pub mod model;
 pub mod paper;

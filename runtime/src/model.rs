@@ -77,7 +77,7 @@ pub trait Algorithm: Send {
     /// them into an algorithm built from the same scenario must give back the same state exactly.
     fn save_state(&self) -> Vec<u8>;
     /// Replace the state with one saved by [`Algorithm::save_state`]; on error nothing changed.
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String>;
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), RestoreStateError>;
     /// For an algorithm that solves an optimisation problem every step: its solver's counts and
     /// wall-clock solve times, for the end-of-run report (never telemetry: times differ between
     /// runs). None for the others.
@@ -91,6 +91,18 @@ pub trait Algorithm: Send {
     }
 }
 
+/// Why saved bytes cannot be restored into an algorithm ([`Algorithm::restore_state`]).
+#[derive(Debug, thiserror::Error)]
+pub enum RestoreStateError {
+    /// The bytes are not a state of this algorithm's type.
+    #[error(transparent)]
+    Decode(#[from] crate::checkpoint::DecodeStateError),
+    /// The state decodes but does not fit this instance, or the algorithm's own restore failed;
+    /// the reason names what.
+    #[error("{0}")]
+    Refused(String),
+}
+
 /// Implements the checkpoint methods of [`Algorithm`] for a type that is its own serde state.
 #[macro_export]
 macro_rules! serde_checkpoint {
@@ -98,7 +110,7 @@ macro_rules! serde_checkpoint {
         fn save_state(&self) -> Vec<u8> {
             $crate::checkpoint::encode_state(self)
         }
-        fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        fn restore_state(&mut self, bytes: &[u8]) -> Result<(), $crate::model::RestoreStateError> {
             *self = $crate::checkpoint::decode_state(bytes)?;
             Ok(())
         }

@@ -71,7 +71,7 @@ pub trait PlantSetup: Send + Sync + Any {
     /// The section as resolved (defaults filled in, paths absolute), without `kind`: what the
     /// run directory's `scenario.toml` says, which the child processes read. Usually
     /// [`table_of`] the typed configuration.
-    fn resolved(&self) -> Result<toml::Table, String>;
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError>;
     /// Readings per measurement of agent `id`.
     fn readings(&self, s: &Scenario, id: u32) -> usize;
     /// Names of agent `id`'s readings, in order, each ending in its unit as telemetry columns do
@@ -121,7 +121,7 @@ pub trait AlgorithmSetup: Send + Sync + Any {
     /// The `kind` string (it also names checkpoints).
     fn kind(&self) -> &'static str;
     /// The section as resolved, without `kind` (see [`PlantSetup::resolved`]).
-    fn resolved(&self) -> Result<toml::Table, String>;
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError>;
     /// Values per share.
     fn share_values(&self, s: &Scenario) -> usize;
     /// Agent `id`'s algorithm.
@@ -224,15 +224,18 @@ impl Setup {
 
     /// The resolved scenario as TOML (what `launch` writes into the run directory): every section
     /// with its defaults, paper sections as their kinds resolved them.
-    pub fn to_toml(&self) -> Result<String, String> {
+    pub fn to_toml(&self) -> Result<String, ScenarioToTomlError> {
+        use ScenarioToTomlError as E;
         let s = &self.parsed;
         let mut t = toml::Table::new();
-        let ser = |what: &str, v: Result<toml::Table, toml::ser::Error>| v.map_err(|e| format!("{what}: {e}"));
+        let ser = |section: &'static str, v: Result<toml::Table, toml::ser::Error>| {
+            v.map_err(|source| E::Section { section, source })
+        };
         t.insert("scenario".into(), ser("scenario", toml::Table::try_from(&s.scenario))?.into());
         t.insert("run".into(), ser("run", toml::Table::try_from(&s.run))?.into());
-        let plant = self.plant.resolved().map_err(|e| format!("plant: {e}"))?;
+        let plant = self.plant.resolved().map_err(|source| E::Config { section: "plant", source })?;
         t.insert("plant".into(), cohort_scenario::section_table(self.plant.kind(), plant).into());
-        let algorithm = self.algorithm.resolved().map_err(|e| format!("algorithm: {e}"))?;
+        let algorithm = self.algorithm.resolved().map_err(|source| E::Config { section: "algorithm", source })?;
         t.insert("algorithm".into(), cohort_scenario::section_table(self.algorithm.kind(), algorithm).into());
         let agents: Vec<toml::Value> = s
             .agents
@@ -256,7 +259,7 @@ impl Setup {
                 .collect::<Result<_, _>>()?;
             t.insert("faults".into(), toml::Value::Array(faults));
         }
-        toml::to_string(&t).map_err(|e| e.to_string())
+        toml::to_string(&t).map_err(E::Document)
     }
 
     /// The plant's typed setup, when it is a `T`.
@@ -280,8 +283,28 @@ impl Setup {
 }
 
 /// A typed configuration as a TOML table (for [`PlantSetup::resolved`]).
-pub fn table_of<T: serde::Serialize>(config: &T) -> Result<toml::Table, String> {
-    toml::Table::try_from(config).map_err(|e| e.to_string())
+pub fn table_of<T: serde::Serialize>(config: &T) -> Result<toml::Table, ConfigTableError> {
+    toml::Table::try_from(config).map_err(ConfigTableError)
+}
+
+/// Why a typed configuration is no TOML table ([`table_of`], [`PlantSetup::resolved`],
+/// [`AlgorithmSetup::resolved`]): serde's reason, which names the field.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct ConfigTableError(#[from] pub toml::ser::Error);
+
+/// Why a configured scenario does not serialise ([`Setup::to_toml`]): the section, and why.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioToTomlError {
+    /// A generic section (`scenario`, `run`, `agents`, `hosts`, `faults`).
+    #[error("{section}: {source}")]
+    Section { section: &'static str, source: toml::ser::Error },
+    /// The `plant` or `algorithm` section as its kind resolved it.
+    #[error("{section}: {source}")]
+    Config { section: &'static str, source: ConfigTableError },
+    /// The document as a whole.
+    #[error("{0}")]
+    Document(toml::ser::Error),
 }
 
 /// The per-agent keys of a kind that reads none: `agent_keys::<NoAgentKeys>` rejects any key

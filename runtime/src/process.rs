@@ -1,7 +1,7 @@
 //! What the `plant` and `agent` binaries share: the handshake checks, signals, opening the
 //! run's transport (iceoryx2, UDP or zenoh), running the driver, writing the report, and the exit code.
 //!
-//! Exit codes (the orchestrator reads them):
+//! Exit codes (the orchestrator reads them; the constants and the mapping are [`crate::exit`]'s):
 //! - 0: every step done;
 //! - 1: the run failed (timeout, transport error, I/O error);
 //! - 2: bad input (the resolved scenario in the run directory does not validate);
@@ -14,25 +14,20 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use cohort_scenario::TransportKind;
+use cohort_scenario::{ScenarioError, TransportKind};
 use cohort_wire::auth::MacKey;
 use cohort_wire::transport::iox::{IoxData, IoxRun};
 use cohort_wire::transport::udp;
 use cohort_wire::transport::zenoh::{ZenohData, ZenohRun};
-use cohort_wire::transport::{Proc, Transport};
+use cohort_wire::transport::{Proc, Transport, TransportError};
 
 use tracing::{debug, error, info};
 
 use crate::drive::DriveParams;
+use crate::exit::ToExitCode;
 use crate::paper::{Paper, Setup};
 use crate::record::{ErrorKind, ProcessError, ProcessReport, RunDirs};
 use crate::recording::writer::{RecordMeta, Recording};
-
-pub const EXIT_OK: u8 = 0;
-pub const EXIT_RUN_FAILED: u8 = 1;
-pub const EXIT_BAD_INPUT: u8 = 2;
-pub const EXIT_BUILD_MISMATCH: u8 = 3;
-pub const EXIT_STOPPED: u8 = 4;
 
 /// The command-line arguments every child takes (the agent adds `--id`).
 #[derive(clap::Args, Debug)]
@@ -94,6 +89,52 @@ pub struct ChildSpec {
     pub record_attachments: Vec<crate::recording::walk::Attachment>,
 }
 
+/// Why a child process could not get to its first step; each names the argument or setting
+/// at fault. [`ToExitCode`] gives its exit code.
+#[derive(Debug, thiserror::Error)]
+pub enum ChildStartError {
+    #[error(
+        "refusing to run: built from {ours} but the orchestrator is {theirs} — rebuild the workspace (cargo build --release)"
+    )]
+    BuildMismatch { ours: &'static str, theirs: String },
+    #[error("--run-id {0:?}: not a hexadecimal run id")]
+    RunId(String),
+    #[error("{0}")]
+    Scenario(#[from] ScenarioError),
+    #[error("--id {id}: out of range, the scenario has agents 1..={n_agents}")]
+    AgentId { id: u32, n_agents: u32 },
+    #[error("--key-fd {fd}: cannot read the run's key: {source}")]
+    KeyFd { fd: i32, source: std::io::Error },
+    #[error("run.authenticate is on but no --key-fd was given: the orchestrator hands the key over")]
+    NoKeyFd,
+    #[error("cannot install the handler of signal {signal}: {source}")]
+    SignalHandler { signal: i32, source: std::io::Error },
+    /// Stopped on request while the transport was being opened.
+    #[error("{0}")]
+    Stopped(TransportError),
+    #[error("cannot open the run's services: {0}")]
+    Transport(TransportError),
+}
+
+impl ToExitCode for ChildStartError {
+    fn exit_code(&self) -> u8 {
+        use crate::exit::{BUILD_MISMATCH, FAILED, INVALID, STOPPED};
+        match self {
+            Self::BuildMismatch { .. } => BUILD_MISMATCH,
+            Self::RunId(_) | Self::Scenario(_) | Self::AgentId { .. } | Self::KeyFd { .. } | Self::NoKeyFd => INVALID,
+            Self::SignalHandler { .. } | Self::Transport(_) => FAILED,
+            Self::Stopped(_) => STOPPED,
+        }
+    }
+}
+
+/// What a child has once it is ready for its first step.
+struct Started {
+    scenario: Setup,
+    transport: Box<dyn Transport>,
+    params: DriveParams,
+}
+
 /// Run one child process to its end. The run directory's resolved scenario is configured with
 /// the kinds of `papers` (the registry's list); `run` builds the model and calls the driver.
 pub fn child_main(
@@ -106,14 +147,92 @@ pub fn child_main(
     // Lines to this process's log (its stderr, a file under the run's logs/), with level, name
     // and run time; a failed write (a full disk) is ignored: the exit code and report say it.
     crate::logging::init_child(&me.name());
-    let (run_id, scenario, key) = match checked_setup(&spec, papers) {
-        Ok(x) => x,
-        Err(code) => return ExitCode::from(code),
+    let Started { scenario, mut transport, params } = match start_child(&spec, papers, start) {
+        Ok(s) => s,
+        Err(e) => {
+            if matches!(e, ChildStartError::Stopped(_)) {
+                info!("{e}");
+            } else {
+                error!("{e}");
+            }
+            return e.to_exit();
+        }
     };
-    let terminate = match stop_signals() {
-        Ok(t) => t,
-        Err(code) => return ExitCode::from(code),
+    let dirs = params.dirs.clone();
+    info!("ready ({} steps of {} s)", params.n_steps, params.dt_s);
+    let report = if scenario.run.record && matches!(me, Proc::Agent(_)) {
+        // `run.record`: this agent's messages to record/<proc>.mcap (see `recording`).
+        let mut meta = RecordMeta::from_setup(&scenario, params.run_id, me);
+        meta.attachments = spec.record_attachments.clone();
+        match Recording::start(transport.as_mut(), &spec.run_dir, meta) {
+            Ok(mut rec) => {
+                let mut report = run(&scenario, &mut rec, &params);
+                if let Err(e) = rec.finish()
+                    && report.error.is_none()
+                {
+                    report.error = Some(ProcessError::new(ErrorKind::Io, format!("recording {e}")));
+                }
+                report
+            }
+            Err(e) => ProcessReport::failed_at_start(
+                me.name(),
+                ProcessError::new(ErrorKind::Io, format!("cannot record: {e}")),
+            ),
+        }
+    } else {
+        run(&scenario, transport.as_mut(), &params)
     };
+    drop(transport); // release the ports before exiting
+    if let Err(e) = report.write(&dirs) {
+        error!("cannot write status/{}.json: {e}", me.name());
+    }
+    match &report.error {
+        None => {
+            info!("done: {} steps in {:.3} s", report.steps_completed, report.wall_s);
+            ExitCode::from(crate::exit::OK)
+        }
+        Some(e) if e.is_stop() => {
+            info!("{e}");
+            e.to_exit()
+        }
+        Some(e) => {
+            error!("{e}");
+            e.to_exit()
+        }
+    }
+}
+
+/// From the command line to the first step: the handshake checks, the resolved scenario, the
+/// run's key, the signal handlers and the run's transport.
+fn start_child(spec: &ChildSpec, papers: &[&'static dyn Paper], start: Instant) -> Result<Started, ChildStartError> {
+    let me = spec.me;
+    if spec.build_id != cohort_wire::BUILD_ID {
+        return Err(ChildStartError::BuildMismatch { ours: cohort_wire::BUILD_ID, theirs: spec.build_id.clone() });
+    }
+    let run_id = u64::from_str_radix(&spec.run_id, 16).map_err(|_| ChildStartError::RunId(spec.run_id.clone()))?;
+    let dirs = RunDirs::new(&spec.run_dir);
+    let overrides = cohort_scenario::Overrides { step_timeout_s: spec.step_timeout_s, ..Default::default() };
+    crate::paper::skip_deep_checks();
+    let scenario = crate::paper::load(&spec.run_dir.join("scenario.toml"), &overrides, papers)?;
+    if let Proc::Agent(id) = me
+        && (id == 0 || id > scenario.n_agents())
+    {
+        return Err(ChildStartError::AgentId { id, n_agents: scenario.n_agents() });
+    }
+    let key = match (spec.key_fd, scenario.run.authenticate) {
+        (Some(fd), _) => Some(MacKey::read_from_fd(fd).map_err(|source| ChildStartError::KeyFd { fd, source })?),
+        (None, true) => return Err(ChildStartError::NoKeyFd),
+        (None, false) => None,
+    };
+    // Ctrl-C belongs to the orchestrator, which stops its children in order; SIGTERM (and SIGHUP,
+    // a closed terminal) asks this process to stop at its next wait, flushing its telemetry.
+    let terminate = Arc::new(AtomicBool::new(false));
+    // SAFETY: ignoring SIGINT installs no handler code.
+    unsafe { libc_ignore_sigint() };
+    for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP] {
+        signal_hook::flag::register(signal, Arc::clone(&terminate))
+            .map_err(|source| ChildStartError::SignalHandler { signal, source })?;
+    }
     debug!(
         "scenario {:?}: {} agents, transport {:?}, run dir {} (CPU so far {:.1} ms)",
         scenario.scenario.name,
@@ -122,97 +241,6 @@ pub fn child_main(
         spec.run_dir.display(),
         crate::record::cpu_and_rss().0 * 1e3
     );
-    let mut transport = match open_transport(&spec, &scenario, run_id, key, &terminate) {
-        Ok(t) => t,
-        Err(code) => return ExitCode::from(code),
-    };
-    debug!("the run's services are open (CPU so far {:.1} ms)", crate::record::cpu_and_rss().0 * 1e3);
-    let dirs = RunDirs::new(&spec.run_dir);
-    let mut params = DriveParams::from_setup(&scenario, run_id, dirs.clone(), terminate, start);
-    params.key = key;
-    info!("ready ({} steps of {} s)", params.n_steps, params.dt_s);
-    let report = drive(&spec, &scenario, run_id, transport.as_mut(), &params, run);
-    drop(transport); // release the ports before exiting
-    if let Err(e) = report.write(&dirs) {
-        error!("cannot write status/{}.json: {e}", me.name());
-    }
-    exit_code(&report)
-}
-
-/// The checks before anything is opened: the build id, the run id, the resolved scenario, the
-/// agent's id, the run's key. Returns (run id, scenario, key), or the exit code, said in the log.
-fn checked_setup(spec: &ChildSpec, papers: &[&'static dyn Paper]) -> Result<(u64, Setup, Option<MacKey>), u8> {
-    let me = spec.me;
-    if spec.build_id != cohort_wire::BUILD_ID {
-        error!(
-            "refusing to run: built from {} but the orchestrator is {} — rebuild the workspace (cargo build --release)",
-            cohort_wire::BUILD_ID,
-            spec.build_id
-        );
-        return Err(EXIT_BUILD_MISMATCH);
-    }
-    let Ok(run_id) = u64::from_str_radix(&spec.run_id, 16) else {
-        error!("--run-id {:?}: not a hexadecimal run id", spec.run_id);
-        return Err(EXIT_BAD_INPUT);
-    };
-    let overrides = cohort_scenario::Overrides { step_timeout_s: spec.step_timeout_s, ..Default::default() };
-    crate::paper::skip_deep_checks();
-    let scenario = match crate::paper::load(&spec.run_dir.join("scenario.toml"), &overrides, papers) {
-        Ok(s) => s,
-        Err(e) => {
-            error!("{e}");
-            return Err(EXIT_BAD_INPUT);
-        }
-    };
-    if let Proc::Agent(id) = me
-        && (id == 0 || id > scenario.n_agents())
-    {
-        error!("--id {id}: out of range, the scenario has agents 1..={}", scenario.n_agents());
-        return Err(EXIT_BAD_INPUT);
-    }
-    let key = match (spec.key_fd, scenario.run.authenticate) {
-        (Some(fd), _) => match MacKey::read_from_fd(fd) {
-            Ok(k) => Some(k),
-            Err(e) => {
-                error!("--key-fd {fd}: cannot read the run's key: {e}");
-                return Err(EXIT_BAD_INPUT);
-            }
-        },
-        (None, true) => {
-            error!("run.authenticate is on but no --key-fd was given: the orchestrator hands the key over");
-            return Err(EXIT_BAD_INPUT);
-        }
-        (None, false) => None,
-    };
-    Ok((run_id, scenario, key))
-}
-
-/// Ctrl-C belongs to the orchestrator, which stops its children in order; SIGTERM (and SIGHUP,
-/// a closed terminal) asks this process to stop at its next wait, flushing its telemetry. Returns
-/// the flag they raise, or the exit code.
-fn stop_signals() -> Result<Arc<AtomicBool>, u8> {
-    let terminate = Arc::new(AtomicBool::new(false));
-    // SAFETY: ignoring SIGINT installs no handler code.
-    unsafe { libc_ignore_sigint() };
-    for sig in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP] {
-        if let Err(e) = signal_hook::flag::register(sig, Arc::clone(&terminate)) {
-            error!("cannot install the handler of signal {sig}: {e}");
-            return Err(EXIT_RUN_FAILED);
-        }
-    }
-    Ok(terminate)
-}
-
-/// Open the run's transport (iceoryx2, UDP or zenoh); a stop while waiting for the peers, or a
-/// failure, is the exit code.
-fn open_transport(
-    spec: &ChildSpec,
-    scenario: &Setup,
-    run_id: u64,
-    key: Option<MacKey>,
-    terminate: &Arc<AtomicBool>,
-) -> Result<Box<dyn Transport>, u8> {
-    let me = spec.me;
     let topo = scenario.topology();
     let iox_run = IoxRun::new(run_id).with_key(key);
     let opened: Result<Box<dyn Transport>, _> = match scenario.run.transport {
@@ -225,71 +253,18 @@ fn open_transport(
             let timeout = Duration::from_secs_f64(scenario.run.startup_timeout_s);
             let run = ZenohRun::new(run_id).with_key(key);
             ZenohData::declare(&run, &topo, me, &spec.zenoh_listen, &spec.zenoh_connect)
-                .and_then(|p| p.ready_unless(timeout, terminate))
+                .and_then(|p| p.ready_unless(timeout, &terminate))
                 .map(|t| Box::new(t) as _)
         }
     };
-    match opened {
-        Ok(t) => Ok(t),
-        Err(e @ cohort_wire::transport::TransportError::Stopped(_)) => {
-            info!("{e}");
-            Err(EXIT_STOPPED)
-        }
-        Err(e) => {
-            error!("cannot open the run's services: {e}");
-            Err(EXIT_RUN_FAILED)
-        }
-    }
-}
-
-/// Run the driver over `transport`; with `run.record`, an agent's messages go to
-/// record/<proc>.mcap on the way (see `recording`).
-fn drive(
-    spec: &ChildSpec,
-    scenario: &Setup,
-    run_id: u64,
-    transport: &mut dyn Transport,
-    params: &DriveParams,
-    run: impl FnOnce(&Setup, &mut dyn Transport, &DriveParams) -> ProcessReport,
-) -> ProcessReport {
-    let me = spec.me;
-    if !(scenario.run.record && matches!(me, Proc::Agent(_))) {
-        return run(scenario, transport, params);
-    }
-    let mut meta = RecordMeta::from_setup(scenario, run_id, me);
-    meta.attachments = spec.record_attachments.clone();
-    match Recording::start(transport, &spec.run_dir, meta) {
-        Ok(mut rec) => {
-            let mut report = run(scenario, &mut rec, params);
-            if let Err(e) = rec.finish()
-                && report.error.is_none()
-            {
-                report.error = Some(ProcessError::new(ErrorKind::Io, format!("recording {e}")));
-            }
-            report
-        }
-        Err(e) => {
-            ProcessReport::failed_at_start(me.name(), ProcessError::new(ErrorKind::Io, format!("cannot record: {e}")))
-        }
-    }
-}
-
-/// The exit code of a report, its end said in the log.
-fn exit_code(report: &ProcessReport) -> ExitCode {
-    match &report.error {
-        None => {
-            info!("done: {} steps in {:.3} s", report.steps_completed, report.wall_s);
-            ExitCode::from(EXIT_OK)
-        }
-        Some(e) if e.is_stop() => {
-            info!("{e}");
-            ExitCode::from(EXIT_STOPPED)
-        }
-        Some(e) => {
-            error!("{e}");
-            ExitCode::from(EXIT_RUN_FAILED)
-        }
-    }
+    let transport = opened.map_err(|e| match e {
+        TransportError::Stopped(_) => ChildStartError::Stopped(e),
+        e => ChildStartError::Transport(e),
+    })?;
+    debug!("the run's services are open (CPU so far {:.1} ms)", crate::record::cpu_and_rss().0 * 1e3);
+    let mut params = DriveParams::from_setup(&scenario, run_id, dirs, terminate, start);
+    params.key = key;
+    Ok(Started { scenario, transport, params })
 }
 
 unsafe fn libc_ignore_sigint() {

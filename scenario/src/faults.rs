@@ -49,24 +49,31 @@ impl FaultSpec {
     }
 
     /// Parse one `--fault` argument: `KIND:agent=ID@t=SECONDS[,for=SECONDS][,p=PROB][,steps=N]`.
-    pub fn parse_cli(arg: &str) -> Result<Self, String> {
-        let form = "expected KIND:agent=ID@t=SECONDS[,for=SECONDS][,p=PROB][,steps=N], \
-                    e.g. kill:agent=3@t=120 or drop:agent=2@t=10,for=5,p=0.2";
-        let (kind, rest) = arg.split_once(':').ok_or_else(|| format!("{arg:?}: no ':' after the kind; {form}"))?;
+    pub fn parse_cli(arg: &str) -> Result<Self, ParseFaultError> {
+        use ParseFaultError as E;
+        let (kind, rest) = arg.split_once(':').ok_or_else(|| E::NoKind { arg: arg.into() })?;
         if !FAULT_KINDS.contains(&kind) {
-            return Err(format!("{arg:?}: unknown fault kind {kind:?} (expected one of: {})", FAULT_KINDS.join(", ")));
+            return Err(E::UnknownKind { arg: arg.into(), kind: kind.into() });
         }
-        let (who, when) = rest.split_once('@').ok_or_else(|| format!("{arg:?}: no '@' before the time; {form}"))?;
+        let (who, when) = rest.split_once('@').ok_or_else(|| E::NoTime { arg: arg.into() })?;
         let agent = who
             .strip_prefix("agent=")
-            .ok_or_else(|| format!("{arg:?}: {who:?} must be agent=ID; {form}"))?
+            .ok_or_else(|| E::NotAgent { arg: arg.into(), who: who.into() })?
             .parse::<u32>()
-            .map_err(|e| format!("{arg:?}: agent id {who:?}: {e}"))?;
+            .map_err(|source| E::AgentId { arg: arg.into(), who: who.into(), source })?;
         let mut spec = FaultSpec { kind: kind.into(), agent, t_s: f64::NAN, for_s: None, p: None, delay_steps: None };
         let mut seen_t = false;
         for item in when.split(',') {
-            let (key, value) = item.split_once('=').ok_or_else(|| format!("{arg:?}: {item:?} is not KEY=VALUE"))?;
-            let num = || value.parse::<f64>().map_err(|e| format!("{arg:?}: {key}={value:?}: {e}"));
+            let (key, value) =
+                item.split_once('=').ok_or_else(|| E::NotKeyValue { arg: arg.into(), item: item.into() })?;
+            let num = || {
+                value.parse::<f64>().map_err(|source| E::Number {
+                    arg: arg.into(),
+                    key: key.into(),
+                    value: value.into(),
+                    source,
+                })
+            };
             match key {
                 "t" => {
                     spec.t_s = num()?;
@@ -75,16 +82,50 @@ impl FaultSpec {
                 "for" => spec.for_s = Some(num()?),
                 "p" => spec.p = Some(num()?),
                 "steps" => {
-                    spec.delay_steps = Some(value.parse().map_err(|e| format!("{arg:?}: steps={value:?}: {e}"))?)
+                    spec.delay_steps = Some(value.parse().map_err(|source| E::Steps {
+                        arg: arg.into(),
+                        value: value.into(),
+                        source,
+                    })?)
                 }
-                _ => return Err(format!("{arg:?}: unknown key {key:?} (expected t, for, p or steps)")),
+                _ => return Err(E::UnknownKey { arg: arg.into(), key: key.into() }),
             }
         }
         if !seen_t {
-            return Err(format!("{arg:?}: the time t=SECONDS is required; {form}"));
+            return Err(E::TimeRequired { arg: arg.into() });
         }
         Ok(spec)
     }
+}
+
+/// The form of a `--fault` argument, for messages.
+const FAULT_FORM: &str = "expected KIND:agent=ID@t=SECONDS[,for=SECONDS][,p=PROB][,steps=N], \
+                          e.g. kill:agent=3@t=120 or drop:agent=2@t=10,for=5,p=0.2";
+
+/// Why a `--fault` argument does not parse ([`FaultSpec::parse_cli`]): each names the argument
+/// and the part of it that is wrong.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParseFaultError {
+    #[error("{arg:?}: no ':' after the kind; {FAULT_FORM}")]
+    NoKind { arg: String },
+    #[error("{arg:?}: unknown fault kind {kind:?} (expected one of: {})", FAULT_KINDS.join(", "))]
+    UnknownKind { arg: String, kind: String },
+    #[error("{arg:?}: no '@' before the time; {FAULT_FORM}")]
+    NoTime { arg: String },
+    #[error("{arg:?}: {who:?} must be agent=ID; {FAULT_FORM}")]
+    NotAgent { arg: String, who: String },
+    #[error("{arg:?}: agent id {who:?}: {source}")]
+    AgentId { arg: String, who: String, source: std::num::ParseIntError },
+    #[error("{arg:?}: {item:?} is not KEY=VALUE")]
+    NotKeyValue { arg: String, item: String },
+    #[error("{arg:?}: {key}={value:?}: {source}")]
+    Number { arg: String, key: String, value: String, source: std::num::ParseFloatError },
+    #[error("{arg:?}: steps={value:?}: {source}")]
+    Steps { arg: String, value: String, source: std::num::ParseIntError },
+    #[error("{arg:?}: unknown key {key:?} (expected t, for, p or steps)")]
+    UnknownKey { arg: String, key: String },
+    #[error("{arg:?}: the time t=SECONDS is required; {FAULT_FORM}")]
+    TimeRequired { arg: String },
 }
 
 /// How fault `k` is named in messages: `faults[k]` when the file has it, `--fault #n` when the
@@ -356,7 +397,7 @@ mod tests {
             ("kill:agent=1@t=3,q=1", "unknown key"),
             ("kill:3@t=3", "must be agent=ID"),
         ] {
-            let e = FaultSpec::parse_cli(bad).unwrap_err();
+            let e = FaultSpec::parse_cli(bad).unwrap_err().to_string();
             assert!(e.contains(says) && e.contains(bad), "{bad}: {e}");
         }
     }

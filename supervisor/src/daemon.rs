@@ -29,6 +29,7 @@ use std::time::{Duration, Instant};
 
 use cohort_runtime::record::RunDirs;
 use cohort_wire::transport::zenoh::open_session;
+use cohort_wire::transport::zenoh_security::SecurityConfigError;
 use zenoh::handlers::FifoChannelHandler;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
@@ -80,57 +81,79 @@ fn default_name() -> String {
     if name.is_empty() { "host".into() } else { name }
 }
 
-/// Why the daemon could not start.
-#[derive(Debug)]
+/// Why the daemon could not start: a bad argument or security setting (exit 2), or what it
+/// cannot serve without (exit 1), each naming the flag, file or endpoint.
+#[derive(Debug, thiserror::Error)]
 pub enum DaemonError {
-    /// A bad argument (`--name`, `--listen`): exit 2.
-    Invalid(String),
-    /// The daemon cannot serve (no sibling binary, no base directory, the endpoint cannot be
-    /// listened on): exit 1.
-    Failed(String),
+    #[error("--name {0:?}: must be 1 to 64 letters, digits, '-' or '_'")]
+    Name(String),
+    #[error("--listen {listen:?}: {why}")]
+    Listen { listen: String, why: String },
+    /// The `--tls-*`/`--auth-file` settings (or their environment variables).
+    #[error(transparent)]
+    Security(#[from] SecurityConfigError),
+    /// `--listen` does not fit the security settings (the reason names the flag).
+    #[error("{0}")]
+    InsecureListen(String),
+    /// No `plant` or `agent` binary beside this one (the reason names the path).
+    #[error("{0}")]
+    NoSibling(String),
+    /// This user's base directory for run files cannot be made.
+    #[error("{0}")]
+    UserBase(cohort_wire::transport::TransportError),
+    #[error("{}: {source}", dir.display())]
+    BaseDir { dir: PathBuf, source: std::io::Error },
+    #[error("cannot listen on {listen}: {reason}")]
+    CannotListen { listen: String, reason: String },
+    #[error("cannot declare the daemon's {what}: {reason}")]
+    Declare { what: &'static str, reason: String },
 }
 
-impl std::fmt::Display for DaemonError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+impl cohort_runtime::exit::ToExitCode for DaemonError {
+    fn exit_code(&self) -> u8 {
+        use cohort_runtime::exit::{FAILED, INVALID};
         match self {
-            DaemonError::Invalid(m) | DaemonError::Failed(m) => f.write_str(m),
+            Self::Name(_) | Self::Listen { .. } | Self::Security(_) | Self::InsecureListen(_) => INVALID,
+            Self::NoSibling(_)
+            | Self::UserBase(_)
+            | Self::BaseDir { .. }
+            | Self::CannotListen { .. }
+            | Self::Declare { .. } => FAILED,
         }
     }
 }
 
 /// Run the daemon until SIGINT/SIGTERM/SIGHUP (the handlers of
-/// [`crate::supervise::install_signal_handlers`]). An argument it refuses is
-/// [`DaemonError::Invalid`], an endpoint it cannot listen on [`DaemonError::Failed`].
+/// [`crate::supervise::install_signal_handlers`]). An argument it refuses, or an endpoint it
+/// cannot listen on, is a [`DaemonError`] naming it.
 pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
     let name = name.unwrap_or_else(default_name);
     if name.is_empty() || name.len() > 64 || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
-        return Err(DaemonError::Invalid(format!("--name {name:?}: must be 1 to 64 letters, digits, '-' or '_'")));
+        return Err(DaemonError::Name(name));
     }
     if let Some(why) = cohort_scenario::hosts::endpoint_problem(listen) {
-        return Err(DaemonError::Invalid(format!("--listen {listen:?}: {why}")));
+        return Err(DaemonError::Listen { listen: listen.to_string(), why });
     }
-    let security = cohort_wire::transport::zenoh_security::current().map_err(DaemonError::Invalid)?;
+    let security = cohort_wire::transport::zenoh_security::current()?;
     if let Some(why) = security.endpoint_problem("--listen", listen) {
-        return Err(DaemonError::Invalid(why));
+        return Err(DaemonError::InsecureListen(why));
     }
     for bin in ["plant", "agent"] {
-        sibling_binary(bin).map_err(DaemonError::Failed)?;
+        sibling_binary(bin).map_err(DaemonError::NoSibling)?;
     }
-    let base = cohort_wire::transport::iox::ensure_user_files_base()
-        .map_err(|e| DaemonError::Failed(e.to_string()))?
-        .join(&name);
-    std::fs::create_dir_all(&base).map_err(|e| DaemonError::Failed(format!("{}: {e}", base.display())))?;
+    let base = cohort_wire::transport::iox::ensure_user_files_base().map_err(DaemonError::UserBase)?.join(&name);
+    std::fs::create_dir_all(&base).map_err(|source| DaemonError::BaseDir { dir: base.clone(), source })?;
     let session = open_session(&[listen.to_string()], &[])
-        .map_err(|e| DaemonError::Failed(format!("cannot listen on {listen}: {e}")))?;
+        .map_err(|e| DaemonError::CannotListen { listen: listen.to_string(), reason: e.to_string() })?;
     let queryable: Queryable<FifoChannelHandler<Query>> = session
         .declare_queryable(request_key(&name, "*"))
         .wait()
-        .map_err(|e| DaemonError::Failed(format!("cannot declare the daemon's queryable: {e}")))?;
+        .map_err(|e| DaemonError::Declare { what: "queryable", reason: e.to_string() })?;
     let _token: LivelinessToken = session
         .liveliness()
         .declare_token(hostproto::host_token(&name))
         .wait()
-        .map_err(|e| DaemonError::Failed(format!("cannot declare the daemon's liveliness token: {e}")))?;
+        .map_err(|e| DaemonError::Declare { what: "liveliness token", reason: e.to_string() })?;
     tracing::info!(
         "host {name}: listening on {listen} (build {}), runs under {}",
         cohort_wire::BUILD_ID,
@@ -240,7 +263,7 @@ impl Daemon {
         let writer2 = writer.try_clone().map_err(|e| format!("output pipe: {e}"))?;
         let mut cmd = Command::new(&bin);
         // The child's sessions use this daemon's TLS and authentication settings.
-        cmd.envs(cohort_wire::transport::zenoh_security::current()?.to_env());
+        cmd.envs(cohort_wire::transport::zenoh_security::current().map_err(|e| e.to_string())?.to_env());
         if let Some(id) = r.proc_name.strip_prefix("agent-") {
             cmd.arg("--id").arg(id);
         }

@@ -34,4 +34,4 @@ mod remote;
 pub mod supervise;
 pub mod zping;
 
-pub use remote::preflight;
+pub use remote::{PreflightError, PreflightProblem, preflight};

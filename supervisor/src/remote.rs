@@ -37,7 +37,7 @@ fn unrouted(asked: Instant, deadline: Instant) -> bool {
 /// The address of a `tcp/<address>:<port>` (or `tls/…`) endpoint that this process's security
 /// settings allow (with TLS configured, only `tls/`).
 fn endpoint_addr(endpoint: &str) -> Result<SocketAddr, String> {
-    let security = cohort_wire::transport::zenoh_security::current()?;
+    let security = cohort_wire::transport::zenoh_security::current().map_err(|e| e.to_string())?;
     if let Some(why) = security.endpoint_problem("endpoint", endpoint) {
         return Err(why);
     }
@@ -60,27 +60,70 @@ fn local_addr_towards(to: SocketAddr) -> Result<std::net::IpAddr, String> {
     Ok(s.local_addr().map_err(|e| format!("route to {to}: {e}"))?.ip())
 }
 
+/// Why a host of the scenario is not ready for a run ([`preflight`]): the host, as
+/// `hosts[k] (<name> at <endpoint>)`, and what is wrong with it.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("{at}: {problem}")]
+pub struct PreflightError {
+    pub at: String,
+    pub problem: PreflightProblem,
+}
+
+/// What [`preflight`] found wrong with one host.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum PreflightProblem {
+    /// Its endpoint cannot be used (security settings, form, resolution).
+    #[error("{0}")]
+    Endpoint(String),
+    /// The zenoh configuration to reach it cannot be made.
+    #[error("{0}")]
+    Config(String),
+    #[error(
+        "unreachable: {reason} (is `orchestrator host --listen {endpoint} --name {name}` running there, with the same --tls-*/--auth-file settings?)"
+    )]
+    Unreachable { reason: String, endpoint: String, name: String },
+    #[error("cannot ask: {0}")]
+    Ask(String),
+    #[error("something listens there, but no daemon named {name:?} answers (start it with --name {name})")]
+    NoDaemon { name: String },
+    #[error(
+        "the daemon (pid {pid}) was built from other sources ({theirs}) than this orchestrator ({ours}): rebuild both from one checkout"
+    )]
+    BuildMismatch { pid: u32, theirs: String, ours: &'static str },
+}
+
+impl cohort_runtime::exit::ToExitCode for PreflightError {
+    /// A host the scenario names is not usable: bad input, found before anything started.
+    fn exit_code(&self) -> u8 {
+        cohort_runtime::exit::INVALID
+    }
+}
+
 /// Before anything starts: every host's daemon is reachable at its endpoint, answers to its name,
-/// and was built from the same sources. The first problem, as a message naming the host.
-pub fn preflight(hosts: &[HostSpec]) -> Result<(), String> {
+/// and was built from the same sources. The first problem, naming the host.
+pub fn preflight(hosts: &[HostSpec]) -> Result<(), PreflightError> {
     for (k, h) in hosts.iter().enumerate() {
         let at = format!("hosts[{k}] ({} at {})", h.name, h.endpoint);
-        endpoint_addr(&h.endpoint).map_err(|e| format!("{at}: {e}"))?;
-        let mut cfg = session_config(&[], std::slice::from_ref(&h.endpoint)).map_err(|e| format!("{at}: {e}"))?;
+        let fail = |problem| PreflightError { at: at.clone(), problem };
+        endpoint_addr(&h.endpoint).map_err(|e| fail(PreflightProblem::Endpoint(e)))?;
+        let mut cfg = session_config(&[], std::slice::from_ref(&h.endpoint))
+            .map_err(|e| fail(PreflightProblem::Config(e.to_string())))?;
         for (key, value) in [("connect/timeout_ms", "3000"), ("connect/exit_on_failure", "true")] {
-            cfg.insert_json5(key, value).map_err(|e| format!("{at}: zenoh config {key}: {e}"))?;
+            cfg.insert_json5(key, value)
+                .map_err(|e| fail(PreflightProblem::Config(format!("zenoh config {key}: {e}"))))?;
         }
         let session = zenoh::open(cfg).wait().map_err(|e| {
-            format!(
-                "{at}: unreachable: {e} (is `orchestrator host --listen {} --name {}` running there, with the same --tls-*/--auth-file settings?)",
-                h.endpoint, h.name
-            )
+            fail(PreflightProblem::Unreachable {
+                reason: e.to_string(),
+                endpoint: h.endpoint.clone(),
+                name: h.name.clone(),
+            })
         })?;
         let replies = session
             .get(request_key(&h.name, "info"))
             .timeout(PREFLIGHT_TIMEOUT)
             .wait()
-            .map_err(|e| format!("{at}: cannot ask: {e}"))?;
+            .map_err(|e| fail(PreflightProblem::Ask(e.to_string())))?;
         let info: Option<Info> = replies
             .recv()
             .ok()
@@ -88,18 +131,14 @@ pub fn preflight(hosts: &[HostSpec]) -> Result<(), String> {
             .and_then(|s| serde_json::from_slice(&s.payload().to_bytes()).ok());
         let _ = session.close().wait();
         let Some(info) = info else {
-            return Err(format!(
-                "{at}: something listens there, but no daemon named {:?} answers (start it with --name {})",
-                h.name, h.name
-            ));
+            return Err(fail(PreflightProblem::NoDaemon { name: h.name.clone() }));
         };
         if info.build_id != cohort_wire::BUILD_ID {
-            return Err(format!(
-                "{at}: the daemon (pid {}) was built from other sources ({}) than this orchestrator ({}): rebuild both from one checkout",
-                info.pid,
-                info.build_id,
-                cohort_wire::BUILD_ID
-            ));
+            return Err(fail(PreflightProblem::BuildMismatch {
+                pid: info.pid,
+                theirs: info.build_id,
+                ours: cohort_wire::BUILD_ID,
+            }));
         }
     }
     Ok(())

@@ -26,8 +26,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
+use cohort_runtime::exit::{BUILD_MISMATCH as EXIT_BUILD_MISMATCH, STOPPED as EXIT_STOPPED};
 use cohort_runtime::paper::Setup;
-use cohort_runtime::process::{EXIT_BUILD_MISMATCH, EXIT_STOPPED};
 use cohort_runtime::record::{RunDirs, TimelineEvent};
 pub use cohort_runtime::run_status::RunStatus;
 use cohort_scenario::TransportKind;
@@ -303,7 +303,7 @@ fn spawn(
     let log2 = log.try_clone().map_err(|e| format!("{}: {e}", log_path.display()))?;
     let mut cmd = Command::new(bin);
     // Its zenoh sessions use this orchestrator's TLS and authentication settings.
-    cmd.envs(cohort_wire::transport::zenoh_security::current()?.to_env());
+    cmd.envs(cohort_wire::transport::zenoh_security::current().map_err(|e| e.to_string())?.to_env());
     if let Proc::Agent(id) = p {
         cmd.arg("--id").arg(id.to_string());
     }
@@ -401,7 +401,7 @@ impl Resources {
     }
     /// Release them: remove iceoryx2's resources; or fetch every live host's files (its
     /// processes are gone by now), then have its daemon clean up. Problems, as warnings.
-    fn finish(self, run: &IoxRun, dirs: &RunDirs) -> Vec<String> {
+    fn finish(self, run: &IoxRun, dirs: &RunDirs) -> Vec<CleanupWarning> {
         let mut warnings = Vec::new();
         match self {
             Resources::Iox { services, claim } => {
@@ -411,24 +411,45 @@ impl Resources {
             }
             Resources::Zenoh { hub, remote } => {
                 for link in &remote.hosts {
+                    let host = link.name.clone();
                     if link.is_lost() {
-                        warnings.push(format!(
-                            "host {} was lost: the files of its processes are not in the run directory",
-                            link.name
-                        ));
+                        warnings.push(CleanupWarning::HostLost { host });
                         continue;
                     }
-                    if let Err(e) = remote.collect(link, dirs) {
-                        warnings.push(format!("cannot fetch host {}'s files: {e}", link.name));
+                    if let Err(reason) = remote.collect(link, dirs) {
+                        warnings.push(CleanupWarning::Fetch { host: host.clone(), reason });
                     }
-                    if let Err(e) = remote.end(link) {
-                        warnings.push(format!("cannot end the run on host {}: {e}", link.name));
+                    if let Err(reason) = remote.end(link) {
+                        warnings.push(CleanupWarning::End { host, reason });
                     }
                 }
                 drop(hub);
             }
         }
         warnings
+    }
+}
+
+/// A problem met while a run's resources are released ([`Resources::finish`]): logged as a
+/// warning; whether it also fails a run that otherwise completed is its kind's.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum CleanupWarning {
+    /// The host was lost during the run (already reported then): its files are missing, which
+    /// does not fail the run by itself.
+    #[error("host {host} was lost: the files of its processes are not in the run directory")]
+    HostLost { host: String },
+    /// A live host's files could not be fetched: the run directory is incomplete.
+    #[error("cannot fetch host {host}'s files: {reason}")]
+    Fetch { host: String, reason: String },
+    /// A live host's daemon could not be told to clean up: the run left resources there.
+    #[error("cannot end the run on host {host}: {reason}")]
+    End { host: String, reason: String },
+}
+
+impl CleanupWarning {
+    /// Whether a run that completed otherwise fails with this as its error.
+    fn fails_run(&self) -> bool {
+        !matches!(self, Self::HostLost { .. })
     }
 }
 
@@ -532,8 +553,8 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) ->
     drop(spawner);
     for w in resources.finish(run, dirs) {
         tracing::warn!("{w}");
-        if failure.is_none() && signal.is_none() && !w.starts_with("host ") {
-            failure = Some(w);
+        if failure.is_none() && signal.is_none() && w.fails_run() {
+            failure = Some(w.to_string());
         }
     }
     let wall_s = started.elapsed().as_secs_f64();
@@ -1214,7 +1235,7 @@ fn wait_all(kids: &mut [Kid], grace: Duration) {
 
 /// Install SIGINT, SIGTERM and SIGHUP (a closed terminal) handlers that record the signal in
 /// [`SIGNALLED`]: the run is then stopped in order, its summary written and its resources removed.
-pub fn install_signal_handlers() -> Result<(), String> {
+pub fn install_signal_handlers() -> Result<(), SignalHandlerError> {
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP] {
         // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
         unsafe {
@@ -1222,7 +1243,21 @@ pub fn install_signal_handlers() -> Result<(), String> {
                 SIGNALLED.store(sig as usize, Ordering::SeqCst);
             })
         }
-        .map_err(|e| format!("cannot install a handler for signal {sig}: {e}"))?;
+        .map_err(|source| SignalHandlerError { signal: sig, source })?;
     }
     Ok(())
+}
+
+/// A signal handler [`install_signal_handlers`] could not install (exit 1).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot install a handler for signal {signal}: {source}")]
+pub struct SignalHandlerError {
+    pub signal: i32,
+    pub source: std::io::Error,
+}
+
+impl cohort_runtime::exit::ToExitCode for SignalHandlerError {
+    fn exit_code(&self) -> u8 {
+        cohort_runtime::exit::FAILED
+    }
 }

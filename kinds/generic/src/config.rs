@@ -4,7 +4,8 @@ use std::sync::Arc;
 
 use cohort_runtime::model::{Algorithm, PlantModel};
 use cohort_runtime::paper::{
-    AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys, section_as, table_of,
+    AlgorithmKind, AlgorithmSetup, ConfigTableError, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys,
+    section_as, table_of,
 };
 use cohort_scenario::{Checker, Problem, Scenario};
 use serde::{Deserialize, Serialize};
@@ -104,7 +105,7 @@ impl PlantSetup for DoubleIntegratorSetup {
     fn kind(&self) -> &'static str {
         DoubleIntegratorKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }
     fn readings(&self, _s: &Scenario, _id: u32) -> usize {
@@ -168,7 +169,7 @@ impl PlantSetup for NullPlant {
     fn kind(&self) -> &'static str {
         NullPlantKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn readings(&self, _s: &Scenario, _id: u32) -> usize {
@@ -261,7 +262,7 @@ impl AlgorithmSetup for ConsensusFormationSetup {
     fn kind(&self) -> &'static str {
         ConsensusFormationKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }
     fn share_values(&self, _s: &Scenario) -> usize {
@@ -320,7 +321,7 @@ impl AlgorithmSetup for Coast {
     fn kind(&self) -> &'static str {
         CoastKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn share_values(&self, _s: &Scenario) -> usize {
@@ -361,7 +362,7 @@ impl AlgorithmSetup for NullAlgorithm {
     fn kind(&self) -> &'static str {
         NullAlgorithmKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn share_values(&self, _s: &Scenario) -> usize {

@@ -3,7 +3,7 @@
 //! collects at once ([`Algorithm::take_failure`]), so the run fails at that step naming the agent,
 //! the method and the exception's last line, the full traceback in the agent's log.
 
-use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
+use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, RestoreStateError, ShareOut};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
@@ -196,11 +196,11 @@ impl Algorithm for PyAlgorithm {
         self.failure.keep(Python::attach(|py| self.call_save(py, obj.bind(py)))).unwrap_or_default()
     }
 
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), RestoreStateError> {
         let Some(obj) = &self.obj else {
-            return Err(self.failure.peek().unwrap_or_else(|| "not built".into()));
+            return Err(RestoreStateError::Refused(self.failure.peek().unwrap_or_else(|| "not built".into())));
         };
-        Python::attach(|py| self.call_restore(py, obj.bind(py), bytes))
+        Python::attach(|py| self.call_restore(py, obj.bind(py), bytes)).map_err(RestoreStateError::Refused)
     }
 
     fn take_failure(&mut self) -> Option<String> {

@@ -30,7 +30,8 @@ use std::sync::Arc;
 
 use cohort_runtime::model::{Algorithm, PlantModel};
 use cohort_runtime::paper::{
-    AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantKind, PlantSetup, Setup, deep_checks, section_as, table_of,
+    AlgorithmKind, AlgorithmSetup, ConfigTableError, ConfigureCtx, PlantKind, PlantSetup, Setup, deep_checks,
+    section_as, table_of,
 };
 use cohort_scenario::{Checker, Scenario};
 use serde::{Deserialize, Serialize};
@@ -173,7 +174,7 @@ impl AlgorithmSetup for PythonAlgorithmSetup {
     fn kind(&self) -> &'static str {
         PythonAlgorithmKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }
     fn share_values(&self, _s: &Scenario) -> usize {
@@ -223,7 +224,7 @@ impl PlantSetup for PythonPlantSetup {
     fn kind(&self) -> &'static str {
         PythonPlantKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }
     fn readings(&self, _s: &Scenario, _id: u32) -> usize {

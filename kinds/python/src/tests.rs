@@ -101,7 +101,7 @@ fn a_restored_python_agent_continues_bit_for_bit_its_generator_included() {
         b.restore_state(&saved).unwrap();
         assert_eq!(b.save_state(), saved, "{class}: the restored state encodes to the same bytes");
         assert_eq!(drive(b.as_mut(), 30, 30), straight, "{class}: after restoring, the same shares bit for bit");
-        assert!(b.restore_state(&saved[..4]).unwrap_err().contains("shorter than its header"));
+        assert!(b.restore_state(&saved[..4]).unwrap_err().to_string().contains("shorter than its header"));
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

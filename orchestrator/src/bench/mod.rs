@@ -37,4 +37,4 @@ mod sample;
 mod types;
 mod zenoh;
 
-pub use run::{BenchError, run};
+pub use run::run;

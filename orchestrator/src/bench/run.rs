@@ -27,12 +27,23 @@ impl Drop for RemoveOnDrop {
 }
 
 /// Why the bench did not run to the end.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum BenchError {
     /// The arguments select nothing (exit 2).
+    #[error("{0}")]
     Invalid(String),
     /// A case could not be set up or run (exit 1).
+    #[error("{0}")]
     Failed(String),
+}
+
+impl cohort_runtime::exit::ToExitCode for BenchError {
+    fn exit_code(&self) -> u8 {
+        match self {
+            Self::Invalid(_) => cohort_runtime::exit::INVALID,
+            Self::Failed(_) => cohort_runtime::exit::FAILED,
+        }
+    }
 }
 
 impl From<String> for BenchError {

@@ -69,7 +69,7 @@ pub(crate) fn edited(
     if let Some(dt) = dt_s {
         s.scenario.dt_s = dt;
     }
-    s.algorithm.body = table_of(a)?;
+    s.algorithm.body = table_of(a).map_err(|e| e.to_string())?;
     // A diverged loop ends on the step timeout: keep that short.
     s.run.step_timeout_s = s.run.step_timeout_s.min(2.0);
     // Whether a variant diverges is what the tables measure, not what its run expects.
@@ -89,7 +89,7 @@ pub(crate) fn run(
         std::fs::remove_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     }
     let mode = if multi_process { Mode::MultiProcess } else { Mode::Reference };
-    let outcome = launcher.run(s, &dir, RunOptions { mode, plots: false })?;
+    let outcome = launcher.run(s, &dir, RunOptions { mode, plots: false }).map_err(|e| e.to_string())?;
     if outcome.status.is_interrupted() {
         return Err(format!("{label}: interrupted"));
     }

@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 use cohort_runtime::model::{Algorithm, PlantModel};
 use cohort_runtime::paper::{
-    AlgorithmKind, AlgorithmSetup, ConfigureCtx, CoupledRun, PlantKind, PlantSetup, Setup, agent_keys, section_as,
-    table_of,
+    AlgorithmKind, AlgorithmSetup, ConfigTableError, ConfigureCtx, CoupledRun, PlantKind, PlantSetup, Setup,
+    agent_keys, section_as, table_of,
 };
 use cohort_scenario::{Checker, Problem, Scenario, fmt_f64};
 use serde::{Deserialize, Serialize};
@@ -377,7 +377,7 @@ impl PlantSetup for RigidBodyPlant {
     fn kind(&self) -> &'static str {
         RigidBodyKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn readings(&self, _s: &Scenario, _id: u32) -> usize {
@@ -425,7 +425,7 @@ impl AlgorithmSetup for DaiAttitude {
     fn kind(&self) -> &'static str {
         DaiAttitudeKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn share_values(&self, _s: &Scenario) -> usize {

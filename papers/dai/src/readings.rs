@@ -105,8 +105,8 @@ pub(crate) fn study(
         let mut algorithm = cont.algorithm_as::<DaiAttitude>().ok_or("dai.toml: not dai-attitude")?.clone();
         (reading.apply)(&mut plant, &mut algorithm);
         let mut scenario = cont.parsed.clone();
-        scenario.plant.body = table_of(&plant)?;
-        scenario.algorithm.body = table_of(&algorithm)?;
+        scenario.plant.body = table_of(&plant).map_err(|e| e.to_string())?;
+        scenario.algorithm.body = table_of(&algorithm).map_err(|e| e.to_string())?;
         let base = launcher.configure(scenario, reading.name).map_err(|e| e.to_string())?;
         let mut runs: Vec<Run> = Vec::new();
         for (j, kept) in project.iter().enumerate() {

@@ -8,7 +8,8 @@ use cohort_astro::orbit::{
 };
 use cohort_runtime::model::{Algorithm, PlantModel};
 use cohort_runtime::paper::{
-    AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys, section_as, table_of,
+    AlgorithmKind, AlgorithmSetup, ConfigTableError, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys,
+    section_as, table_of,
 };
 use cohort_runtime::rng::{process_rng, setup_rng};
 use cohort_scenario::{Checker, Problem, Scenario, fmt_f64};
@@ -286,7 +287,7 @@ impl PlantSetup for OrbitalSetup {
     fn kind(&self) -> &'static str {
         OrbitalKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }
     fn readings(&self, s: &Scenario, id: u32) -> usize {
@@ -508,7 +509,7 @@ impl AlgorithmSetup for LbDnnSetup {
     fn kind(&self) -> &'static str {
         LbDnnKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }
     fn share_values(&self, _s: &Scenario) -> usize {

@@ -263,7 +263,9 @@ pub fn command(
             if let Some(sig) = launcher.interrupted() {
                 return Err(CommandError { message: "interrupted".into(), exit_code: 128 + sig as u8 });
             }
-            let r = launcher.run(s, &dir, RunOptions { mode, plots: false }).map_err(CommandError::failed)?;
+            let r = launcher
+                .run(s, &dir, RunOptions { mode, plots: false })
+                .map_err(|e| CommandError::failed(e.to_string()))?;
             if let Some(e) = &r.error {
                 return Err(CommandError { message: format!("{}: {e}", dir.display()), exit_code: r.exit_code() });
             }

@@ -121,7 +121,9 @@ pub fn command(
     let mut runs = Vec::new();
     for (method, s) in &setups {
         let dir = root.join(method);
-        let r = launcher.run(s, &dir, RunOptions { mode: Mode::MultiProcess, plots }).map_err(CommandError::failed)?;
+        let r = launcher
+            .run(s, &dir, RunOptions { mode: Mode::MultiProcess, plots })
+            .map_err(|e| CommandError::failed(e.to_string()))?;
         if let Some(e) = &r.error {
             tracing::info!("run directory (partial): {}", dir.display());
             return Err(CommandError { message: format!("{method}: {e}"), exit_code: r.exit_code() });

@@ -5,7 +5,7 @@
 use super::wait::{BACKOFF_GROWTH, BACKOFF_MAX, BACKOFF_MIN};
 use super::*;
 use crate::model::{AgentInput, Neighbour};
-use crate::model::{Algorithm, PlantModel, ShareOut};
+use crate::model::{Algorithm, PlantModel, RestoreStateError, ShareOut};
 use crate::record::{ProcessReport, RunDirs, WaitStats};
 use crate::rng::process_rng;
 use cohort_scenario::faults::*;
@@ -75,7 +75,7 @@ impl Algorithm for ToyAgent {
     fn save_state(&self) -> Vec<u8> {
         crate::checkpoint::encode_state(&(self.y, &self.nbr))
     }
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), RestoreStateError> {
         (self.y, self.nbr) = crate::checkpoint::decode_state(bytes)?;
         Ok(())
     }

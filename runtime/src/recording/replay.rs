@@ -121,7 +121,7 @@ pub fn replay_agent(setup: &Setup, rec: &RecordingFile, id: u32, out: &RunDirs) 
     let restore = match rec.attachment(super::RESTORED_FROM) {
         Some(a) => {
             let bad = |reason: String| ReplayError::Checkpoint { path: rec.path.clone(), reason };
-            let c = Checkpoint::decode(&a.data, run_id, id, &params.algorithm_kind).map_err(bad)?;
+            let c = Checkpoint::decode(&a.data, run_id, id, &params.algorithm_kind).map_err(|e| bad(e.to_string()))?;
             algo.restore_state(&c.state.algorithm).map_err(|e| bad(format!("algorithm state: {e}")))?;
             Some(c)
         }

@@ -14,7 +14,7 @@ use super::replay::replay_with;
 use super::writer::{RecordMeta, Recording};
 use super::{Direction, path_for};
 use crate::drive::{DriveParams, run_agent, run_plant};
-use crate::model::{AgentInput, Algorithm, Neighbour, ShareOut};
+use crate::model::{AgentInput, Algorithm, Neighbour, RestoreStateError, ShareOut};
 use crate::record::RunDirs;
 use crate::rng::process_rng;
 
@@ -56,7 +56,7 @@ impl Algorithm for Agent {
     fn save_state(&self) -> Vec<u8> {
         crate::checkpoint::encode_state(&(self.y, &self.nbr))
     }
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), RestoreStateError> {
         (self.y, self.nbr) = crate::checkpoint::decode_state(bytes)?;
         Ok(())
     }

@@ -88,6 +88,29 @@ enum Item {
     Share { dir: Direction, from: u32, s: Box<Share> },
 }
 
+/// Why a recording could not be started ([`Recording::start`]): its file, and what failed.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenRecordingError {
+    /// `record/` or the file cannot be created.
+    #[error("{}: {source}", path.display())]
+    Create { path: PathBuf, source: std::io::Error },
+    /// The MCAP header cannot be written.
+    #[error("{}: {source}", path.display())]
+    Mcap { path: PathBuf, source: mcap::McapError },
+    #[error("{}: cannot start its writer thread: {source}", path.display())]
+    Thread { path: PathBuf, source: std::io::Error },
+}
+
+/// Why a recording did not close cleanly ([`Recording::finish`]).
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum FinishRecordingError {
+    /// The writer failed; the message names the file.
+    #[error("{0}")]
+    Write(String),
+    #[error("{}: its writer thread panicked", path.display())]
+    Panicked { path: PathBuf },
+}
+
 /// A transport that records what passes through it (see the module doc).
 pub struct Recording<'a> {
     inner: &'a mut dyn Transport,
@@ -102,12 +125,12 @@ pub struct Recording<'a> {
 impl<'a> Recording<'a> {
     /// Create `record/<proc>.mcap` in `run_dir` (a relaunched process, finding its predecessor's
     /// file, writes `<proc>.<n>.mcap` beside it) and start its writer thread.
-    pub fn start(inner: &'a mut dyn Transport, run_dir: &Path, meta: RecordMeta) -> Result<Self, String> {
+    pub fn start(inner: &'a mut dyn Transport, run_dir: &Path, meta: RecordMeta) -> Result<Self, OpenRecordingError> {
         let path = free_path(&path_for(run_dir, meta.me));
-        let in_dir = |e: std::io::Error| format!("{}: {e}", path.display());
+        let in_dir = |source: std::io::Error| OpenRecordingError::Create { path: path.clone(), source };
         std::fs::create_dir_all(path.parent().expect("a file in record/")).map_err(in_dir)?;
         let file = File::create(&path).map_err(in_dir)?;
-        let in_file = |e: mcap::McapError| format!("{}: {e}", path.display());
+        let in_file = |source: mcap::McapError| OpenRecordingError::Mcap { path: path.clone(), source };
         let w = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
             // Level 1 and no zstd worker threads: the machine's cores belong to the run.
@@ -129,7 +152,7 @@ impl<'a> Recording<'a> {
                 }
                 r
             })
-            .map_err(|e| format!("{}: cannot start its writer thread: {e}", path.display()))?;
+            .map_err(|source| OpenRecordingError::Thread { path: path.clone(), source })?;
         Ok(Self { inner, me, tx: Some(tx), thread: Some(thread), failed, path })
     }
 
@@ -140,14 +163,17 @@ impl<'a> Recording<'a> {
 
     /// Close the file: the writer drains the queue, writes the summary and footer. Returns the
     /// number of messages recorded.
-    pub fn finish(mut self) -> Result<u64, String> {
+    pub fn finish(mut self) -> Result<u64, FinishRecordingError> {
         self.close()
     }
 
-    fn close(&mut self) -> Result<u64, String> {
+    fn close(&mut self) -> Result<u64, FinishRecordingError> {
         drop(self.tx.take());
         match self.thread.take() {
-            Some(t) => t.join().unwrap_or_else(|_| Err(format!("{}: its writer thread panicked", self.path.display()))),
+            Some(t) => match t.join() {
+                Ok(written) => written.map_err(FinishRecordingError::Write),
+                Err(_) => Err(FinishRecordingError::Panicked { path: self.path.clone() }),
+            },
             None => Ok(0),
         }
     }

@@ -90,7 +90,7 @@ pub fn session_config(listen: &[String], connect: &[String]) -> Result<Config, T
         c.insert_json5(key, &value).map_err(|e| TransportError::Other(format!("zenoh config {key} = {value}: {e}")))?;
     }
     // TLS and user/password authentication, the same for every session of the run.
-    let security = super::zenoh_security::current().map_err(TransportError::Other)?;
+    let security = super::zenoh_security::current().map_err(|e| TransportError::Other(e.to_string()))?;
     for (key, value) in security.config_entries() {
         c.insert_json5(key, &value).map_err(|e| TransportError::Other(format!("zenoh config {key}: {e}")))?;
     }

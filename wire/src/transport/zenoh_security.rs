@@ -45,39 +45,68 @@ pub struct Security {
     user_password: Option<(String, String)>,
 }
 
-/// What was wrong with a file: the flag (or variable), the path, the reason.
-fn bad(flag: &str, path: &Path, why: impl std::fmt::Display) -> String {
-    format!("{flag} {}: {why}", path.display())
+/// Why the security settings cannot be used ([`Security::new`], [`Security::from_env`],
+/// [`current`]): which flag (or environment variable) names which file, and what is wrong with it.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SecurityConfigError {
+    #[error("{flag} {}: {problem}", path.display())]
+    File { flag: String, path: PathBuf, problem: FileProblem },
+    #[error("{ca}, {cert} and {key} go together: give all three or none")]
+    TlsIncomplete { ca: String, cert: String, key: String },
 }
 
-fn read(flag: &str, path: &Path) -> Result<String, String> {
+/// What is wrong with one security file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FileProblem {
+    #[error("no such file")]
+    NotFound,
+    #[error("cannot be read (permission denied)")]
+    PermissionDenied,
+    #[error("cannot be read: {0}")]
+    Unreadable(String),
+    #[error("not PEM (not text)")]
+    NotText,
+    #[error("not PEM (no -----BEGIN {label}----- block)")]
+    NoPemBlock { label: &'static str },
+    #[error("is empty (expected <user>:<password> lines)")]
+    EmptyDictionary,
+    #[error("first line is not <user>:<password>")]
+    NotUserPassword,
+}
+
+/// What was wrong with a file: the flag (or variable), the path, the reason.
+fn bad(flag: &str, path: &Path, problem: FileProblem) -> SecurityConfigError {
+    SecurityConfigError::File { flag: flag.to_string(), path: path.to_path_buf(), problem }
+}
+
+fn read(flag: &str, path: &Path) -> Result<String, SecurityConfigError> {
     let bytes = std::fs::read(path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::NotFound => bad(flag, path, "no such file"),
-        std::io::ErrorKind::PermissionDenied => bad(flag, path, "cannot be read (permission denied)"),
-        _ => bad(flag, path, format!("cannot be read: {e}")),
+        std::io::ErrorKind::NotFound => bad(flag, path, FileProblem::NotFound),
+        std::io::ErrorKind::PermissionDenied => bad(flag, path, FileProblem::PermissionDenied),
+        _ => bad(flag, path, FileProblem::Unreadable(e.to_string())),
     })?;
-    String::from_utf8(bytes).map_err(|_| bad(flag, path, "not PEM (not text)"))
+    String::from_utf8(bytes).map_err(|_| bad(flag, path, FileProblem::NotText))
 }
 
 /// The file holds a PEM block whose label ends with `label` (`CERTIFICATE`, `PRIVATE KEY`).
-fn check_pem(flag: &str, path: &Path, label: &str) -> Result<(), String> {
+fn check_pem(flag: &str, path: &Path, label: &'static str) -> Result<(), SecurityConfigError> {
     let text = read(flag, path)?;
     let found = text.lines().any(|l| {
         l.trim().strip_prefix("-----BEGIN ").and_then(|r| r.strip_suffix("-----")).is_some_and(|l| l.ends_with(label))
     });
-    if found { Ok(()) } else { Err(bad(flag, path, format!("not PEM (no -----BEGIN {label}----- block)"))) }
+    if found { Ok(()) } else { Err(bad(flag, path, FileProblem::NoPemBlock { label })) }
 }
 
-fn first_user_password(flag: &str, path: &Path) -> Result<(String, String), String> {
+fn first_user_password(flag: &str, path: &Path) -> Result<(String, String), SecurityConfigError> {
     let text = read(flag, path)?;
     let line = text
         .lines()
         .map(str::trim)
         .find(|l| !l.is_empty())
-        .ok_or_else(|| bad(flag, path, "is empty (expected <user>:<password> lines)"))?;
+        .ok_or_else(|| bad(flag, path, FileProblem::EmptyDictionary))?;
     match line.split_once(':') {
         Some((u, p)) if !u.is_empty() && !p.is_empty() => Ok((u.to_string(), p.to_string())),
-        _ => Err(bad(flag, path, "first line is not <user>:<password>")),
+        _ => Err(bad(flag, path, FileProblem::NotUserPassword)),
     }
 }
 
@@ -91,7 +120,7 @@ impl Security {
         key: Option<PathBuf>,
         auth_file: Option<PathBuf>,
         names: [&str; 4],
-    ) -> Result<Self, String> {
+    ) -> Result<Self, SecurityConfigError> {
         let tls = match (ca, cert, key) {
             (None, None, None) => None,
             (Some(ca), Some(cert), Some(key)) => {
@@ -101,7 +130,11 @@ impl Security {
                 Some(TlsFiles { ca, cert, key })
             }
             _ => {
-                return Err(format!("{}, {} and {} go together: give all three or none", names[0], names[1], names[2]));
+                return Err(SecurityConfigError::TlsIncomplete {
+                    ca: names[0].into(),
+                    cert: names[1].into(),
+                    key: names[2].into(),
+                });
             }
         };
         let user_password = auth_file.as_deref().map(|p| first_user_password(names[3], p)).transpose()?;
@@ -109,7 +142,7 @@ impl Security {
     }
 
     /// The settings in this process's environment (see the `ENV_*` names).
-    pub fn from_env() -> Result<Self, String> {
+    pub fn from_env() -> Result<Self, SecurityConfigError> {
         let var = |n: &str| std::env::var_os(n).filter(|v| !v.is_empty()).map(PathBuf::from);
         Self::new(
             var(ENV_TLS_CA),
@@ -213,8 +246,8 @@ pub fn install(s: Security) -> bool {
 }
 
 /// This process's settings: those installed, else those of its environment (checked once).
-pub fn current() -> Result<&'static Security, String> {
-    static FROM_ENV: OnceLock<Result<Security, String>> = OnceLock::new();
+pub fn current() -> Result<&'static Security, SecurityConfigError> {
+    static FROM_ENV: OnceLock<Result<Security, SecurityConfigError>> = OnceLock::new();
     if let Some(s) = INSTALLED.get() {
         return Ok(s);
     }
@@ -245,15 +278,20 @@ mod tests {
         let key = tmp("k.pem", "-----BEGIN PRIVATE KEY-----\nAA==\n-----END PRIVATE KEY-----\n");
         let junk = tmp("junk.pem", "hello\n");
         let missing = PathBuf::from("/nonexistent/ca.pem");
-        let e = Security::new(Some(missing), Some(cert.clone()), Some(key.clone()), None, NAMES).unwrap_err();
+        let e =
+            Security::new(Some(missing), Some(cert.clone()), Some(key.clone()), None, NAMES).unwrap_err().to_string();
         assert!(e.contains("--tls-ca /nonexistent/ca.pem: no such file"), "{e}");
-        let e = Security::new(Some(cert.clone()), Some(junk.clone()), Some(key.clone()), None, NAMES).unwrap_err();
+        let e = Security::new(Some(cert.clone()), Some(junk.clone()), Some(key.clone()), None, NAMES)
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("--tls-cert ") && e.contains("not PEM (no -----BEGIN CERTIFICATE----- block)"), "{e}");
-        let e = Security::new(Some(cert.clone()), Some(cert.clone()), Some(cert.clone()), None, NAMES).unwrap_err();
+        let e = Security::new(Some(cert.clone()), Some(cert.clone()), Some(cert.clone()), None, NAMES)
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("--tls-key ") && e.contains("PRIVATE KEY"), "{e}");
-        let e = Security::new(Some(cert.clone()), None, None, None, NAMES).unwrap_err();
+        let e = Security::new(Some(cert.clone()), None, None, None, NAMES).unwrap_err().to_string();
         assert!(e.contains("go together"), "{e}");
-        let e = Security::new(None, None, None, Some(junk), NAMES).unwrap_err();
+        let e = Security::new(None, None, None, Some(junk), NAMES).unwrap_err().to_string();
         assert!(e.contains("--auth-file") && e.contains("<user>:<password>"), "{e}");
         let ok = Security::new(Some(cert.clone()), Some(cert), Some(key), Some(tmp("d", "u:p w\nv:q\n")), NAMES);
         let ok = ok.unwrap();

@@ -64,7 +64,7 @@ use crate::config::formation::{ForceCost, SHARE_HEADER, TsnrFormation, TsnrModel
 use crate::cw::Cw;
 use crate::forecast::{ForecastInput, NeighbourSample, TensionForecast};
 use crate::trajectory::{Desired, Trajectory};
-use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
+use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, RestoreStateError, ShareOut};
 use cohort_runtime::solver_stats::SolverStats;
 use nalgebra::DVector;
 
@@ -374,13 +374,17 @@ impl Algorithm for TsnrAemc {
         );
         cohort_runtime::checkpoint::encode_state(&st)
     }
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), RestoreStateError> {
         let (pk, pu, k, nbrs, forecast, state, tension, u_n, t_hat, bad): AemcState =
             cohort_runtime::checkpoint::decode_state(bytes)?;
         if nbrs.len() != self.neighbours.len() {
-            return Err(format!("{} neighbours saved, this agent has {}", nbrs.len(), self.neighbours.len()));
+            return Err(RestoreStateError::Refused(format!(
+                "{} neighbours saved, this agent has {}",
+                nbrs.len(),
+                self.neighbours.len()
+            )));
         }
-        self.forecast.restore(&forecast)?;
+        self.forecast.restore(&forecast).map_err(RestoreStateError::Refused)?;
         self.plan = Plan { k: pk, u: pu };
         self.k = k;
         for (n, (latest, k_data)) in self.neighbours.iter_mut().zip(nbrs) {

@@ -21,7 +21,7 @@
 use crate::config::formation::{ForceCost, TsnrFormation, TsnrModel};
 use crate::cw::Cw;
 use crate::trajectory::{Desired, Trajectory};
-use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
+use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, RestoreStateError, ShareOut};
 use cohort_runtime::solver_stats::SolverStats;
 use nalgebra::DVector;
 
@@ -104,7 +104,7 @@ impl Algorithm for TsnrDmpc {
         let st: DmpcState = (self.plan.k, self.plan.u.clone(), self.sensed.state, self.sensed.tension_n, self.u_n);
         cohort_runtime::checkpoint::encode_state(&st)
     }
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), RestoreStateError> {
         let (k, u, state, tension, u_n): DmpcState = cohort_runtime::checkpoint::decode_state(bytes)?;
         self.plan = Plan { k, u };
         (self.sensed.state, self.sensed.tension_n, self.u_n) = (state, tension, u_n);

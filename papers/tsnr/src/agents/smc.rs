@@ -23,7 +23,7 @@
 use crate::config::formation::{TsnrFormation, TsnrModel, TsnrSmc as Gains};
 use crate::cw::{free_accel_mps2, mean_motion_rad_s};
 use crate::trajectory::{Desired, Trajectory};
-use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
+use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, RestoreStateError, ShareOut};
 
 use super::common::{Sensed, V3, base_columns, base_row, push_header, saturate, trajectory_of};
 
@@ -85,7 +85,7 @@ impl Algorithm for TsnrSmc {
         let st: SmcState = (self.sensed.state, self.sensed.tension_n, self.s, self.u_n);
         cohort_runtime::checkpoint::encode_state(&st)
     }
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), RestoreStateError> {
         let st: SmcState = cohort_runtime::checkpoint::decode_state(bytes)?;
         (self.sensed.state, self.sensed.tension_n, self.s, self.u_n) = st;
         Ok(())

@@ -15,7 +15,7 @@ use std::sync::Arc;
 
 use cohort_runtime::model::Algorithm;
 use cohort_runtime::paper::{
-    AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantKind, PlantSetup, Setup, section_as, table_of,
+    AlgorithmKind, AlgorithmSetup, ConfigTableError, ConfigureCtx, PlantKind, PlantSetup, Setup, section_as, table_of,
 };
 use cohort_scenario::{Checker, Problem, Scenario, fmt_f64};
 use serde::{Deserialize, Serialize};
@@ -487,7 +487,7 @@ impl AlgorithmSetup for TsnrFormation {
     fn kind(&self) -> &'static str {
         TsnrFormationKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn share_values(&self, s: &Scenario) -> usize {

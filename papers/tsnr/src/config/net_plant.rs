@@ -4,7 +4,9 @@
 use std::sync::Arc;
 
 use cohort_runtime::model::PlantModel;
-use cohort_runtime::paper::{ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys, section_as, table_of};
+use cohort_runtime::paper::{
+    ConfigTableError, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys, section_as, table_of,
+};
 use cohort_scenario::{Checker, Problem, Scenario, fmt_f64};
 use serde::{Deserialize, Serialize};
 
@@ -184,7 +186,7 @@ impl PlantSetup for TsnrNetSetup {
     fn kind(&self) -> &'static str {
         TsnrNetKind.kind()
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }
     fn readings(&self, _s: &Scenario, _id: u32) -> usize {

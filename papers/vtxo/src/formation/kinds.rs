@@ -15,7 +15,8 @@ use std::sync::Arc;
 
 use cohort_runtime::model::{Algorithm, PlantModel};
 use cohort_runtime::paper::{
-    AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys, section_as, table_of,
+    AlgorithmKind, AlgorithmSetup, ConfigTableError, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys,
+    section_as, table_of,
 };
 use cohort_scenario::{Checker, Scenario};
 
@@ -53,7 +54,7 @@ impl PlantSetup for VtxoPlantConfig {
     fn kind(&self) -> &'static str {
         PLANT_KIND
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn readings(&self, _s: &Scenario, _id: u32) -> usize {
@@ -138,7 +139,7 @@ impl AlgorithmSetup for VtxoAlgorithmConfig {
     fn kind(&self) -> &'static str {
         ALGORITHM_KIND
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn share_values(&self, _s: &Scenario) -> usize {

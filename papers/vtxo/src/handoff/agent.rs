@@ -29,7 +29,7 @@
 
 use std::sync::Arc;
 
-use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
+use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, RestoreStateError, ShareOut};
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
@@ -238,7 +238,7 @@ impl Algorithm for HandoffAgent {
         cohort_runtime::checkpoint::encode_state(&self.state)
     }
 
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), RestoreStateError> {
         self.state = cohort_runtime::checkpoint::decode_state(bytes)?;
         Ok(())
     }

@@ -19,7 +19,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use cohort_runtime::model::Algorithm;
-use cohort_runtime::paper::{AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantSetup, Setup, section_as, table_of};
+use cohort_runtime::paper::{
+    AlgorithmKind, AlgorithmSetup, ConfigTableError, ConfigureCtx, PlantSetup, Setup, section_as, table_of,
+};
 use cohort_scenario::{Checker, Scenario};
 
 use crate::automaton::exec::Supervisor;
@@ -146,7 +148,7 @@ impl AlgorithmSetup for HandoffSetup {
     fn kind(&self) -> &'static str {
         HANDOFF_KIND
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }
     fn share_values(&self, _s: &Scenario) -> usize {

@@ -102,7 +102,7 @@ pub fn run(o: &Options, launcher: &dyn Launcher) -> Result<String, String> {
                 let mode = if own_step { Mode::MultiProcess } else { Mode::Reference };
                 let dir = o.out.join(&name);
                 tracing::info!("vtxo sec7: {name} ({:?}) → {}", mode, dir.display());
-                let run = launcher.run(&setup, &dir, RunOptions { mode, plots: true })?;
+                let run = launcher.run(&setup, &dir, RunOptions { mode, plots: true }).map_err(|e| e.to_string())?;
                 if let Some(e) = &run.error {
                     return Err(format!("{name}: {e}"));
                 }

@@ -25,8 +25,8 @@ use std::time::Instant;
 
 use cohort_runtime::model::Algorithm;
 use cohort_runtime::paper::{
-    AlgorithmKind, AlgorithmSetup, ConfigureCtx, CoupledCtx, CoupledOutcome, CoupledRun, PlantSetup, Setup, section_as,
-    table_of,
+    AlgorithmKind, AlgorithmSetup, ConfigTableError, ConfigureCtx, CoupledCtx, CoupledOutcome, CoupledRun, PlantSetup,
+    Setup, section_as, table_of,
 };
 use cohort_runtime::record::{CsvWriter, ErrorKind, ProcessError, ProcessReport, RunDirs};
 use cohort_scenario::{Checker, Scenario};
@@ -96,7 +96,7 @@ impl AlgorithmSetup for VtxoMissionConfig {
     fn kind(&self) -> &'static str {
         MISSION_KIND
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn share_values(&self, _s: &Scenario) -> usize {

@@ -18,7 +18,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
+use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, RestoreStateError, ShareOut};
 use cohort_runtime::solver_stats::{SolveLog, SolverStats};
 use serde::{Deserialize, Serialize};
 
@@ -407,7 +407,7 @@ impl Algorithm for NrAgent {
         cohort_runtime::checkpoint::encode_state(&self.st)
     }
 
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), RestoreStateError> {
         self.st = cohort_runtime::checkpoint::decode_state(bytes)?;
         Ok(())
     }

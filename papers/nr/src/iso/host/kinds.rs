@@ -23,7 +23,8 @@ use std::sync::Arc;
 
 use cohort_runtime::model::{Algorithm, PlantModel};
 use cohort_runtime::paper::{
-    AlgorithmKind, AlgorithmSetup, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys, section_as, table_of,
+    AlgorithmKind, AlgorithmSetup, ConfigTableError, ConfigureCtx, PlantKind, PlantSetup, Setup, agent_keys,
+    section_as, table_of,
 };
 use cohort_scenario::{Checker, Scenario, fmt_f64};
 
@@ -73,7 +74,7 @@ impl PlantSetup for IsoEncounterConfig {
     fn kind(&self) -> &'static str {
         PLANT_KIND
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn readings(&self, _s: &Scenario, _id: u32) -> usize {
@@ -169,7 +170,7 @@ impl AlgorithmSetup for NrSetup {
     fn kind(&self) -> &'static str {
         ALGORITHM_KIND
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }
     fn share_values(&self, _s: &Scenario) -> usize {

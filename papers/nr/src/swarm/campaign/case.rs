@@ -145,13 +145,13 @@ pub fn case_setup(
     s.scenario.name = name.to_string();
     s.scenario.seed = seed;
     // The case's problem is the seed's.
-    s.plant.body = table_of(&SwarmConfig { problem_seed: None, ..plant.clone() })?;
+    s.plant.body = table_of(&SwarmConfig { problem_seed: None, ..plant.clone() }).map_err(|e| e.to_string())?;
     let mut config = alg.config.clone();
     config.method = method;
     if !filtered {
         config.safety = None;
     }
-    s.algorithm.body = table_of(&config)?;
+    s.algorithm.body = table_of(&config).map_err(|e| e.to_string())?;
     launcher.configure(s, name).map_err(|e| e.to_string())
 }
 
@@ -163,7 +163,7 @@ pub fn fly_reference(
     plots: bool,
     row: &mut CaseResult,
 ) -> Result<(), String> {
-    let r = launcher.run(setup, dir, RunOptions { mode: Mode::Reference, plots })?;
+    let r = launcher.run(setup, dir, RunOptions { mode: Mode::Reference, plots }).map_err(|e| e.to_string())?;
     row.run_dir = Some(dir.to_path_buf());
     if r.status != RunStatus::Ok {
         row.status = format!("run {}: {}", r.status, r.error.unwrap_or_default());

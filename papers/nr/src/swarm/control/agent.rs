@@ -33,7 +33,7 @@
 
 use std::sync::Arc;
 
-use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, ShareOut};
+use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, RestoreStateError, ShareOut};
 use serde::{Deserialize, Serialize};
 
 use crate::iso::control::min_norm::min_norm;
@@ -312,7 +312,7 @@ impl Algorithm for SwarmAgent {
         cohort_runtime::checkpoint::encode_state(&self.st)
     }
 
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), RestoreStateError> {
         self.st = cohort_runtime::checkpoint::decode_state(bytes)?;
         Ok(())
     }

@@ -22,8 +22,8 @@ use std::sync::Arc;
 
 use cohort_runtime::model::{Algorithm, PlantModel};
 use cohort_runtime::paper::{
-    AlgorithmKind, AlgorithmSetup, ConfigureCtx, NoAgentKeys, PlantKind, PlantSetup, Setup, agent_keys, section_as,
-    table_of,
+    AlgorithmKind, AlgorithmSetup, ConfigTableError, ConfigureCtx, NoAgentKeys, PlantKind, PlantSetup, Setup,
+    agent_keys, section_as, table_of,
 };
 use cohort_scenario::{Checker, Scenario};
 
@@ -80,7 +80,7 @@ impl PlantSetup for SwarmConfig {
     fn kind(&self) -> &'static str {
         PLANT_KIND
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
     fn readings(&self, _s: &Scenario, _id: u32) -> usize {
@@ -206,7 +206,7 @@ impl AlgorithmSetup for SwarmSetup {
     fn kind(&self) -> &'static str {
         ALGORITHM_KIND
     }
-    fn resolved(&self) -> Result<toml::Table, String> {
+    fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }
     fn share_values(&self, _s: &Scenario) -> usize {
