@@ -71,9 +71,8 @@ pub(super) fn clients(live: Option<LiveClient>) -> Result<Vec<crate::live::clien
 pub(super) fn markdown(a: &[Aggregate]) -> String {
     let rows: Vec<&Aggregate> = a.iter().filter(|x| x.group == "live").collect();
     let Some(off) = rows.iter().find(|x| x.variant == "off").copied() else { return String::new() };
-    let mut t = (1..5).fold(MdTable::new(["variant", "steps/s (median)", "min", "max", "vs off"]), |t, c| {
-        t.align(c, Align::Right)
-    });
+    let mut t = (1..5)
+        .fold(MdTable::new(["variant", "steps/s (median)", "min", "max", "vs off"]), |t, c| t.align(c, Align::Right));
     for r in rows {
         t.row([
             r.variant.clone(),

@@ -366,9 +366,9 @@ trait SumPositions {
 }
 
 impl<I: Iterator<Item = Option<[f64; 3]>>> SumPositions for I {
-    fn sum_positions(self) -> Option<[f64; 3]> {
-        self.fold(Some([0.0; 3]), |acc, p| {
-            let (a, p) = (acc?, p?);
+    fn sum_positions(mut self) -> Option<[f64; 3]> {
+        self.try_fold([0.0; 3], |a, p| {
+            let p = p?;
             Some([a[0] + p[0], a[1] + p[1], a[2] + p[2]])
         })
     }
