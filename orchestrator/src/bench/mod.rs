@@ -99,13 +99,10 @@ struct Aggregate {
     wall_s_median: f64,
 }
 
+/// The median of `xs` (sorted in place) by `cohort_report::stats`'s rule; NaN when empty.
 fn median(xs: &mut [f64]) -> f64 {
-    if xs.is_empty() {
-        return f64::NAN;
-    }
     xs.sort_by(f64::total_cmp);
-    let n = xs.len();
-    if n % 2 == 1 { xs[n / 2] } else { 0.5 * (xs[n / 2 - 1] + xs[n / 2]) }
+    cohort_report::stats::median(xs)
 }
 
 /// How a bench scenario differs from the plain consensus ring.

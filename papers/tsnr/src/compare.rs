@@ -9,6 +9,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use cohort_host::{CommandError, Launcher, Mode, RunOptions, utc_stamp};
+use cohort_report::markdown::MdTable;
 use cohort_scenario::{Overrides, ScenarioError};
 
 use crate::config::formation::{Method, with_method};
@@ -468,9 +469,18 @@ pub fn write(root: &Path, ctx: &Context, runs: &[(String, BTreeMap<String, f64>)
     // Thrust and solver.
     md.push_str(
         "\n## Thrust and solver\n\nQP solve wall times per MU (1 / 2 / 3 / …), ms; failures summed over the MUs. \
-         SMC solves no QP.\n\n| method | thrust-bound violations | largest thrust component (N) | QP p50 (ms) | QP p99 \
-         (ms) | QP max (ms) | not converged | infeasible |\n|---|---|---|---|---|---|---|---|\n",
+         SMC solves no QP.\n\n",
     );
+    let mut table = MdTable::new([
+        "method",
+        "thrust-bound violations",
+        "largest thrust component (N)",
+        "QP p50 (ms)",
+        "QP p99 (ms)",
+        "QP max (ms)",
+        "not converged",
+        "infeasible",
+    ]);
     for (method, m) in runs {
         let per_mu = |s: &str| -> String {
             let xs: Vec<String> =
@@ -481,9 +491,8 @@ pub fn write(root: &Path, ctx: &Context, runs: &[(String, BTreeMap<String, f64>)
             .iter()
             .filter_map(|ax| get(m, &format!("thrust_max_abs_{ax}_n")))
             .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))));
-        let _ = writeln!(
-            md,
-            "| {method} | {} | {} | {} | {} | {} | {} | {} |",
+        table.row([
+            method.to_string(),
             num(m, "thrust_bound_violations"),
             umax.map_or("–".into(), g),
             per_mu("qp_p50_s"),
@@ -491,8 +500,9 @@ pub fn write(root: &Path, ctx: &Context, runs: &[(String, BTreeMap<String, f64>)
             per_mu("qp_max_s"),
             num(m, "qp_not_converged"),
             num(m, "qp_infeasible"),
-        );
+        ]);
     }
+    md.push_str(&table.to_string());
     if !ctx.figures.is_empty() {
         md.push_str("\n## Figures\n\n");
         for f in ctx.figures {
