@@ -2,8 +2,8 @@
 //! provides them ([`paper`]), the
 //! lockstep step drivers generic over the transport ([`drive`]), what a process records
 //! ([`record`]), per-process random generators ([`rng`]), and the message recordings of
-//! `run.record` with the replay of one agent against them ([`recording`]), and every process's
-//! logging ([`logging`]).
+//! `run.record` with the replay of one agent against them ([`recording`]), every process's
+//! logging ([`logging`]), and the checked weights files of learned models ([`weights`]).
 
 pub mod checkpoint;
 pub mod drive;
@@ -18,3 +18,4 @@ pub mod rng;
 pub mod run_status;
 pub mod solver_stats;
 pub mod units;
+pub mod weights;
