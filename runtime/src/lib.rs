@@ -3,10 +3,12 @@
 //! lockstep step drivers generic over the transport ([`drive`]), what a process records
 //! ([`record`]), per-process random generators ([`rng`]), and the message recordings of
 //! `run.record` with the replay of one agent against them ([`recording`]), every process's
-//! logging ([`logging`]), and the checked weights files of learned models ([`weights`]).
+//! logging ([`logging`]), the checked weights files of learned models ([`weights`]), and the
+//! in-process lockstep loop of campaigns and studies, without a transport ([`lockstep`]).
 
 pub mod checkpoint;
 pub mod drive;
+pub mod lockstep;
 pub mod logging;
 pub mod model;
 pub mod paper;
