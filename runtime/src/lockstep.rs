@@ -2,7 +2,8 @@
 //! many runs or look inside the plant and the agents between the phases of a step.
 //!
 //! Step k, in the drivers' order ([`crate::drive`]): the plant's readings for every agent (agent
-//! order, one generator: the plant process's, so the noise is the run's), every agent's `share`,
+//! order, one generator: the plant process's, so the noise is the run's), every agent's `share`
+//! (into an emptied `ShareOut`, as the agent driver gives it),
 //! a look at the plant and the agents at tₖ after the shares (where the telemetry rows are taken),
 //! every agent's `step` with its neighbours' shares of step k, the commands applied in agent
 //! order, and the plant advanced by Δt. Each agent's wall time for share + step is kept (never
@@ -20,6 +21,9 @@ use rand_chacha::ChaCha8Rng;
 use crate::model::{AgentInput, Algorithm, Neighbour, PlantModel, ShareOut};
 use crate::rng::process_rng;
 use cohort_wire::transport::Proc;
+
+/// What [`Lockstep::step`] shows after the shares of step k: k, the plant, the agents, their shares.
+pub type Look<'l, P, A> = dyn FnMut(u64, &P, &[&mut A], &[ShareOut]) + 'l;
 
 /// The loop's state between steps: the step, the plant's generator and the last shares.
 pub struct Lockstep {
@@ -84,12 +88,8 @@ impl Lockstep {
 
     /// Fly step k of `plant` and `agents` (as many as the loop has, agent id = index + 1); `look`
     /// sees k, the plant, the agents and their shares after the shares of step k.
-    pub fn step<P, A>(
-        &mut self,
-        plant: &mut P,
-        agents: &mut [&mut A],
-        look: &mut dyn FnMut(u64, &P, &[&mut A], &[ShareOut]),
-    ) where
+    pub fn step<P, A>(&mut self, plant: &mut P, agents: &mut [&mut A], look: &mut Look<'_, P, A>)
+    where
         P: PlantModel + ?Sized,
         A: Algorithm + ?Sized,
     {
@@ -100,6 +100,9 @@ impl Lockstep {
             plant.readings(i as u32 + 1, &mut self.rng, r);
         }
         for (i, a) in agents.iter_mut().enumerate() {
+            // As the agent driver: each step's share starts empty.
+            self.shares[i].command.clear();
+            self.shares[i].values.clear();
             let started = Instant::now();
             a.share(&AgentInput { k, t_s, readings: &self.readings[i] }, &mut self.shares[i]);
             self.compute_s[i] = started.elapsed().as_secs_f64();
