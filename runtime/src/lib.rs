@@ -2,12 +2,15 @@
 //! provides them ([`paper`]), the
 //! lockstep step drivers generic over the transport ([`drive`]), what a process records
 //! ([`record`]), per-process random generators ([`rng`]), and the message recordings of
-//! `run.record` with the replay of one agent against them ([`recording`]), and every process's
-//! logging ([`logging`]) and exit codes ([`exit`]).
+//! `run.record` with the replay of one agent against them ([`recording`]), every process's
+//! logging ([`logging`]) and exit codes ([`exit`]), the checked weights files of learned models
+//! ([`weights`]), and the in-process lockstep loop of campaigns and studies, without a transport
+//! ([`lockstep`]).
 
 pub mod checkpoint;
 pub mod drive;
 pub mod exit;
+pub mod lockstep;
 pub mod logging;
 pub mod model;
 pub mod paper;
@@ -19,3 +22,4 @@ pub mod rng;
 pub mod run_status;
 pub mod solver_stats;
 pub mod units;
+pub mod weights;

@@ -73,11 +73,8 @@ pub(super) struct Aggregate {
     pub(super) wall_s_median: f64,
 }
 
+/// The median of `xs` (sorted in place) by `cohort_report::stats`'s rule; NaN when empty.
 pub(super) fn median(xs: &mut [f64]) -> f64 {
-    if xs.is_empty() {
-        return f64::NAN;
-    }
     xs.sort_by(f64::total_cmp);
-    let n = xs.len();
-    if n % 2 == 1 { xs[n / 2] } else { 0.5 * (xs[n / 2 - 1] + xs[n / 2]) }
+    cohort_report::stats::median(xs)
 }

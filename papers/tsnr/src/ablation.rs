@@ -36,6 +36,7 @@ use std::path::{Path, PathBuf};
 
 use cohort_host::{CommandError, Launcher, Mode, RunOptions, utc_stamp};
 use cohort_report::Table;
+use cohort_report::markdown::MdTable;
 use cohort_runtime::paper::Setup;
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
 
@@ -400,19 +401,20 @@ fn write(
     }
     md.push_str(
         "\nOracle iterates: RMS of (replayed − met) tension components over MUs and steps, and the first time a \
-         component differs by more than 0.1 N.\n\n| scenario | variant | residual RMS (N) | differs from |\n|---|---|---|---|\n",
+         component differs by more than 0.1 N.\n\n",
     );
+    let mut oracle = MdTable::new(["scenario", "variant", "residual RMS (N)", "differs from"]);
     for r in rows {
         if let Some((res, div)) = r.oracle {
-            let _ = writeln!(
-                md,
-                "| {} | `{}` | {res:.3} | {} |",
-                r.scenario,
-                r.variant,
-                div.map_or("never".into(), |d| format!("{d:.1} s"))
-            );
+            oracle.row([
+                r.scenario.to_string(),
+                format!("`{}`", r.variant),
+                format!("{res:.3}"),
+                div.map_or("never".into(), |d| format!("{d:.1} s")),
+            ]);
         }
     }
+    md.push_str(&oracle.to_string());
     let _ = writeln!(
         md,
         "\nAEMC ≤ DMPC in fuel (∫‖u‖dt) holds for: {}.",

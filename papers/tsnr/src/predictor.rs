@@ -37,9 +37,10 @@
 //! bytes do not depend on hash-map order: retraining with the same seed rewrites the same file).
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use safetensors::{Dtype, SafeTensors};
+pub use cohort_runtime::weights::WeightsError;
+use cohort_runtime::weights::{self, Precision, Tensor, Values, WeightsFile};
 
 pub use crate::net::adjacent_mus;
 
@@ -50,13 +51,8 @@ pub const METADATA_KEY: &str = "cohort_tsnr_tension";
 /// Value of the metadata's `format`.
 pub const FORMAT: &str = "cohort-tsnr-tension-v1";
 
-/// A weights file that cannot be used, and why.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("tension predictor weights {}: {what}", file.display())]
-pub struct PredictorError {
-    pub file: PathBuf,
-    pub what: String,
-}
+/// The model name of its weights errors.
+pub const MODEL: &str = "tension predictor";
 
 /// One history sample X_{i,m} (see the module notes for its meaning and units).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -103,104 +99,64 @@ pub struct TensionPredictor {
 
 impl TensionPredictor {
     /// Read and check a weights file.
-    pub fn load(path: &Path) -> Result<Self, PredictorError> {
-        let bytes = std::fs::read(path).map_err(|e| err(path, format!("cannot read: {e}")))?;
-        Self::from_bytes(&bytes, path)
+    pub fn load(path: &Path) -> Result<Self, WeightsError> {
+        Self::from_bytes(&weights::read(MODEL, path)?, path)
     }
 
     /// Check and load the bytes of a weights file; `file` only names it in errors.
-    pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, PredictorError> {
-        let fail = |what: String| err(file, what);
-        let (_, header) =
-            SafeTensors::read_metadata(bytes).map_err(|e| fail(format!("not a safetensors file ({e})")))?;
-        let st = SafeTensors::deserialize(bytes).map_err(|e| fail(format!("not a safetensors file ({e})")))?;
-        let text = header
-            .metadata()
-            .as_ref()
-            .and_then(|m| m.get(METADATA_KEY))
-            .ok_or_else(|| fail(format!("no `{METADATA_KEY}` metadata: not a tension-predictor weights file")))?;
-        let metadata: serde_json::Value =
-            serde_json::from_str(text).map_err(|e| fail(format!("metadata `{METADATA_KEY}` is not JSON ({e})")))?;
-        let format = metadata.get("format").and_then(|v| v.as_str());
-        if format != Some(FORMAT) {
-            return Err(fail(format!("metadata format is {format:?}, expected \"{FORMAT}\"")));
-        }
+    pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
+        let st = WeightsFile::parse(MODEL, bytes, file)?;
+        let metadata = st.metadata_json(METADATA_KEY, FORMAT, "a tension-predictor")?;
         let uint = |key: &str| {
             metadata
                 .get(key)
                 .and_then(|v| v.as_u64())
-                .ok_or_else(|| fail(format!("metadata `{key}` is missing or not a whole number")))
+                .ok_or_else(|| st.invalid(format!("metadata `{key}` is missing or not a whole number")))
         };
         let n_t = uint("n_t")? as usize;
         let per_step = uint("features_per_step")? as usize;
         let dt_s = metadata
             .get("dt_s")
             .and_then(|v| v.as_f64())
-            .ok_or_else(|| fail("metadata `dt_s` is missing or not a number".into()))?;
+            .ok_or_else(|| st.invalid("metadata `dt_s` is missing or not a number"))?;
         if !(1..=1000).contains(&n_t) {
-            return Err(fail(format!("metadata n_t = {n_t}: must be 1..=1000")));
+            return Err(st.invalid(format!("metadata n_t = {n_t}: must be 1..=1000")));
         }
         if per_step != FEATURES_PER_STEP {
-            return Err(fail(format!(
+            return Err(st.invalid(format!(
                 "metadata features_per_step = {per_step}: this build reads {FEATURES_PER_STEP} per step"
             )));
         }
         if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(fail(format!("metadata dt_s = {dt_s}: must be a finite number > 0")));
+            return Err(st.invalid(format!("metadata dt_s = {dt_s}: must be a finite number > 0")));
         }
         let (n_in, n_out) = (FEATURES_PER_STEP * n_t, 3 * n_t);
-
-        let mut names: Vec<String> = st.names().into_iter().map(String::from).collect();
-        names.sort();
-        let tensor = |name: &str, dtype: Dtype, shape: &[usize]| -> Result<Vec<f64>, PredictorError> {
-            let t = st.tensor(name).map_err(|_| fail(format!("tensor `{name}` is missing")))?;
-            if t.dtype() != dtype || t.shape() != shape {
-                return Err(fail(format!(
-                    "tensor `{name}` is {:?} {:?}, expected {dtype:?} {shape:?}",
-                    t.dtype(),
-                    t.shape()
-                )));
-            }
-            let values: Vec<f64> = match dtype {
-                Dtype::F32 => {
-                    t.data().chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap()) as f64).collect()
-                }
-                Dtype::F64 => t.data().chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect(),
-                _ => unreachable!("only f32 and f64 are asked for"),
-            };
-            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-                return Err(fail(format!("tensor `{name}` has a non-finite value at flat index {i}")));
-            }
-            Ok(values)
-        };
-        let input_mean = tensor("input_mean", Dtype::F64, &[n_in])?;
-        let input_std = tensor("input_std", Dtype::F64, &[n_in])?;
-        let output_scale = tensor("output_scale", Dtype::F64, &[n_out])?;
+        let names = st.names();
+        let tensor = |name: &str, precision: Precision, shape: &[usize]| st.tensor(name, precision, shape);
+        let input_mean = tensor("input_mean", Precision::F64, &[n_in])?;
+        let input_std = tensor("input_std", Precision::F64, &[n_in])?;
+        let output_scale = tensor("output_scale", Precision::F64, &[n_out])?;
         for (name, v) in [("input_std", &input_std), ("output_scale", &output_scale)] {
             if let Some(i) = v.iter().position(|x| *x <= 0.0) {
-                return Err(fail(format!("tensor `{name}` has a value ≤ 0 at index {i}")));
+                return Err(st.invalid(format!("tensor `{name}` has a value ≤ 0 at index {i}")));
             }
         }
         let mut layers = Vec::new();
         let mut width = n_in;
-        while names.iter().any(|n| n == &format!("layers.{}.weight", layers.len())) {
+        while st.contains(&format!("layers.{}.weight", layers.len())) {
             let l = layers.len();
             let wname = format!("layers.{l}.weight");
-            let shape = st.tensor(&wname).map(|t| t.shape().to_vec()).unwrap_or_default();
-            if shape.len() != 2 || shape[1] != width {
-                return Err(fail(format!("tensor `{wname}` has shape {shape:?}, expected [_, {width}]")));
-            }
+            let (shape, w) = st.tensor_dims(&wname, Precision::F32, &[None, Some(width)])?;
             let out = shape[0];
-            let w = tensor(&wname, Dtype::F32, &[out, width])?;
-            let b = tensor(&format!("layers.{l}.bias"), Dtype::F32, &[out])?;
+            let b = tensor(&format!("layers.{l}.bias"), Precision::F32, &[out])?;
             layers.push(Layer { n_in: width, n_out: out, w, b });
             width = out;
         }
         if layers.is_empty() {
-            return Err(fail("tensor `layers.0.weight` is missing".into()));
+            return Err(st.error(weights::Problem::MissingTensor { name: "layers.0.weight".into() }));
         }
         if width != n_out {
-            return Err(fail(format!("the last layer has {width} outputs, expected 3·n_t = {n_out}")));
+            return Err(st.invalid(format!("the last layer has {width} outputs, expected 3·n_t = {n_out}")));
         }
         let known = 3 + 2 * layers.len();
         if names.len() != known {
@@ -208,8 +164,8 @@ impl TensionPredictor {
                 .flat_map(|l| [format!("layers.{l}.weight"), format!("layers.{l}.bias")])
                 .chain(["input_mean", "input_std", "output_scale"].map(String::from))
                 .collect();
-            let extra: Vec<&String> = names.iter().filter(|n| !expected.contains(n)).collect();
-            return Err(fail(format!("unexpected tensors {extra:?}")));
+            let extra: Vec<&&str> = names.iter().filter(|n| !expected.iter().any(|e| e == *n)).collect();
+            return Err(st.invalid(format!("unexpected tensors {extra:?}")));
         }
         Ok(Self { n_t, dt_s, layers, input_mean, input_std, output_scale, metadata })
     }
@@ -276,10 +232,6 @@ pub fn relative_features(history: &[f64], out: &mut Vec<f64>) {
     }
 }
 
-fn err(file: &Path, what: String) -> PredictorError {
-    PredictorError { file: file.to_path_buf(), what }
-}
-
 /// One layer as trained: (weight [out][in] row-major, bias, out, in).
 pub type LayerData = (Vec<f32>, Vec<f32>, usize, usize);
 
@@ -291,27 +243,15 @@ pub fn weights_file_bytes(
     output_scale: &[f64],
     metadata: &serde_json::Value,
 ) -> Result<Vec<u8>, String> {
-    use safetensors::tensor::TensorView;
-    let f32_bytes = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
-    let f64_bytes = |v: &[f64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
-    let mut owned: Vec<(String, Dtype, Vec<usize>, Vec<u8>)> = Vec::new();
+    let mut tensors = Vec::new();
     for (l, (w, b, out, inp)) in layers.iter().enumerate() {
-        owned.push((format!("layers.{l}.weight"), Dtype::F32, vec![*out, *inp], f32_bytes(w)));
-        owned.push((format!("layers.{l}.bias"), Dtype::F32, vec![*out], f32_bytes(b)));
+        tensors.push(Tensor::new(format!("layers.{l}.weight"), vec![*out, *inp], Values::F32(w)));
+        tensors.push(Tensor::new(format!("layers.{l}.bias"), vec![*out], Values::F32(b)));
     }
-    owned.push(("input_mean".into(), Dtype::F64, vec![input_mean.len()], f64_bytes(input_mean)));
-    owned.push(("input_std".into(), Dtype::F64, vec![input_std.len()], f64_bytes(input_std)));
-    owned.push(("output_scale".into(), Dtype::F64, vec![output_scale.len()], f64_bytes(output_scale)));
-    let views = owned
-        .iter()
-        .map(|(name, dtype, shape, data)| {
-            TensorView::new(*dtype, shape.clone(), data).map(|v| (name.clone(), v)).map_err(|e| format!("{name}: {e}"))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    // One metadata key: a std HashMap of one entry serialises the same way every time.
-    let meta: std::collections::HashMap<String, String> =
-        [(METADATA_KEY.to_string(), metadata.to_string())].into_iter().collect();
-    safetensors::serialize(views, Some(meta)).map_err(|e| e.to_string())
+    tensors.push(Tensor::new("input_mean", vec![input_mean.len()], Values::F64(input_mean)));
+    tensors.push(Tensor::new("input_std", vec![input_std.len()], Values::F64(input_std)));
+    tensors.push(Tensor::new("output_scale", vec![output_scale.len()], Values::F64(output_scale)));
+    weights::to_bytes(MODEL, &tensors, Some((METADATA_KEY, metadata))).map_err(|e| e.to_string())
 }
 
 /// Settings of a weights file's metadata that the predictor reads, for writers.
@@ -425,11 +365,11 @@ mod tests {
         let mut m = metadata(2);
         m.as_object_mut().unwrap().remove("n_t");
         check(&write(&layers, &std, m), "metadata `n_t` is missing");
-        check(&write(&layers, &std, metadata(3)), "tensor `input_mean` is F64 [54], expected F64 [81]");
+        check(&write(&layers, &std, metadata(3)), "tensor \"input_mean\" has shape [54], expected [81]");
         // A non-finite weight, a zero standard deviation, a layer of the wrong width.
         let mut l = layers.clone();
         l[1].0[3] = f32::NAN;
-        check(&write(&l, &std, metadata(2)), "tensor `layers.1.weight` has a non-finite value at flat index 3");
+        check(&write(&l, &std, metadata(2)), "tensor \"layers.1.weight\" value 3 (flat index) is not finite (NaN)");
         let mut s = std.clone();
         s[5] = 0.0;
         check(&write(&layers, &s, metadata(2)), "tensor `input_std` has a value ≤ 0 at index 5");
@@ -440,7 +380,7 @@ mod tests {
         check(&write(&l, &std, metadata(2)), "the last layer has 5 outputs, expected 3·n_t = 6");
         // No metadata at all.
         let bytes = safetensors::serialize(Vec::<(String, safetensors::tensor::TensorView)>::new(), None).unwrap();
-        check(&bytes, "no `cohort_tsnr_tension` metadata");
+        check(&bytes, "no \"cohort_tsnr_tension\" metadata: not a tension-predictor weights file");
     }
 
     #[test]

@@ -361,3 +361,34 @@ fn link_faults_are_deterministic_and_every_lost_share_is_counted() {
     assert_eq!(ra[1].faults.max_age_steps, 2, "agent 2 used agent 1's shares 2 steps late");
     let _ = std::fs::remove_dir_all(&base);
 }
+
+/// The transport-free loop of campaigns and studies ([`crate::lockstep::Lockstep`]) flies the
+/// drivers' ring exactly: the same readings (the plant process's generator), the same shares.
+#[test]
+fn the_lockstep_loop_flies_the_drivers_ring_bit_for_bit() {
+    let base = std::env::temp_dir().join(format!("cohort-drive-lockstep-{}", std::process::id()));
+    let (pr, ars, driven) = run(&base, Setup::default());
+    assert!(pr.error.is_none() && ars.iter().all(|r| r.error.is_none()));
+    let shared: Vec<Arc<Mutex<Vec<f64>>>> = (0..4).map(|_| Arc::new(Mutex::new(Vec::new()))).collect();
+    let mut plant = ToyPlant { x: vec![1.0, -2.0, 3.5, 0.25], u: vec![0.0; 4] };
+    let mut agents: Vec<ToyAgent> =
+        shared.iter().map(|sh| ToyAgent { y: 0.0, nbr: vec![], shared: Arc::clone(sh) }).collect();
+    let ring = vec![vec![2, 4], vec![1, 3], vec![2, 4], vec![3, 1]];
+    let mut lockstep = crate::lockstep::Lockstep::new(ring, 0.1, 5);
+    let mut refs: Vec<&mut ToyAgent> = agents.iter_mut().collect();
+    let mut looked = 0;
+    for _ in 0..50 {
+        lockstep.step(&mut plant, &mut refs, &mut |k, _, agents, shares| {
+            assert_eq!((k, agents.len(), shares.len()), (looked, 4, 4));
+            looked += 1;
+        });
+    }
+    assert_eq!((lockstep.k, looked), (50, 50));
+    for i in 0..4 {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let flown = shared[i].lock().unwrap().clone();
+        assert_eq!(flown.len(), 100, "agent {}", i + 1);
+        assert_eq!(bits(&flown), bits(&driven[i]), "agent {}", i + 1);
+    }
+    let _ = std::fs::remove_dir_all(&base);
+}

@@ -13,12 +13,14 @@
 //! Ω_l), `layers.<l>.bias` ([out], F64), `input_scale` ([n_in], F64: the divisor of each input),
 //! `output_scale` ([n_out], F64: the factor of each output), and one metadata entry
 //! [`METADATA_KEY`] holding a JSON object with at least `format` = [`FORMAT`] and `c_sn`. Loading
-//! checks every shape, every number, the layer chain and ‖W_l‖₂ ≤ C_sn; any failure is an error
-//! naming the file and the reason.
+//! checks every shape, every number, the layer chain and ‖W_l‖₂ ≤ C_sn; any failure is a
+//! [`WeightsError`] (`cohort_runtime::weights`, the one reader of every paper's weights) naming the
+//! file, the tensor and the reason.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use safetensors::{Dtype, SafeTensors};
+pub use cohort_runtime::weights::WeightsError;
+use cohort_runtime::weights::{self, Precision, Tensor, Values, WeightsFile};
 
 /// The one metadata key of a weights file.
 pub const METADATA_KEY: &str = "cohort_sn_dnn";
@@ -27,13 +29,8 @@ pub const FORMAT: &str = "cohort-sn-dnn-v1";
 /// Widest layer the stack buffers of the forward pass hold.
 pub const MAX_WIDTH: usize = 256;
 
-/// A weights file that cannot be used, and why.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("SN-DNN weights {}: {reason}", file.display())]
-pub struct WeightsError {
-    pub file: PathBuf,
-    pub reason: String,
-}
+/// The model name of its weights errors.
+pub const MODEL: &str = "SN-DNN";
 
 /// One layer: W row-major [n_out][n_in], b.
 #[derive(Debug, Clone, PartialEq)]
@@ -207,108 +204,86 @@ impl SnDnn {
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut tensors = Vec::new();
         push_tensors(self, "", &mut tensors);
-        serialise(&tensors, METADATA_KEY, FORMAT, &self.metadata, self.c_sn)
+        serialise(MODEL, &tensors, METADATA_KEY, FORMAT, &self.metadata, self.c_sn)
     }
 
     /// Read and check a weights file.
     pub fn load(path: &Path) -> Result<Self, WeightsError> {
-        Self::from_bytes(&read_file(path)?, path)
+        Self::from_bytes(&weights::read(MODEL, path)?, path)
     }
 
     /// Check and load a weights file's bytes; `file` only names it in errors.
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
-        let fail = |reason: String| WeightsError { file: file.into(), reason };
-        let (st, metadata, c_sn) = open(bytes, METADATA_KEY, FORMAT, "an SN-DNN").map_err(fail)?;
-        let net = read_net(&st, "", c_sn).map_err(fail)?;
+        let (st, metadata, c_sn) = open(MODEL, bytes, file, METADATA_KEY, FORMAT, "an SN-DNN")?;
+        let net = read_net(&st, "", c_sn)?;
         Ok(Self { metadata, ..net })
     }
 }
 
-/// One tensor of a weights file: name, shape, little-endian F64 bytes.
-pub type OwnedTensor = (String, Vec<usize>, Vec<u8>);
-
-/// The bytes of a weights file.
-pub fn read_file(path: &Path) -> Result<Vec<u8>, WeightsError> {
-    std::fs::read(path).map_err(|e| WeightsError { file: path.into(), reason: format!("cannot read: {e}") })
-}
-
-/// The tensors of `net` in the layout above, each name prefixed by `prefix` (`""`, or `"phi."`
-/// for one of several networks in a file), appended to `out`.
-pub fn push_tensors(net: &SnDnn, prefix: &str, out: &mut Vec<OwnedTensor>) {
-    let f64_bytes = |v: &[f64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+/// The tensors of `net` in the layout above (F64), each name prefixed by `prefix` (`""`, or
+/// `"phi."` for one of several networks in a file), appended to `out`.
+pub fn push_tensors<'n>(net: &'n SnDnn, prefix: &str, out: &mut Vec<Tensor<'n>>) {
     for (l, layer) in net.layers.iter().enumerate() {
-        out.push((format!("{prefix}layers.{l}.weight"), vec![layer.n_out, layer.n_in], f64_bytes(&layer.w)));
-        out.push((format!("{prefix}layers.{l}.bias"), vec![layer.n_out], f64_bytes(&layer.b)));
+        out.push(Tensor::new(
+            format!("{prefix}layers.{l}.weight"),
+            vec![layer.n_out, layer.n_in],
+            Values::F64(&layer.w),
+        ));
+        out.push(Tensor::new(format!("{prefix}layers.{l}.bias"), vec![layer.n_out], Values::F64(&layer.b)));
     }
-    out.push((format!("{prefix}input_scale"), vec![net.n_in()], f64_bytes(&net.input_scale)));
-    out.push((format!("{prefix}output_scale"), vec![net.n_out()], f64_bytes(&net.output_scale)));
+    out.push(Tensor::new(format!("{prefix}input_scale"), vec![net.n_in()], Values::F64(&net.input_scale)));
+    out.push(Tensor::new(format!("{prefix}output_scale"), vec![net.n_out()], Values::F64(&net.output_scale)));
 }
 
-/// A weights file of `tensors` (F64) and one metadata entry `key`: `metadata` with `format` and
-/// `c_sn` set.
-pub fn serialise(tensors: &[OwnedTensor], key: &str, format: &str, metadata: &serde_json::Value, c_sn: f64) -> Vec<u8> {
-    use safetensors::tensor::TensorView;
-    let views: Vec<(String, TensorView<'_>)> = tensors
-        .iter()
-        .map(|(n, shape, data)| {
-            (n.clone(), TensorView::new(Dtype::F64, shape.clone(), data).expect("sizes match by construction"))
-        })
-        .collect();
+/// A weights file of `tensors` and one metadata entry `key`: `metadata` with `format` and `c_sn`
+/// set; `model` names the kind of network.
+pub fn serialise(
+    model: &'static str,
+    tensors: &[Tensor<'_>],
+    key: &str,
+    format: &str,
+    metadata: &serde_json::Value,
+    c_sn: f64,
+) -> Vec<u8> {
     let mut meta = metadata.clone();
     if let Some(o) = meta.as_object_mut() {
         o.insert("format".into(), format.into());
         o.insert("c_sn".into(), c_sn.into());
     }
-    let meta: std::collections::HashMap<String, String> = [(key.to_string(), meta.to_string())].into_iter().collect();
-    safetensors::serialize(views, Some(meta)).expect("well-formed tensors serialise")
+    weights::to_bytes(model, tensors, Some((key, &meta))).expect("the shapes are the network's own")
 }
 
 /// A weights file's tensors, its metadata entry `key` (a JSON object whose `format` must be
 /// `format`) and that metadata's `c_sn`; `what` names the kind of file in the error.
 pub fn open<'a>(
+    model: &'static str,
     bytes: &'a [u8],
+    file: &Path,
     key: &str,
     format: &str,
     what: &str,
-) -> Result<(SafeTensors<'a>, serde_json::Value, f64), String> {
-    let (_, header) = SafeTensors::read_metadata(bytes).map_err(|e| format!("not a safetensors file ({e})"))?;
-    let st = SafeTensors::deserialize(bytes).map_err(|e| format!("not a safetensors file ({e})"))?;
-    let text = header
-        .metadata()
-        .as_ref()
-        .and_then(|m| m.get(key))
-        .ok_or_else(|| format!("no {key:?} metadata: not {what} weights file"))?;
-    let metadata: serde_json::Value = serde_json::from_str(text).map_err(|e| format!("metadata is not JSON ({e})"))?;
-    if metadata.get("format").and_then(|f| f.as_str()) != Some(format) {
-        return Err(format!("metadata format is {:?}, expected {format:?}", metadata.get("format")));
-    }
+) -> Result<(WeightsFile<'a>, serde_json::Value, f64), WeightsError> {
+    let st = WeightsFile::parse(model, bytes, file)?;
+    let metadata = st.metadata_json(key, format, what)?;
     let c_sn =
-        metadata.get("c_sn").and_then(|c| c.as_f64()).ok_or_else(|| "metadata has no number c_sn".to_string())?;
+        metadata.get("c_sn").and_then(|c| c.as_f64()).ok_or_else(|| st.invalid("metadata has no number c_sn"))?;
     Ok((st, metadata, c_sn))
 }
 
 /// The network whose tensors are named with `prefix` (see [`push_tensors`]), checked by
 /// [`SnDnn::new`]; its metadata is empty.
-pub fn read_net(st: &SafeTensors<'_>, prefix: &str, c_sn: f64) -> Result<SnDnn, String> {
-    let tensor = |name: &str, dims: usize| -> Result<(Vec<usize>, Vec<f64>), String> {
-        let t = st.tensor(name).map_err(|_| format!("tensor {name:?} is missing"))?;
-        if t.dtype() != Dtype::F64 || t.shape().len() != dims {
-            return Err(format!("tensor {name:?} is {:?} {:?}, expected F64 of rank {dims}", t.dtype(), t.shape()));
-        }
-        let v = t.data().chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect();
-        Ok((t.shape().to_vec(), v))
-    };
+pub fn read_net(st: &WeightsFile<'_>, prefix: &str, c_sn: f64) -> Result<SnDnn, WeightsError> {
     let mut layers = Vec::new();
-    while st.names().iter().any(|n| **n == format!("{prefix}layers.{}.weight", layers.len())) {
+    while st.contains(&format!("{prefix}layers.{}.weight", layers.len())) {
         let l = layers.len();
-        let (shape, w) = tensor(&format!("{prefix}layers.{l}.weight"), 2)?;
-        let (_, b) = tensor(&format!("{prefix}layers.{l}.bias"), 1)?;
+        let (shape, w) = st.tensor_dims(&format!("{prefix}layers.{l}.weight"), Precision::F64, &[None, None])?;
+        let (_, b) = st.tensor_dims(&format!("{prefix}layers.{l}.bias"), Precision::F64, &[None])?;
         layers.push(Layer { n_in: shape[1], n_out: shape[0], w, b });
     }
-    let (_, input_scale) = tensor(&format!("{prefix}input_scale"), 1)?;
-    let (_, output_scale) = tensor(&format!("{prefix}output_scale"), 1)?;
+    let (_, input_scale) = st.tensor_dims(&format!("{prefix}input_scale"), Precision::F64, &[None])?;
+    let (_, output_scale) = st.tensor_dims(&format!("{prefix}output_scale"), Precision::F64, &[None])?;
     let named = |e: String| if prefix.is_empty() { e } else { format!("{}: {e}", prefix.trim_end_matches('.')) };
-    SnDnn::new(layers, input_scale, output_scale, c_sn, serde_json::json!({})).map_err(named)
+    SnDnn::new(layers, input_scale, output_scale, c_sn, serde_json::json!({})).map_err(|e| st.invalid(named(e)))
 }
 
 #[cfg(test)]

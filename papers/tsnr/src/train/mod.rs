@@ -12,6 +12,7 @@ use std::time::Instant;
 
 use crate::predictor::{FEATURES_PER_STEP, TensionPredictor, base_metadata, relative_features, weights_file_bytes};
 use candle_core::{Device, Tensor};
+use cohort_report::markdown::MdTable;
 use serde_json::json;
 
 /// Settings of one training run (the command line's).
@@ -317,20 +318,30 @@ fn markdown(
     );
     s += "## Held-out errors against the plant's true tension (N)\n\n";
     s += &format!("RMS of the true tension components over the held-out horizons: {signal_rms:.3} N.\n\n");
-    s += "| forecast | RMS | RMS step 1 | RMS step N_t | max abs | under-predicted (taut components) | step 1 only | by norm |\n";
-    s += "|---|---|---|---|---|---|---|---|\n";
+    let mut t = MdTable::new([
+        "forecast",
+        "RMS",
+        "RMS step 1",
+        "RMS step N_t",
+        "max abs",
+        "under-predicted (taut components)",
+        "step 1 only",
+        "by norm",
+    ]);
     for (name, e) in [("DNN (this file, f64 inference)", dnn), ("hold the measured T(t_k)", hold), ("zero", zero)] {
-        s += &format!(
-            "| {name} | {:.3} | {:.3} | {:.3} | {:.2} | {:.1} % | {:.1} % | {:.1} % |\n",
-            e.rms_n,
-            e.rms_by_step_n[0],
-            e.rms_by_step_n[o.n_t - 1],
-            e.max_abs_n,
-            100.0 * e.under_share,
-            100.0 * e.under_share_first_step,
-            100.0 * e.under_share_norm
-        );
+        let pct = |x: f64| format!("{:.1} %", 100.0 * x);
+        t.row([
+            name.to_string(),
+            format!("{:.3}", e.rms_n),
+            format!("{:.3}", e.rms_by_step_n[0]),
+            format!("{:.3}", e.rms_by_step_n[o.n_t - 1]),
+            format!("{:.2}", e.max_abs_n),
+            pct(e.under_share),
+            pct(e.under_share_first_step),
+            pct(e.under_share_norm),
+        ]);
     }
+    s += &t.to_string();
     s += "\nRMS by predicted step n (DNN / hold):";
     for n in 0..o.n_t {
         s += &format!(" {}: {:.3} / {:.3};", n + 1, dnn.rms_by_step_n[n], hold.rms_by_step_n[n]);

@@ -1,31 +1,24 @@
-//! An in-process lockstep loop for tests and studies, in the driver's order: for each step k,
-//! the plant's readings for every agent (in agent order, one generator: the plant process's),
-//! every agent's `share`, an optional observer (plant truth and agent state both at t_k, as in
-//! the telemetry rows), every agent's `step` with the other agent's share of step k, the commands
-//! applied, and the plant advanced.
+//! An in-process lockstep loop for tests and studies: the runtime's
+//! [`cohort_runtime::lockstep::Lockstep`] over the VTXO plant and its two agents, each hearing the
+//! other, with an optional observer of the plant truth and the agent states both at tₖ (after the
+//! shares of step k, as in the telemetry rows).
 
-use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, PlantModel, ShareOut};
-use cohort_runtime::rng::process_rng;
+use cohort_runtime::lockstep::Lockstep;
+use cohort_runtime::model::{Algorithm, ShareOut};
 use cohort_scenario::Problem;
-use cohort_wire::transport::Proc;
-use rand_chacha::ChaCha8Rng;
 
 use crate::flight::config::VtxoAlgorithmConfig;
 use crate::model::config::VtxoPlantConfig;
 use crate::model::plant::VtxoPlant;
 
 /// What the loop shows an observer after the shares of step k: k, the plant, the agents.
-pub type Observer<'a> = dyn FnMut(u64, &VtxoPlant, &[Box<dyn Algorithm>]) + 'a;
+pub type Observer<'a> = dyn FnMut(u64, &VtxoPlant, &[&mut (dyn Algorithm + 'static)]) + 'a;
 
 pub struct Sim {
     pub plant: VtxoPlant,
     /// Agent id i + 1 at index i.
     pub agents: Vec<Box<dyn Algorithm>>,
-    pub dt_s: f64,
-    pub k: u64,
-    rng: ChaCha8Rng,
-    shares: Vec<ShareOut>,
-    readings: Vec<f64>,
+    lockstep: Lockstep,
 }
 
 impl Sim {
@@ -49,44 +42,25 @@ impl Sim {
         Ok(Self::from_parts(plant, vec![a1, a2], dt_s, seed))
     }
 
+    /// The loop of `plant` and `agents` (agent id i + 1 at index i, each hearing every other).
     pub fn from_parts(plant: VtxoPlant, agents: Vec<Box<dyn Algorithm>>, dt_s: f64, seed: u64) -> Self {
-        let n = agents.len();
-        Self {
-            plant,
-            agents,
-            dt_s,
-            k: 0,
-            rng: process_rng(seed, Proc::Plant),
-            shares: vec![ShareOut::default(); n],
-            readings: Vec::with_capacity(32),
-        }
+        let lockstep = Lockstep::new(Lockstep::all_to_all(agents.len()), dt_s, seed);
+        Self { plant, agents, lockstep }
+    }
+
+    /// The next step to fly.
+    pub fn k(&self) -> u64 {
+        self.lockstep.k
     }
 
     pub fn t_s(&self) -> f64 {
-        self.k as f64 * self.dt_s
+        self.lockstep.t_s()
     }
 
     /// One lockstep step; `observe` sees the plant and the agents after the shares of step k.
     pub fn step_with(&mut self, observe: &mut Observer<'_>) {
-        let t_s = self.t_s();
-        for (i, agent) in self.agents.iter_mut().enumerate() {
-            self.readings.clear();
-            self.plant.readings(i as u32 + 1, &mut self.rng, &mut self.readings);
-            agent.share(&AgentInput { k: self.k, t_s, readings: &self.readings }, &mut self.shares[i]);
-        }
-        observe(self.k, &self.plant, &self.agents);
-        for (i, agent) in self.agents.iter_mut().enumerate() {
-            let nb: Vec<Neighbour<'_>> = (0..self.shares.len())
-                .filter(|&j| j != i)
-                .map(|j| Neighbour { id: j as u32 + 1, values: &self.shares[j].values })
-                .collect();
-            agent.step(self.dt_s, &nb);
-        }
-        for (i, s) in self.shares.iter().enumerate() {
-            self.plant.apply_command(i as u32 + 1, &s.command);
-        }
-        self.plant.advance(self.dt_s);
-        self.k += 1;
+        let mut agents: Vec<&mut (dyn Algorithm + 'static)> = self.agents.iter_mut().map(|a| a.as_mut()).collect();
+        self.lockstep.step(&mut self.plant, &mut agents, &mut |k, plant, agents, _| observe(k, plant, agents));
     }
 
     pub fn step(&mut self) {
@@ -106,6 +80,6 @@ impl Sim {
 
     /// The shares (command and values) of the last step, agent i + 1 at index i.
     pub fn last_shares(&self) -> &[ShareOut] {
-        &self.shares
+        self.lockstep.shares()
     }
 }

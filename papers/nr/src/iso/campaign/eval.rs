@@ -3,12 +3,15 @@
 //! our lockstep loop ([`crate::iso::campaign::sim`]): delivery error (median, p99, max, mean, std), Δv,
 //! per-step compute time (p50, p99 over every step of every run) and, for Neural-Rendezvous,
 //! the delivery error against the bound b_e(t_f). Run `seed` = `seed_base` + ISO index (the
-//! navigation noise of each ISO is its own and the same for every method).
+//! navigation noise of each ISO is its own and the same for every method). Medians, p99s and
+//! means are `cohort_report::stats`'s (the one quantile rule of every Cohort table).
 
 use std::ops::Range;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
+use cohort_report::markdown::MdTable;
+use cohort_report::stats::{mean, median, quantile, sorted};
 use serde::Serialize;
 
 use crate::iso::campaign::sim;
@@ -86,21 +89,6 @@ pub struct MethodSummary {
     pub compute_max_s: f64,
     /// Runs whose delivery error is ≤ b_e(t_f) (methods with a bound).
     pub within_bound: Option<usize>,
-}
-
-/// The q-quantile by the nearest-rank rule.
-pub fn quantile(sorted: &[f64], q: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
-    sorted[rank - 1]
-}
-
-fn sorted(v: impl Iterator<Item = f64>) -> Vec<f64> {
-    let mut v: Vec<f64> = v.collect();
-    v.sort_by(f64::total_cmp);
-    v
 }
 
 /// Fly one ISO with one method (`o.timing_repeats` times, see there).
@@ -182,23 +170,25 @@ pub fn summarise(o: &CampaignOptions, runs: &[RunResult]) -> Vec<MethodSummary> 
             let dv = sorted(rs.iter().map(|r| r.dv_mps));
             let c = sorted(rs.iter().flat_map(|r| r.compute_s.iter().copied()));
             let n = e.len() as f64;
-            let mean = e.iter().sum::<f64>() / n;
-            let std = (e.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
+            let error_mean_m = mean(&e);
+            // The population standard deviation (n in the denominator), as every published
+            // "mean ± std" of this campaign (the γ sweep's among them) was computed.
+            let std = (e.iter().map(|x| (x - error_mean_m).powi(2)).sum::<f64>() / n).sqrt();
             let with_bound: Vec<&&RunResult> = rs.iter().filter(|r| r.bound_m.is_some()).collect();
             MethodSummary {
                 method: m,
                 runs: rs.len(),
-                error_median_m: quantile(&e, 0.5),
+                error_median_m: median(&e),
                 error_p99_m: quantile(&e, 0.99),
                 error_max_m: e.last().copied().unwrap_or(f64::NAN),
-                error_mean_m: mean,
+                error_mean_m,
                 error_std_m: std,
                 share_within_200m: e.iter().filter(|x| **x <= 200.0).count() as f64 / n,
-                dv_median_mps: quantile(&dv, 0.5),
+                dv_median_mps: median(&dv),
                 dv_max_mps: dv.last().copied().unwrap_or(f64::NAN),
-                dv_mean_mps: dv.iter().sum::<f64>() / n,
+                dv_mean_mps: mean(&dv),
                 runs_over_dv_budget: dv.iter().filter(|x| **x > DV_BUDGET_MPS).count(),
-                compute_p50_s: quantile(&c, 0.5),
+                compute_p50_s: median(&c),
                 compute_p99_s: quantile(&c, 0.99),
                 compute_max_s: c.last().copied().unwrap_or(f64::NAN),
                 within_bound: (!with_bound.is_empty())
@@ -216,9 +206,7 @@ pub fn comparisons(runs: &[RunResult]) -> String {
     if nr.is_empty() {
         return String::new();
     }
-    let mut t = String::from(
-        "| NR vs | ISOs | NR error smaller | NR Δv / other's: median | max | ISOs > 1.25× |\n|---|---|---|---|---|---|\n",
-    );
+    let mut t = MdTable::new(["NR vs", "ISOs", "NR error smaller", "NR Δv / other's: median", "max", "ISOs > 1.25×"]);
     for m in Method::ALL.into_iter().filter(|m| *m != Method::NeuralRendezvous) {
         let pairs: Vec<(&RunResult, &RunResult)> =
             nr.iter().filter_map(|a| runs.iter().find(|b| b.method == m && b.iso == a.iso).map(|b| (*a, b))).collect();
@@ -227,15 +215,14 @@ pub fn comparisons(runs: &[RunResult]) -> String {
         }
         let smaller = pairs.iter().filter(|(a, b)| a.delivery_error_m < b.delivery_error_m).count();
         let ratios = sorted(pairs.iter().map(|(a, b)| a.dv_mps / b.dv_mps));
-        t += &format!(
-            "| {} | {} | {} | {:.3} | {:.3} | {} |\n",
-            m.name(),
-            pairs.len(),
-            smaller,
-            quantile(&ratios, 0.5),
-            ratios.last().copied().unwrap_or(f64::NAN),
-            ratios.iter().filter(|r| **r > 1.25).count()
-        );
+        t.row([
+            m.name().to_string(),
+            pairs.len().to_string(),
+            smaller.to_string(),
+            format!("{:.3}", median(&ratios)),
+            format!("{:.3}", ratios.last().copied().unwrap_or(f64::NAN)),
+            ratios.iter().filter(|r| **r > 1.25).count().to_string(),
+        ]);
     }
-    t
+    t.to_string()
 }

@@ -8,8 +8,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use cohort_report::chart::series_color;
+use cohort_report::markdown::MdTable;
+use cohort_report::stats::median;
 
-use crate::iso::campaign::eval::{CampaignOptions, MethodSummary, RunResult, comparisons, quantile};
+use crate::iso::campaign::eval::{CampaignOptions, MethodSummary, RunResult, comparisons};
 use crate::iso::config::Method;
 use crate::iso::dynamics::constants::DV_BUDGET_MPS;
 use crate::plots::{self, Line, Panel, Style};
@@ -47,33 +49,36 @@ fn ms(s: f64) -> f64 {
 }
 
 fn main_table(rows: &[Row]) -> String {
-    let mut t = String::from(
-        "| method | runs | error median (m) | p99 (m) | max (m) | mean ± std (m) | ≤ 200 m | Δv median / max (m/s) | \
-         over 20 m/s | step p50 / p99 / max (ms) | ≤ b_e(t_f) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
-    );
+    let mut t = MdTable::new([
+        "method",
+        "runs",
+        "error median (m)",
+        "p99 (m)",
+        "max (m)",
+        "mean ± std (m)",
+        "≤ 200 m",
+        "Δv median / max (m/s)",
+        "over 20 m/s",
+        "step p50 / p99 / max (ms)",
+        "≤ b_e(t_f)",
+    ]);
     for r in rows {
         let m = &r.summary;
-        let _ = writeln!(
-            t,
-            "| {} | {} | {:.3} | {:.3} | {:.3} | {:.2} ± {:.2} | {:.0} % | {:.3} / {:.3} | {} | {:.4} / {:.3} / {:.3} | {} |",
-            r.label,
-            m.runs,
-            m.error_median_m,
-            m.error_p99_m,
-            m.error_max_m,
-            m.error_mean_m,
-            m.error_std_m,
-            100.0 * m.share_within_200m,
-            m.dv_median_mps,
-            m.dv_max_mps,
-            m.runs_over_dv_budget,
-            ms(m.compute_p50_s),
-            ms(m.compute_p99_s),
-            ms(m.compute_max_s),
+        t.row([
+            r.label.clone(),
+            m.runs.to_string(),
+            format!("{:.3}", m.error_median_m),
+            format!("{:.3}", m.error_p99_m),
+            format!("{:.3}", m.error_max_m),
+            format!("{:.2} ± {:.2}", m.error_mean_m, m.error_std_m),
+            format!("{:.0} %", 100.0 * m.share_within_200m),
+            format!("{:.3} / {:.3}", m.dv_median_mps, m.dv_max_mps),
+            m.runs_over_dv_budget.to_string(),
+            format!("{:.4} / {:.3} / {:.3}", ms(m.compute_p50_s), ms(m.compute_p99_s), ms(m.compute_max_s)),
             m.within_bound.map_or("–".to_string(), |k| format!("{k}/{}", m.runs)),
-        );
+        ]);
     }
-    t
+    t.to_string()
 }
 
 /// Neural-Rendezvous's error against its bound, and its step time against NMPC's.
@@ -96,7 +101,7 @@ fn nr_lines(r: &Report<'_>) -> String {
              median {:.3}, max {:.3}.",
             pairs.iter().filter(|(e, b)| e <= b).count(),
             pairs.len(),
-            quantile(&ratio, 0.5),
+            median(&ratio),
             ratio.last().copied().unwrap_or(f64::NAN)
         );
     }
@@ -114,30 +119,25 @@ fn nr_lines(r: &Report<'_>) -> String {
 }
 
 fn sweep_table(points: &[SweepPoint], x_name: &str, with_nav: bool) -> String {
-    let nav_head = if with_nav { " navigation |" } else { "" };
-    let nav_rule = if with_nav { "---|" } else { "" };
-    let mut t = format!(
-        "| {x_name} |{nav_head} method | runs | error mean ± std (m) | median (m) | max (m) | Δv mean / max (m/s) |\n"
-    );
-    let _ = writeln!(t, "|---|{nav_rule}---|---|---|---|---|---|");
+    let mut header = vec![x_name];
+    if with_nav {
+        header.push("navigation");
+    }
+    header.extend(["method", "runs", "error mean ± std (m)", "median (m)", "max (m)", "Δv mean / max (m/s)"]);
+    let mut t = MdTable::new(header);
     for p in points {
         let m = &p.summary;
-        let nav = if with_nav { format!(" {} |", p.nav) } else { String::new() };
-        let _ = writeln!(
-            t,
-            "| {} |{nav} {} | {} | {:.2} ± {:.2} | {:.3} | {:.3} | {:.3} / {:.3} |",
-            p.x,
-            m.method.name(),
-            m.runs,
-            m.error_mean_m,
-            m.error_std_m,
-            m.error_median_m,
-            m.error_max_m,
-            m.dv_mean_mps,
-            m.dv_max_mps
-        );
+        let nav = with_nav.then(|| p.nav.to_string());
+        t.row([p.x.to_string()].into_iter().chain(nav).chain([
+            m.method.name().to_string(),
+            m.runs.to_string(),
+            format!("{:.2} ± {:.2}", m.error_mean_m, m.error_std_m),
+            format!("{:.3}", m.error_median_m),
+            format!("{:.3}", m.error_max_m),
+            format!("{:.3} / {:.3}", m.dv_mean_mps, m.dv_max_mps),
+        ]));
     }
-    t
+    t.to_string()
 }
 
 fn markdown(r: &Report<'_>, plots: &[PathBuf], out: &Path) -> String {
@@ -234,7 +234,7 @@ fn runs_csv(runs: &[(String, RunResult)]) -> String {
             r.dv_mps,
             r.bound_m.map_or(String::new(), |b| format!("{b:?}")),
             r.clipped_steps,
-            quantile(&c, 0.5),
+            median(&c),
             c.last().copied().unwrap_or(f64::NAN)
         );
     }

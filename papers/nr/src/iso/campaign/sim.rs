@@ -1,14 +1,12 @@
-//! The in-process lockstep loop for tests and studies, in the drivers' order: for each step k,
-//! the plant's readings for every agent (agent order, one generator: the plant's process
-//! generator of the seed), every agent's `share`, every agent's `step`, the commands applied,
-//! the plant advanced by Δt. Records each agent's compute time per step (share + step, wall
-//! clock: never part of the deterministic outputs) and, if asked, every telemetry row.
+//! The in-process lockstep loop for tests and studies: the runtime's
+//! [`cohort_runtime::lockstep::Lockstep`] (the drivers' order: every agent's readings from the
+//! plant process's generator of the seed, every `share`, every `step`, the commands applied, the
+//! plant advanced by Δt), the spacecraft hearing no one. Records each agent's compute time per
+//! step (share + step, wall clock: never part of the deterministic outputs) and, if asked, every
+//! telemetry row.
 
-use std::time::Instant;
-
-use cohort_runtime::model::{AgentInput, Algorithm, PlantModel, ShareOut};
-use cohort_runtime::rng::process_rng;
-use cohort_wire::transport::Proc;
+use cohort_runtime::lockstep::Lockstep;
+use cohort_runtime::model::{Algorithm, PlantModel};
 
 /// What a run leaves besides the plant and agents' final states.
 #[derive(Debug, Clone, Default)]
@@ -31,49 +29,27 @@ pub fn run<P: PlantModel + ?Sized, A: Algorithm>(
     seed: u64,
     record: bool,
 ) -> SimRecord {
-    let mut rng = process_rng(seed, Proc::Plant);
     let n = agents.len();
     let mut rec = SimRecord { compute_s: vec![Vec::with_capacity(steps as usize); n], ..SimRecord::default() };
-    let mut readings = vec![Vec::new(); n];
-    let mut outs = vec![ShareOut::default(); n];
-    for k in 0..steps {
-        let t_s = k as f64 * dt_s;
-        for (i, r) in readings.iter_mut().enumerate() {
-            r.clear();
-            plant.readings(i as u32 + 1, &mut rng, r);
+    let mut lockstep = Lockstep::new(Lockstep::isolated(n), dt_s, seed);
+    let mut agents: Vec<&mut A> = agents.iter_mut().collect();
+    for _ in 0..steps {
+        lockstep.step(plant, &mut agents, &mut |_, plant, agents, shares| {
+            if !record {
+                return;
+            }
+            let row = |f: &dyn Fn(&mut Vec<f64>)| {
+                let mut r = Vec::new();
+                f(&mut r);
+                r
+            };
+            rec.plant_rows.push(row(&|r| plant.row(r)));
+            rec.agent_rows.push(agents.iter().map(|a| row(&|r| a.row(r))).collect());
+            rec.shares.push(shares.iter().map(|o| o.values.clone()).collect());
+        });
+        for (c, t) in rec.compute_s.iter_mut().zip(lockstep.compute_s()) {
+            c.push(*t);
         }
-        let mut times = vec![0.0; n];
-        for (i, a) in agents.iter_mut().enumerate() {
-            let started = Instant::now();
-            a.share(&AgentInput { k, t_s, readings: &readings[i] }, &mut outs[i]);
-            times[i] = started.elapsed().as_secs_f64();
-        }
-        if record {
-            let mut row = Vec::new();
-            plant.row(&mut row);
-            rec.plant_rows.push(row);
-            rec.agent_rows.push(
-                agents
-                    .iter()
-                    .map(|a| {
-                        let mut r = Vec::new();
-                        a.row(&mut r);
-                        r
-                    })
-                    .collect(),
-            );
-            rec.shares.push(outs.iter().map(|o| o.values.clone()).collect());
-        }
-        for (i, a) in agents.iter_mut().enumerate() {
-            let started = Instant::now();
-            a.step(dt_s, &[]);
-            times[i] += started.elapsed().as_secs_f64();
-            rec.compute_s[i].push(times[i]);
-        }
-        for (i, o) in outs.iter().enumerate() {
-            plant.apply_command(i as u32 + 1, &o.command);
-        }
-        plant.advance(dt_s);
     }
     rec
 }

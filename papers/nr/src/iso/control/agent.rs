@@ -34,7 +34,7 @@ use crate::iso::dynamics::two_body::{Inertial, V3};
 use crate::iso::guidance::desired::{self, Desired};
 use crate::iso::guidance::features::{N_FEATURES, REFERENCE_INPUTS, features};
 use crate::iso::guidance::scp::{self, Plan, ScpInput};
-use crate::nn::sn_dnn::SnDnn;
+use crate::nn::sn_dnn::{SnDnn, WeightsError};
 
 /// Mode codes (telemetry and share value 0).
 pub const MODE_BAD_READINGS: f64 = -1.0;
@@ -47,7 +47,7 @@ pub const MODE_COAST: f64 = 3.0;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum AgentError {
     #[error(transparent)]
-    Weights(#[from] crate::nn::sn_dnn::WeightsError),
+    Weights(#[from] WeightsError),
     #[error("{0}")]
     Config(String),
 }
@@ -103,7 +103,7 @@ pub fn load_net(cfg: &NrAlgorithmConfig) -> Result<Option<Arc<SnDnn>>, AgentErro
 }
 
 fn check_net(net: &SnDnn, cfg: &NrAlgorithmConfig, path: &Path) -> Result<(), AgentError> {
-    let bad = |reason: String| AgentError::Weights(crate::nn::sn_dnn::WeightsError { file: path.into(), reason });
+    let bad = |reason: String| AgentError::Weights(WeightsError::invalid(crate::nn::sn_dnn::MODEL, path, reason));
     if !(net.n_in() == N_FEATURES || net.n_in() == REFERENCE_INPUTS) || net.n_out() != 3 {
         return Err(bad(format!(
             "a network {} → {}, the guidance needs {N_FEATURES} (or the reference's {REFERENCE_INPUTS}) → 3",

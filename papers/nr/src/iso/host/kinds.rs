@@ -142,7 +142,7 @@ fn load_checked(path: &Path, config: &NrAlgorithmConfig, c: &mut Checker) -> Opt
     let net = match SnDnn::load(path) {
         Ok(n) => n,
         Err(e) => {
-            c.fail("algorithm.weights", shown, e.reason);
+            c.fail("algorithm.weights", shown, e.problem.to_string());
             return None;
         }
     };

@@ -7,6 +7,9 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use cohort_report::markdown::MdTable;
+use cohort_report::stats;
+
 use crate::swarm::campaign::case::{CampaignMethod, CaseResult};
 
 /// Effort goal: ∫‖u‖dt at most this times the SCP's.
@@ -50,50 +53,45 @@ pub fn csv(rows: &[CaseResult]) -> String {
     s
 }
 
-fn median(mut xs: Vec<f64>) -> f64 {
-    xs.retain(|x| x.is_finite());
-    if xs.is_empty() {
-        return f64::NAN;
-    }
-    xs.sort_by(f64::total_cmp);
-    let m = xs.len() / 2;
-    if xs.len() % 2 == 1 { xs[m] } else { 0.5 * (xs[m - 1] + xs[m]) }
+/// The median of the finite values (`cohort_report::stats`'s rule); NaN when none is finite.
+fn median(xs: Vec<f64>) -> f64 {
+    stats::median(&stats::sorted(xs.into_iter().filter(|x| x.is_finite())))
 }
 
 fn fold(xs: impl Iterator<Item = f64>, f: fn(f64, f64) -> f64, init: f64) -> f64 {
     xs.filter(|x| x.is_finite()).fold(init, f)
 }
 
+/// The mean of the finite values; NaN when none is finite.
 fn mean(xs: &[f64]) -> f64 {
-    let v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
-    v.iter().sum::<f64>() / v.len() as f64
+    stats::mean(&xs.iter().copied().filter(|x| x.is_finite()).collect::<Vec<f64>>())
 }
 
 fn ok(rows: &[CaseResult]) -> Vec<&CaseResult> {
     rows.iter().filter(|r| r.status == "ok").collect()
 }
 
-/// One line of the per-group table.
-fn table_row(group: &str, m: CampaignMethod, rows: &[CaseResult]) -> String {
+/// One row of the per-group table.
+fn table_row(group: &str, m: CampaignMethod, rows: &[CaseResult]) -> [String; 11] {
     let good = ok(rows);
     let free = good.iter().filter(|r| r.collisions == 0.0).count();
     let collisions: f64 = good.iter().map(|r| r.collisions).sum();
     let arrived = good.iter().filter(|r| r.within_0_1_m == r.n as f64).count();
     let ratios: Vec<f64> = good.iter().map(|r| r.effort_ratio).collect();
     let speed: Vec<f64> = good.iter().map(|r| r.speedup()).collect();
-    format!(
-        "| {group} | {} | {} ({} failed) | {free} | {collisions} | {:.3} | {arrived} | {:.3} / {:.3} | {:.1} | {:.3} | {:.0} / {:.0} |\n",
-        m.name(),
-        good.len(),
-        rows.len() - good.len(),
-        fold(good.iter().map(|r| r.min_ellipsoid), f64::min, f64::INFINITY),
-        mean(&ratios),
-        fold(ratios.iter().copied(), f64::max, f64::NEG_INFINITY),
-        median(good.iter().map(|r| r.compute_p50_s * 1e6).collect()),
-        median(good.iter().map(|r| r.scp_solve_s).collect()),
-        fold(speed.iter().copied(), f64::min, f64::INFINITY),
-        median(speed),
-    )
+    [
+        group.to_string(),
+        m.name().to_string(),
+        format!("{} ({} failed)", good.len(), rows.len() - good.len()),
+        free.to_string(),
+        collisions.to_string(),
+        format!("{:.3}", fold(good.iter().map(|r| r.min_ellipsoid), f64::min, f64::INFINITY)),
+        arrived.to_string(),
+        format!("{:.3} / {:.3}", mean(&ratios), fold(ratios.iter().copied(), f64::max, f64::NEG_INFINITY)),
+        format!("{:.1}", median(good.iter().map(|r| r.compute_p50_s * 1e6).collect())),
+        format!("{:.3}", median(good.iter().map(|r| r.scp_solve_s).collect())),
+        format!("{:.0} / {:.0}", fold(speed.iter().copied(), f64::min, f64::INFINITY), median(speed)),
+    ]
 }
 
 fn verdict(met: bool) -> &'static str {
@@ -162,19 +160,30 @@ pub fn summary(rows: &[CaseResult], command: &str, wall_s: f64, out: &Path) -> S
         "# Swarm campaign (Sec. 7.2)\n\n`{command}` — {} rows in {wall_s:.0} s; every row in `cases.csv`.\n\n",
         rows.len()
     );
-    s += "| group | method | cases (failed) | collision-free | collisions | least ellipsoid distance | all within 0.1 m \
-          at T + 2 s | ∫‖u‖dt / SCP mean / max | compute p50 median (µs) | SCP solve median (s) | speed-up least / \
-          median |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    let mut table = MdTable::new([
+        "group",
+        "method",
+        "cases (failed)",
+        "collision-free",
+        "collisions",
+        "least ellipsoid distance",
+        "all within 0.1 m at T + 2 s",
+        "∫‖u‖dt / SCP mean / max",
+        "compute p50 median (µs)",
+        "SCP solve median (s)",
+        "speed-up least / median",
+    ]);
     let mut groups: Vec<&str> = rows.iter().map(|r| r.group.as_str()).collect();
     groups.dedup();
     for g in &groups {
         for m in CampaignMethod::ALL {
             let sel: Vec<CaseResult> = rows.iter().filter(|r| r.group == *g && r.method == m).cloned().collect();
             if !sel.is_empty() {
-                s += &table_row(g, m, &sel);
+                table.row(table_row(g, m, &sel));
             }
         }
     }
+    s += &table.to_string();
     s += "\n## Verdict\n\n";
     s += &verdicts(rows);
     s += "\nThe SCP row: the global solution flown in the same plant, its planned accelerations open-loop at d̄ = 0 \

@@ -28,14 +28,18 @@
 //! holding a JSON object with `format` = [`FORMAT`], `c_sn`, and the training's description.
 //! Loading checks every shape, every number, each network's layer chain and ‖W_l‖₂ ≤ C_sn
 //! ([`SnDnn::new`]), and the chain between them (φ takes 6, ρ takes 7 + φ's outputs and gives
-//! 3); any failure is an error naming the file and the reason.
+//! 3); any failure is a [`WeightsError`] naming the file, the tensor and the reason.
 
 use std::path::Path;
 
-use crate::nn::sn_dnn::{SnDnn, WeightsError, open, push_tensors, read_file, read_net, serialise};
+use cohort_runtime::weights;
+
+use crate::nn::sn_dnn::{SnDnn, WeightsError, open, push_tensors, read_net, serialise};
 use crate::swarm::control::obs::{Neighbour, SwarmObservation, SwarmPolicy};
 use crate::swarm::train::problem::A_MAX_MPS2;
 
+/// The model name of its weights errors.
+pub const MODEL: &str = "swarm deep-set policy";
 /// The one metadata key of a swarm-policy file.
 pub const METADATA_KEY: &str = "cohort_swarm_policy";
 /// Value of the metadata's `format`.
@@ -122,21 +126,20 @@ impl DeepSetPolicy {
         let mut tensors = Vec::new();
         push_tensors(&self.phi, "phi.", &mut tensors);
         push_tensors(&self.rho, "rho.", &mut tensors);
-        serialise(&tensors, METADATA_KEY, FORMAT, &self.metadata, self.phi.c_sn())
+        serialise(MODEL, &tensors, METADATA_KEY, FORMAT, &self.metadata, self.phi.c_sn())
     }
 
     /// Read and check a weights file.
     pub fn load(path: &Path) -> Result<Self, WeightsError> {
-        Self::from_bytes(&read_file(path)?, path)
+        Self::from_bytes(&weights::read(MODEL, path)?, path)
     }
 
     /// Check and load a weights file's bytes; `file` only names it in errors.
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
-        let fail = |reason: String| WeightsError { file: file.into(), reason };
-        let (st, metadata, c_sn) = open(bytes, METADATA_KEY, FORMAT, "a swarm-policy").map_err(fail)?;
-        let phi = read_net(&st, "phi.", c_sn).map_err(fail)?;
-        let rho = read_net(&st, "rho.", c_sn).map_err(fail)?;
-        Self::new(phi, rho, metadata).map_err(fail)
+        let (st, metadata, c_sn) = open(MODEL, bytes, file, METADATA_KEY, FORMAT, "a swarm-policy")?;
+        let phi = read_net(&st, "phi.", c_sn)?;
+        let rho = read_net(&st, "rho.", c_sn)?;
+        Self::new(phi, rho, metadata).map_err(|e| st.invalid(e))
     }
 
     /// Σⱼ φ over the observed neighbours (normalised φ outputs; zero without neighbours).

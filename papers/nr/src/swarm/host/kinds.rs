@@ -192,7 +192,7 @@ impl AlgorithmKind for NrSwarmKind {
             (SwarmPolicyKind::DeepSet, Some(path)) => match DeepSetPolicy::load(path) {
                 Ok(p) => Some(Arc::new(p)),
                 Err(e) => {
-                    c.fail("algorithm.weights", format!("{:?}", path.display().to_string()), e.reason);
+                    c.fail("algorithm.weights", format!("{:?}", path.display().to_string()), e.problem.to_string());
                     None
                 }
             },

@@ -26,12 +26,14 @@
 //! a layer maps x ↦ x·w + b). Loading checks every name, dtype, shape and value; every failure is
 //! a [`WeightsError`] naming the file and the reason.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+pub use cohort_runtime::weights::WeightsError;
+use cohort_runtime::weights::{self, Precision, Tensor, Values, WeightsFile};
 
 use crate::flight::attitude_control::AttitudeLaw;
 use crate::learn::science::sim::{K_MAX, K_MIN, ScienceLaw};
 use crate::learn::transient::gains::MeasuredState;
-use crate::learn::weights;
 use crate::model::quaternion::{Quat, V3};
 
 /// Inputs of every network.
@@ -51,13 +53,8 @@ pub fn layer_shapes(law: ScienceLaw) -> [(usize, usize); 4] {
     [(N_IN, HIDDEN[0]), (HIDDEN[0], HIDDEN[1]), (HIDDEN[1], HIDDEN[2]), (HIDDEN[2], n_out(law))]
 }
 
-/// A weights file that cannot be used, and why.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("science DNN weights {}: {reason}", file.display())]
-pub struct WeightsError {
-    pub file: PathBuf,
-    pub reason: String,
-}
+/// The model name of its weights errors.
+pub const MODEL: &str = "science DNN";
 
 /// One law's network, f64 (row-major [in, out] as in the file).
 #[derive(Debug, Clone, PartialEq)]
@@ -160,31 +157,32 @@ impl ScienceDnn {
 
     /// The weights file's bytes (F32, deterministic).
     pub fn to_bytes(&self) -> Vec<u8> {
-        let tensors: Vec<(String, Vec<usize>, &[f64])> = [&self.pd, &self.smc]
+        let tensors: Vec<Tensor<'_>> = [&self.pd, &self.smc]
             .into_iter()
-            .flat_map(|net| net.tensors().into_iter().map(|(n, s, v)| (format!("{}.{n}", net.law.name()), s, v)))
+            .flat_map(|net| {
+                net.tensors()
+                    .into_iter()
+                    .map(|(n, s, v)| Tensor::new(format!("{}.{n}", net.law.name()), s, Values::F64AsF32(v)))
+            })
             .collect();
-        weights::serialise_f32(&tensors)
+        weights::to_bytes(MODEL, &tensors, None).expect("the shapes are the networks' own")
     }
 
     /// Read and check a weights file.
     pub fn load(path: &Path) -> Result<Self, WeightsError> {
-        let bytes = weights::read(path).map_err(|reason| WeightsError { file: path.into(), reason })?;
-        Self::from_bytes(&bytes, path)
+        Self::from_bytes(&weights::read(MODEL, path)?, path)
     }
 
     /// Check and load a weights file's bytes; `file` only names it in errors.
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
-        let fail = |reason: String| WeightsError { file: file.into(), reason };
-        let st = weights::open(bytes).map_err(fail)?;
-        let mut names: Vec<&str> = st.names();
+        let st = WeightsFile::parse(MODEL, bytes, file)?;
+        let names = st.names();
         if !names.iter().any(|n| n.starts_with("pd.") || n.starts_with("smc.")) {
-            names.sort_unstable();
-            return Err(fail(format!(
+            return Err(st.invalid(format!(
                 "holds no science DNN (no pd.* or smc.* tensor; it has {names:?}): another model's file?"
             )));
         }
-        let get = |name: &str, shape: &[usize]| weights::f32_tensor(&st, name, shape).map_err(fail);
+        let get = |name: &str, shape: &[usize]| st.tensor(name, Precision::F32, shape);
         let net = |law: ScienceLaw| -> Result<Net, WeightsError> {
             let p = law.name();
             let shapes = layer_shapes(law);
@@ -204,7 +202,7 @@ impl ScienceDnn {
                 output_std: get(&format!("{p}.output_std"), &[n])?,
             };
             if let Some(s) = net.input_std.iter().chain(&net.output_std).find(|s| **s <= 0.0) {
-                return Err(fail(format!("{p}: a standard deviation is {s}: they must be positive")));
+                return Err(st.invalid(format!("{p}: a standard deviation is {s}: they must be positive")));
             }
             Ok(net)
         };
@@ -297,14 +295,23 @@ mod tests {
     #[test]
     fn missing_or_malformed_weights_are_errors_naming_the_file_and_the_reason() {
         let e = ScienceDnn::load(Path::new("/nonexistent/science.safetensors")).expect_err("missing");
-        assert!(e.to_string().contains("/nonexistent/science.safetensors") && e.reason.contains("cannot read"), "{e}");
+        assert!(
+            e.to_string().contains("/nonexistent/science.safetensors") && e.problem.to_string().contains("cannot read"),
+            "{e}"
+        );
         let e = ScienceDnn::from_bytes(b"garbage", Path::new("bad.safetensors")).expect_err("garbage");
-        assert!(e.to_string().contains("bad.safetensors") && e.reason.contains("not a safetensors"), "{e}");
+        assert!(
+            e.to_string().contains("bad.safetensors") && e.problem.to_string().contains("not a safetensors"),
+            "{e}"
+        );
         // The transient DNN's committed file is another model's.
         let t = Path::new(env!("CARGO_MANIFEST_DIR")).join("weights/transient.safetensors");
         let e = ScienceDnn::load(&t).expect_err("transient weights");
-        assert!(e.to_string().contains("transient.safetensors") && e.reason.contains("holds no science DNN"), "{e}");
-        assert!(e.reason.contains("\"w1\""), "{e}");
+        assert!(
+            e.to_string().contains("transient.safetensors") && e.problem.to_string().contains("holds no science DNN"),
+            "{e}"
+        );
+        assert!(e.problem.to_string().contains("\"w1\""), "{e}");
         // Every tensor of the file, then one changed at a time.
         let d = tiny();
         let mut owned: Vec<(String, Vec<usize>, Vec<u8>)> = Vec::new();
@@ -320,20 +327,23 @@ mod tests {
         let mut missing = owned.clone();
         missing.retain(|t| t.0 != "smc.w3");
         let e = ScienceDnn::from_bytes(&serialise(&missing), Path::new("m.safetensors")).expect_err("missing tensor");
-        assert!(e.reason.contains("no tensor \"smc.w3\"") && e.to_string().contains("m.safetensors"), "{e}");
+        assert!(
+            e.problem.to_string().contains("tensor \"smc.w3\" is missing") && e.to_string().contains("m.safetensors"),
+            "{e}"
+        );
         let mut shape = owned.clone();
         let i = shape.iter().position(|t| t.0 == "pd.w4").unwrap();
         shape[i] = ("pd.w4".into(), vec![3, 5], vec![0u8; 60]);
         let e = ScienceDnn::from_bytes(&serialise(&shape), Path::new("s.safetensors")).expect_err("shape");
-        assert!(e.reason.contains("pd.w4") && e.reason.contains("shape"), "{e}");
+        assert!(e.problem.to_string().contains("pd.w4") && e.problem.to_string().contains("shape"), "{e}");
         let mut d2 = tiny();
         d2.smc.output_std[1] = 0.0;
         let e = ScienceDnn::from_bytes(&d2.to_bytes(), Path::new("z.safetensors")).expect_err("zero std");
-        assert!(e.reason.contains("smc") && e.reason.contains("standard deviation"), "{e}");
+        assert!(e.problem.to_string().contains("smc") && e.problem.to_string().contains("standard deviation"), "{e}");
         let mut d3 = tiny();
         d3.pd.w[1][3] = f64::NAN;
         let e = ScienceDnn::from_bytes(&d3.to_bytes(), Path::new("n.safetensors")).expect_err("nan");
-        assert!(e.reason.contains("\"pd.w2\"") && e.reason.contains("not finite"), "{e}");
+        assert!(e.problem.to_string().contains("\"pd.w2\"") && e.problem.to_string().contains("not finite"), "{e}");
         // F16 where F32 is expected.
         let mut dtype = owned.clone();
         let i = dtype.iter().position(|t| t.0 == "pd.b1").unwrap();
@@ -347,6 +357,6 @@ mod tests {
             .collect();
         let bytes = safetensors::serialize(views, None).expect("serialise");
         let e = ScienceDnn::from_bytes(&bytes, Path::new("d.safetensors")).expect_err("dtype");
-        assert!(e.reason.contains("pd.b1") && e.reason.contains("F32"), "{e}");
+        assert!(e.problem.to_string().contains("pd.b1") && e.problem.to_string().contains("F32"), "{e}");
     }
 }

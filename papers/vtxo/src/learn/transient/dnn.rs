@@ -17,12 +17,15 @@
 //! **Weights file** (safetensors, F32 as trained): `w1` [5, 8, H], `b1` [5, H], `w2` [5, H, H],
 //! `b2` [5, H], `w3` [5, H, 1], `b3` [5, 1] (head h maps x ↦ relu(relu(relu(x·w1ₕ + b1ₕ)·w2ₕ + b2ₕ)
 //! ·w3ₕ + b3ₕ)), `input_mean` [8], `input_std` [8], `output_scale` [5]. Loading checks every
-//! name, dtype, shape and value; every failure is a [`WeightsError`] naming the file.
+//! name, dtype, shape and value (`cohort_runtime::weights`); every failure is a [`WeightsError`]
+//! naming the file, the tensor and what was expected.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+pub use cohort_runtime::weights::WeightsError;
+use cohort_runtime::weights::{self, Precision, Tensor, Values, WeightsFile};
 
 use crate::learn::transient::sim::{K_MAX, K_MIN, T_MAX_S, T_MIN_S};
-use crate::learn::weights;
 use crate::model::quaternion::{Quat, V3};
 
 /// Inputs and outputs.
@@ -33,13 +36,8 @@ pub const OUTPUTS: [&str; N_OUT] = ["E_J", "e_deg", "T_s", "k1_N_m", "k2_N_m_s"]
 /// Widest hidden layer accepted.
 pub const MAX_HIDDEN: usize = 256;
 
-/// A weights file that cannot be used, and why.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("transient DNN weights {}: {reason}", file.display())]
-pub struct WeightsError {
-    pub file: PathBuf,
-    pub reason: String,
-}
+/// The model name of its weights errors.
+pub const MODEL: &str = "transient DNN";
 
 /// The network's parameters, f64 (row-major as in the file).
 #[derive(Debug, Clone, PartialEq)]
@@ -136,27 +134,24 @@ impl TransientDnn {
 
     /// The weights file's bytes (F32, deterministic).
     pub fn to_bytes(&self) -> Vec<u8> {
-        let tensors: Vec<(String, Vec<usize>, &[f64])> =
-            self.tensors().into_iter().map(|(n, s, v)| (n.to_string(), s, v)).collect();
-        weights::serialise_f32(&tensors)
+        let tensors: Vec<Tensor<'_>> =
+            self.tensors().into_iter().map(|(n, s, v)| Tensor::new(n, s, Values::F64AsF32(v))).collect();
+        weights::to_bytes(MODEL, &tensors, None).expect("the shapes are the network's own")
     }
 
     /// Read and check a weights file.
     pub fn load(path: &Path) -> Result<Self, WeightsError> {
-        let bytes = weights::read(path).map_err(|reason| WeightsError { file: path.into(), reason })?;
-        Self::from_bytes(&bytes, path)
+        Self::from_bytes(&weights::read(MODEL, path)?, path)
     }
 
     /// Check and load a weights file's bytes; `file` only names it in errors.
     pub fn from_bytes(bytes: &[u8], file: &Path) -> Result<Self, WeightsError> {
-        let fail = |reason: String| WeightsError { file: file.into(), reason };
-        let st = weights::open(bytes).map_err(fail)?;
-        let get = |name: &str, shape: &[usize]| weights::f32_tensor(&st, name, shape).map_err(fail);
-        let b1 = st.tensor("b1").map_err(|_| fail("no tensor \"b1\"".into()))?;
-        let hidden = match b1.shape() {
+        let st = WeightsFile::parse(MODEL, bytes, file)?;
+        let get = |name: &str, shape: &[usize]| st.tensor(name, Precision::F32, shape);
+        let hidden = match st.shape("b1")?.as_slice() {
             [N_OUT, h] if (1..=MAX_HIDDEN).contains(h) => *h,
             s => {
-                return Err(fail(format!(
+                return Err(st.invalid(format!(
                     "tensor \"b1\" has shape {s:?}, expected [{N_OUT}, H] with 1 ≤ H ≤ {MAX_HIDDEN}"
                 )));
             }
@@ -175,7 +170,7 @@ impl TransientDnn {
             output_scale: get("output_scale", &[N_OUT])?,
         };
         if let Some(s) = dnn.input_std.iter().chain(&dnn.output_scale).find(|s| **s <= 0.0) {
-            return Err(fail(format!("a scale (input_std or output_scale) is {s}: scales must be positive")));
+            return Err(st.invalid(format!("a scale (input_std or output_scale) is {s}: scales must be positive")));
         }
         Ok(dnn)
     }
@@ -253,11 +248,15 @@ mod tests {
         let path = Path::new("/nonexistent/transient.safetensors");
         let e = TransientDnn::load(path).expect_err("missing file");
         assert!(
-            e.to_string().contains("/nonexistent/transient.safetensors") && e.reason.contains("cannot read"),
+            e.to_string().contains("/nonexistent/transient.safetensors")
+                && e.problem.to_string().contains("cannot read"),
             "{e}"
         );
         let e = TransientDnn::from_bytes(b"not a weights file", Path::new("bad.safetensors")).expect_err("garbage");
-        assert!(e.to_string().contains("bad.safetensors") && e.reason.contains("not a safetensors"), "{e}");
+        assert!(
+            e.to_string().contains("bad.safetensors") && e.problem.to_string().contains("not a safetensors"),
+            "{e}"
+        );
         // A well-formed file with a wrong shape and one with a missing tensor.
         let d = tiny();
         let mut owned: Vec<(&str, Vec<usize>, Vec<u8>)> = d
@@ -274,15 +273,15 @@ mod tests {
             .collect();
         let bytes = safetensors::serialize(views, None).expect("serialise");
         let e = TransientDnn::from_bytes(&bytes, Path::new("s.safetensors")).expect_err("shape");
-        assert!(e.reason.contains("input_mean") && e.reason.contains("shape"), "{e}");
+        assert!(e.problem.to_string().contains("input_mean") && e.problem.to_string().contains("shape"), "{e}");
         let mut d = tiny();
         d.input_std[2] = 0.0;
         let e = TransientDnn::from_bytes(&d.to_bytes(), Path::new("z.safetensors")).expect_err("zero scale");
-        assert!(e.reason.contains("scale"), "{e}");
+        assert!(e.problem.to_string().contains("scale"), "{e}");
         let mut d = tiny();
         d.w2[4] = f64::NAN;
         let e = TransientDnn::from_bytes(&d.to_bytes(), Path::new("n.safetensors")).expect_err("nan");
-        assert!(e.reason.contains("\"w2\"") && e.reason.contains("not finite"), "{e}");
+        assert!(e.problem.to_string().contains("\"w2\"") && e.problem.to_string().contains("not finite"), "{e}");
     }
 
     #[test]

@@ -12,6 +12,7 @@
 
 use std::path::Path;
 
+use cohort_report::markdown::MdTable;
 use cohort_report::stats::quantile;
 
 /// Bins of the mode's histogram.
@@ -83,18 +84,13 @@ pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, String
 pub fn table2_markdown(path: &Path) -> Result<String, String> {
     let names: Vec<&str> = ROWS.iter().map(|r| r.1).collect();
     let cols = read_columns(path, &names)?;
-    let mut md = format!(
-        "{} points\n\n| y | mean | mode | variance | P1 | max | P99 |\n|---|---|---|---|---|---|---|\n",
-        cols[0].len()
-    );
+    let mut t = MdTable::new(["y", "mean", "mode", "variance", "P1", "max", "P99"]);
     for ((name, _), c) in ROWS.iter().zip(&cols) {
         let s = stats(c);
-        md += &format!(
-            "| {name} | {:.4} | {:.4} | {:.4e} | {:.4} | {:.4} | {:.4} |\n",
-            s.mean, s.mode, s.var, s.p1, s.max, s.p99
-        );
+        let f4 = |x: f64| format!("{x:.4}");
+        t.row([name.to_string(), f4(s.mean), f4(s.mode), format!("{:.4e}", s.var), f4(s.p1), f4(s.max), f4(s.p99)]);
     }
-    Ok(md)
+    Ok(format!("{} points\n\n{t}", cols[0].len()))
 }
 
 #[cfg(test)]
