@@ -39,6 +39,8 @@ struct Proc {
     channel: Option<Arc<RawChannel>>,
     latest: Option<(u64, Vec<u8>)>,
     rows: BTreeMap<u64, Vec<f64>>,
+    /// Rows it may still publish now (see [`View::read_rows`]).
+    allowance: f64,
 }
 
 /// The state the thread keeps between polls.
@@ -57,6 +59,7 @@ struct View {
     progress: Option<(u64, Vec<u8>)>,
     last_step: u64,
     started: Instant,
+    last_poll: Instant,
 }
 
 impl LiveRun {
@@ -84,6 +87,7 @@ impl LiveRun {
             progress: None,
             last_step: u64::MAX,
             started: Instant::now(),
+            last_poll: Instant::now(),
             setup,
         };
         let stop = Arc::new(AtomicBool::new(false));
@@ -206,6 +210,7 @@ impl View {
                 channel: None,
                 latest: None,
                 rows: BTreeMap::new(),
+                allowance: 1.0,
             });
         }
     }
@@ -214,13 +219,23 @@ impl View {
     /// each new plant row.
     fn read_rows(&mut self) {
         let every = self.every;
+        let rate_hz = self.server.options.rate_hz;
+        let polled_s = self.last_poll.elapsed().as_secs_f64();
+        self.last_poll = Instant::now();
         let mut plant_steps = Vec::new();
         let names: Vec<String> = self.procs.keys().cloned().collect();
         let dt_ns = self.dt_ns;
         let t = move |k: u64| (k as f64 * dt_ns).round() as u64;
         for name in names {
             let p = self.procs.get_mut(&name).expect("listed");
-            let rows = p.journal.poll(|k| k % every == 0);
+            let mut rows = p.journal.poll(|k| k % every == 0);
+            // At most `rate_hz` rows per second of wall time (a token bucket holding one second's
+            // worth, so a real-time run's journal bursts pass whole): a fast run shows its newest
+            // rows at wall speed instead of flooding the clients and the cores the lockstep uses.
+            p.allowance = (p.allowance + polled_s * rate_hz).min(rate_hz.max(1.0));
+            let n = rows.len().min(p.allowance as usize);
+            p.allowance -= n as f64;
+            let rows = rows.split_off(rows.len() - n);
             if p.channel.is_none() && !p.journal.columns().is_empty() {
                 p.channel =
                     self.server.channel(&format!("/telemetry/{name}"), "json", row_schema(&name, p.journal.columns()));
