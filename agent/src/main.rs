@@ -98,12 +98,5 @@ fn load(
 }
 
 fn failed(id: u32, e: String) -> ProcessReport {
-    let mut r: ProcessReport = serde_json::from_value(serde_json::json!({
-        "process": Proc::Agent(id).name(), "pid": std::process::id(), "steps_completed": 0, "wall_s": 0.0,
-        "messages_received": 0, "messages_rejected": {}, "timeouts": 0, "startup_s": 0.0, "metrics": {},
-        "error": null
-    }))
-    .expect("a valid report");
-    r.error = Some(ProcessError::new(ErrorKind::Checkpoint, e));
-    r
+    ProcessReport::failed_at_start(Proc::Agent(id).name(), ProcessError::new(ErrorKind::Checkpoint, e))
 }

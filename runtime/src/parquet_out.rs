@@ -311,6 +311,40 @@ fn new_journal(path: &Path, value: &str, columns: &[String]) -> std::io::Result<
     Ok(f)
 }
 
+/// A journal's header (see [`new_journal`]): its value type, its column names (`k` first) and
+/// its length in bytes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JournalHeader {
+    pub value: DataType,
+    pub columns: Vec<String>,
+    pub len: usize,
+}
+
+impl JournalHeader {
+    /// Whether its values are f64 telemetry (not u64 timing).
+    pub fn holds_f64(&self) -> bool {
+        self.value == DataType::Float64
+    }
+}
+
+/// The header at the start of `bytes`, `Ok(None)` while it is not whole yet (a journal still
+/// being written, read by `launch --live`), or why these bytes are not a journal's.
+pub fn journal_header(bytes: &[u8]) -> Result<Option<JournalHeader>, &'static str> {
+    let Some(rest) = bytes.strip_prefix(JOURNAL_MAGIC) else {
+        return if JOURNAL_MAGIC.starts_with(bytes) { Ok(None) } else { Err("no header") };
+    };
+    let mut lines = rest.splitn(3, |&b| b == b'\n');
+    let (Some(value), Some(names), Some(_)) = (lines.next(), lines.next(), lines.next()) else { return Ok(None) };
+    let len = JOURNAL_MAGIC.len() + value.len() + names.len() + 2;
+    let value = std::str::from_utf8(value).ok().and_then(value_type).ok_or("unknown value type")?;
+    let columns: Vec<String> =
+        std::str::from_utf8(names).map_err(|_| "column names are not UTF-8")?.split(',').map(str::to_string).collect();
+    if columns.len() < 2 {
+        return Err("fewer than two columns");
+    }
+    Ok(Some(JournalHeader { value, columns, len }))
+}
+
 /// The columns and the complete rows of a journal: after the header (see [`new_journal`]),
 /// each row is `k` (u64) and then every value (f64 bits or u64), 8 bytes each, little-endian. A
 /// row cut short by the end of the file (the process died while writing it) is left out.
@@ -318,17 +352,9 @@ pub fn read_journal(path: &Path) -> std::io::Result<(Vec<String>, RecordBatch)> 
     let bad = |why: &str| std::io::Error::other(format!("{}: not a telemetry journal: {why}", path.display()));
     let mut bytes = Vec::new();
     File::open(path)?.read_to_end(&mut bytes)?;
-    let rest = bytes.strip_prefix(JOURNAL_MAGIC).ok_or_else(|| bad("no header"))?;
-    let eol = rest.iter().position(|&b| b == b'\n').ok_or_else(|| bad("no value type line"))?;
-    let value = std::str::from_utf8(&rest[..eol]).ok().and_then(value_type).ok_or_else(|| bad("unknown value type"))?;
-    let rest = &rest[eol + 1..];
-    let eol = rest.iter().position(|&b| b == b'\n').ok_or_else(|| bad("no column line"))?;
-    let names = std::str::from_utf8(&rest[..eol]).map_err(|_| bad("column names are not UTF-8"))?;
-    let columns: Vec<String> = names.split(',').map(str::to_string).collect();
-    if columns.len() < 2 {
-        return Err(bad("fewer than two columns"));
-    }
-    let data = &rest[eol + 1..];
+    let JournalHeader { value, columns, len } =
+        journal_header(&bytes).map_err(bad)?.ok_or_else(|| bad("header cut short"))?;
+    let data = &bytes[len..];
     let width = columns.len();
     let rows = data.len() / (8 * width);
     let word = |r: usize, c: usize| {

@@ -340,8 +340,9 @@ impl WaitStats {
 }
 
 impl ProcessReport {
-    /// The report of a process that failed before its first step.
-    pub fn failed_at_start(process: String, error: ProcessError) -> Self {
+    /// The report of this process (its pid) before it has done anything: every count zero, no
+    /// error. Drivers and coupled runs fill in what they did.
+    pub fn new(process: String) -> Self {
         Self {
             process,
             pid: std::process::id(),
@@ -354,7 +355,7 @@ impl ProcessReport {
             cpu_s: 0.0,
             max_rss_kb: 0,
             metrics: Default::default(),
-            error: Some(error),
+            error: None,
             faults: Default::default(),
             messages_sent: 0,
             received_from: Default::default(),
@@ -362,6 +363,11 @@ impl ProcessReport {
             solver: None,
             wait: WaitStats::default(),
         }
+    }
+
+    /// The report of a process that failed before its first step.
+    pub fn failed_at_start(process: String, error: ProcessError) -> Self {
+        Self { error: Some(error), ..Self::new(process) }
     }
 }
 

@@ -12,9 +12,6 @@ use std::io::{Read, Seek, SeekFrom};
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 
-/// The journal's first line (`parquet_out::new_journal`).
-const MAGIC: &[u8] = b"COHORT-ROWS 2\n";
-
 /// How the followed file holds its rows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Format {
@@ -110,20 +107,15 @@ impl Journal {
         }
     }
 
-    /// Parse the header out of `pending` (magic, `f64`, the column line); false until it is
-    /// complete or when it is not an f64 journal.
+    /// Parse the header out of `pending` (`parquet_out::journal_header`); false until it is
+    /// whole, and for a journal of other values than f64 or a damaged one.
     fn read_header(&mut self) -> bool {
-        let Some(rest) = self.pending.strip_prefix(MAGIC) else { return false };
-        let mut lines = rest.splitn(3, |&b| b == b'\n');
-        let (Some(value), Some(names), Some(_)) = (lines.next(), lines.next(), lines.next()) else { return false };
-        if value != b"f64" {
+        let Ok(Some(h)) = cohort_runtime::parquet_out::journal_header(&self.pending) else { return false };
+        if !h.holds_f64() {
             return false;
         }
-        let Ok(names) = std::str::from_utf8(names) else { return false };
-        let columns: Vec<String> = names.split(',').map(str::to_string).collect();
-        let header = MAGIC.len() + value.len() + names.len() + 2;
-        self.columns = columns;
-        self.pending.drain(..header);
+        self.columns = h.columns;
+        self.pending.drain(..h.len);
         true
     }
 }

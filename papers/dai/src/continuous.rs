@@ -294,27 +294,14 @@ pub fn launch(s: &Setup, dirs: &RunDirs, ctx: &CoupledCtx<'_>) -> CoupledOutcome
         None
     };
     let report = |process: &str, metrics: BTreeMap<String, f64>| ProcessReport {
-        process: process.to_string(),
-        pid: std::process::id(),
         steps_completed,
         wall_s: r.wall_s,
-        messages_received: 0,
-        messages_rejected: Default::default(),
-        timeouts: 0,
-        startup_s: 0.0,
-        cpu_s: 0.0,
-        max_rss_kb: 0,
         metrics,
         error: error.clone().map(|e| {
             let kind = if r.interrupted.is_some() { ErrorKind::Stopped } else { ErrorKind::Diverged };
             ProcessError::new(kind, e)
         }),
-        faults: Default::default(),
-        messages_sent: 0,
-        received_from: Default::default(),
-        latency_from_ns: Default::default(),
-        solver: None,
-        wait: Default::default(),
+        ..ProcessReport::new(process.to_string())
     };
     let mut write_errors = Vec::new();
     for rep in [report("plant", metrics), report("agent-1", BTreeMap::new())] {

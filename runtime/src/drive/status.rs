@@ -28,24 +28,5 @@ pub fn report_ready<T: Transport + ?Sized>(t: &mut T, p: &DriveParams, me: Proc)
 }
 
 pub(super) fn new_report(me: Proc, p: &DriveParams) -> ProcessReport {
-    ProcessReport {
-        process: me.name(),
-        pid: std::process::id(),
-        steps_completed: 0,
-        wall_s: 0.0,
-        messages_received: 0,
-        messages_rejected: Default::default(),
-        timeouts: 0,
-        startup_s: p.process_start.elapsed().as_secs_f64(),
-        cpu_s: 0.0,
-        max_rss_kb: 0,
-        metrics: Default::default(),
-        error: None,
-        faults: Default::default(),
-        messages_sent: 0,
-        received_from: Default::default(),
-        latency_from_ns: Default::default(),
-        solver: None,
-        wait: Default::default(),
-    }
+    ProcessReport { startup_s: p.process_start.elapsed().as_secs_f64(), ..ProcessReport::new(me.name()) }
 }

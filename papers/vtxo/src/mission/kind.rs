@@ -157,7 +157,7 @@ fn run_into(s: &Setup, dirs: &RunDirs, ctx: &CoupledCtx<'_>) -> Result<(), Strin
         wall_s,
         metrics,
         error: error.clone().map(|e| ProcessError::new(ErrorKind::Diverged, e)),
-        ..ProcessReport::failed_at_start(process.to_string(), ProcessError::new(ErrorKind::Stopped, ""))
+        ..ProcessReport::new(process.to_string())
     };
     for (name, mm) in [("plant", metrics), ("agent-1", BTreeMap::new()), ("agent-2", BTreeMap::new())] {
         report(name, mm).write(dirs).map_err(|e| format!("status/{name}.json: {e}"))?;
