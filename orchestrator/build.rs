@@ -15,13 +15,18 @@ fn main() {
     rpath::emit();
     let commit = git(&["rev-parse", "--short=12", "HEAD"]).unwrap_or_else(|| "unknown".into());
     println!("cargo:rustc-env=COHORT_GIT_COMMIT={commit}");
-    // Rebuild when HEAD moves: HEAD itself (a checkout) and the branch it names (a commit).
-    if let Some(dir) = git(&["rev-parse", "--absolute-git-dir"]) {
-        println!("cargo:rerun-if-changed={dir}/HEAD");
-        if let Some(branch) = git(&["symbolic-ref", "-q", "HEAD"]) {
-            println!("cargo:rerun-if-changed={dir}/{branch}");
+    // Rebuild when HEAD moves: HEAD itself (a checkout) and the branch it names (a commit), as
+    // a loose ref or in packed-refs. Only files that exist: cargo reruns a script on every build
+    // while a path it watches is missing (a worktree keeps its refs in the common directory,
+    // which `--git-path` resolves).
+    let mut watched = vec!["HEAD".to_string(), "packed-refs".to_string()];
+    watched.extend(git(&["symbolic-ref", "-q", "HEAD"]));
+    for name in watched {
+        if let Some(path) = git(&["rev-parse", "--path-format=absolute", "--git-path", &name])
+            && std::path::Path::new(&path).exists()
+        {
+            println!("cargo:rerun-if-changed={path}");
         }
-        println!("cargo:rerun-if-changed={dir}/packed-refs");
     }
     println!("cargo:rerun-if-changed=build.rs");
 }

@@ -14,7 +14,7 @@ use cohort_wire::transport::Proc;
 
 /// Cohort agent process (launched by `orchestrator launch`, not by hand).
 #[derive(Parser)]
-#[command(version = cohort_wire::BUILD_ID)]
+#[command(version = cohort_build_id::BUILD_ID)]
 struct Args {
     /// This agent's id (1..=N, as in the scenario).
     #[arg(long)]
@@ -29,6 +29,8 @@ struct Args {
 }
 
 fn main() -> ExitCode {
+    // First: the handshakes, recordings and `--version` read the id through cohort_wire.
+    cohort_wire::set_build_id(cohort_build_id::BUILD_ID);
     let a = Args::parse();
     let (id, restore_at) = (a.id, a.restore_at);
     // A relaunched agent reads its checkpoint once, here: the bytes it resumes from are the ones

@@ -4,5 +4,8 @@ mod rpath;
 
 fn main() {
     rpath::emit();
-    println!("cargo:rerun-if-changed=build.rs");
+    // Not `build.rs`: the packages that share this script (registry, agent, plant) have no file
+    // of that name, and a missing watched path reruns the script, and rebuilds them, every time.
+    // The script's own edits rebuild it anyway; its output depends only on the Python found.
+    println!("cargo:rerun-if-changed=Cargo.toml");
 }

@@ -72,7 +72,7 @@ fn version() -> &'static str {
         "{} (commit {}, build {})",
         env!("CARGO_PKG_VERSION"),
         env!("COHORT_GIT_COMMIT"),
-        cohort_wire::BUILD_ID
+        cohort_build_id::BUILD_ID
     );
     // Once per process, for clap's 'static string.
     Box::leak(v.into_boxed_str())
@@ -410,6 +410,8 @@ fn write_man_pages(out: &Path) -> Result<Vec<PathBuf>, String> {
 }
 
 fn main() -> ExitCode {
+    // First: the handshakes, recordings and `--version` read the id through cohort_wire.
+    cohort_wire::set_build_id(cohort_build_id::BUILD_ID);
     // A run is its user's own: every file, directory and shared-memory segment this process and
     // its children create is owner-only.
     // SAFETY: umask(2) cannot fail.

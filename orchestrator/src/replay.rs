@@ -140,8 +140,8 @@ fn incarnation_run(
     if let Some(c) = &rec.cut_short {
         tracing::warn!("{c}");
     }
-    if let Some(b) = rec.meta.get("build_id").filter(|b| b.as_str() != cohort_wire::BUILD_ID) {
-        tracing::warn!("recorded by build {b}, replayed with build {}", cohort_wire::BUILD_ID);
+    if let Some(b) = rec.meta.get("build_id").filter(|b| b.as_str() != cohort_wire::build_id()) {
+        tracing::warn!("recorded by build {b}, replayed with build {}", cohort_wire::build_id());
     }
     if n > 0 && rec.attachment(recording::RESTORED_FROM).is_none() {
         return Err(format!(

@@ -10,13 +10,15 @@ use cohort_wire::transport::Proc;
 
 /// Cohort plant process (launched by `orchestrator launch`, not by hand).
 #[derive(Parser)]
-#[command(version = cohort_wire::BUILD_ID)]
+#[command(version = cohort_build_id::BUILD_ID)]
 struct Args {
     #[command(flatten)]
     common: CommonArgs,
 }
 
 fn main() -> ExitCode {
+    // First: the handshakes, recordings and `--version` read the id through cohort_wire.
+    cohort_wire::set_build_id(cohort_build_id::BUILD_ID);
     let spec = Args::parse().common.into_spec(Proc::Plant);
     child_main(spec, cohort_registry::PAPERS, |setup, transport, params| {
         let mut model = setup.plant.build(setup);

@@ -206,8 +206,8 @@ pub fn child_main(
 /// run's key, the signal handlers and the run's transport.
 fn start_child(spec: &ChildSpec, papers: &[&'static dyn Paper], start: Instant) -> Result<Started, ChildStartError> {
     let me = spec.me;
-    if spec.build_id != cohort_wire::BUILD_ID {
-        return Err(ChildStartError::BuildMismatch { ours: cohort_wire::BUILD_ID, theirs: spec.build_id.clone() });
+    if spec.build_id != cohort_wire::build_id() {
+        return Err(ChildStartError::BuildMismatch { ours: cohort_wire::build_id(), theirs: spec.build_id.clone() });
     }
     let run_id = u64::from_str_radix(&spec.run_id, 16).map_err(|_| ChildStartError::RunId(spec.run_id.clone()))?;
     let dirs = RunDirs::new(&spec.run_dir);

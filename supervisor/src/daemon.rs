@@ -156,7 +156,7 @@ pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
         .map_err(|e| DaemonError::Declare { what: "liveliness token", reason: e.to_string() })?;
     tracing::info!(
         "host {name}: listening on {listen} (build {}), runs under {}",
-        cohort_wire::BUILD_ID,
+        cohort_wire::build_id(),
         base.display()
     );
     let mut d = Daemon { name, session, base, runs: HashMap::new() };
@@ -199,7 +199,7 @@ impl Daemon {
         let result: Result<Vec<u8>, String> = match verb.as_str() {
             "info" => serde_json::to_vec(&Info {
                 name: self.name.clone(),
-                build_id: cohort_wire::BUILD_ID.into(),
+                build_id: cohort_wire::build_id().into(),
                 pid: std::process::id(),
             })
             .map_err(|e| e.to_string()),
@@ -229,11 +229,11 @@ impl Daemon {
 
     /// Start one process of a run (see [`SpawnRequest`]).
     fn spawn(&mut self, r: &SpawnRequest) -> Result<Vec<u8>, String> {
-        if r.build_id != cohort_wire::BUILD_ID {
+        if r.build_id != cohort_wire::build_id() {
             return Err(format!(
                 "host {} was built from other sources ({}) than the orchestrator ({}): rebuild both from one checkout",
                 self.name,
-                cohort_wire::BUILD_ID,
+                cohort_wire::build_id(),
                 r.build_id
             ));
         }
@@ -284,7 +284,7 @@ impl Daemon {
             .arg("--run-id")
             .arg(format!("{run_id:016x}"))
             .arg("--build-id")
-            .arg(cohort_wire::BUILD_ID)
+            .arg(cohort_wire::build_id())
             .arg("--step-timeout-s")
             .arg(format!("{:?}", r.step_timeout_s))
             .stdin(Stdio::null())

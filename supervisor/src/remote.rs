@@ -133,11 +133,11 @@ pub fn preflight(hosts: &[HostSpec]) -> Result<(), PreflightError> {
         let Some(info) = info else {
             return Err(fail(PreflightProblem::NoDaemon { name: h.name.clone() }));
         };
-        if info.build_id != cohort_wire::BUILD_ID {
+        if info.build_id != cohort_wire::build_id() {
             return Err(fail(PreflightProblem::BuildMismatch {
                 pid: info.pid,
                 theirs: info.build_id,
-                ours: cohort_wire::BUILD_ID,
+                ours: cohort_wire::build_id(),
             }));
         }
     }

@@ -323,7 +323,7 @@ fn spawn(
         .arg("--run-id")
         .arg(format!("{:016x}", run.run_id))
         .arg("--build-id")
-        .arg(cohort_wire::BUILD_ID)
+        .arg(cohort_wire::build_id())
         .arg("--step-timeout-s")
         .arg(format!("{step_timeout_s:?}"))
         .stdin(Stdio::null())
@@ -480,7 +480,7 @@ impl Spawner<'_> {
         }
         let req = SpawnRequest {
             run_id: self.run.run_id,
-            build_id: cohort_wire::BUILD_ID.into(),
+            build_id: cohort_wire::build_id().into(),
             proc_name: p.name(),
             restore_at,
             step_timeout_s,
@@ -1141,7 +1141,7 @@ fn blame(s: &Setup, dirs: &RunDirs, kids: &[Kid], waiting: &[Option<Waiting>], p
             "{} refused to run: built from other sources than this orchestrator ({}). Rebuild the whole \
              workspace: cargo build --release",
             refused.join(", "),
-            cohort_wire::BUILD_ID
+            cohort_wire::build_id()
         );
     }
     let killed = failed.iter().find(|k| k.exit.is_some_and(|st| st.signal().is_some()));

@@ -27,7 +27,7 @@ fn the_build_id_covers_every_workspace_member() {
         })
         .collect();
     members.sort();
-    let covered: Vec<&str> = cohort_wire::BUILD_ID_MEMBERS.split(',').collect();
+    let covered: Vec<&str> = cohort_build_id::BUILD_ID_MEMBERS.split(',').collect();
     let missing: Vec<&String> = members.iter().filter(|m| !covered.contains(&m.as_str())).collect();
     assert!(missing.is_empty(), "members the build id does not cover: {missing:?} (covered: {covered:?})");
     assert!(covered.iter().any(|c| c.starts_with("papers/")), "no paper covered: {covered:?}");

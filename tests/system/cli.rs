@@ -15,7 +15,7 @@ fn stdout_of(args: &[&str]) -> String {
 #[test]
 fn version_names_the_commit_and_the_build_id() {
     let v = stdout_of(&["--version"]);
-    assert!(v.contains(&format!("build {}", cohort_wire::BUILD_ID)), "{v}");
+    assert!(v.contains(&format!("build {}", cohort_build_id::BUILD_ID)), "{v}");
     let commit = v.split("commit ").nth(1).and_then(|r| r.split(',').next()).unwrap_or("");
     assert!(commit == "unknown" || (commit.len() == 12 && commit.chars().all(|c| c.is_ascii_hexdigit())), "{v}");
 }

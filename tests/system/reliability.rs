@@ -592,7 +592,7 @@ fn sigterm_ends_a_zenoh_process_waiting_for_peers_that_never_come() {
     assert!(text.contains("transport = \"zenoh\""), "the ring's [run] table moved: {text}");
     std::fs::write(dir.join("scenario.toml"), text).unwrap();
     let mut child = Command::new(cohort::bin_path("agent"))
-        .args(["--id", "1", "--run-id", "0a5e", "--build-id", cohort_wire::BUILD_ID])
+        .args(["--id", "1", "--run-id", "0a5e", "--build-id", cohort_build_id::BUILD_ID])
         .args(["--zenoh-listen", "tcp/127.0.0.1:0"])
         .arg("--run-dir")
         .arg(&dir)

@@ -10,14 +10,23 @@ pub mod msg;
 pub mod transport;
 pub mod validate;
 
-/// Identifies the exact sources every binary was built from (see `build.rs`).
-pub const BUILD_ID: &str = env!("COHORT_BUILD_ID");
+/// The build id this process runs with, set once by its binary ([`set_build_id`]).
+static BUILD_ID: std::sync::OnceLock<&'static str> = std::sync::OnceLock::new();
 
-/// A 64-bit digest of [`BUILD_ID`], small enough for a status message.
-pub fn build_id_hash() -> u64 {
-    BUILD_ID.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+/// Records the build id of this process (`cohort_build_id::BUILD_ID`, which only the binaries
+/// depend on: see that crate for why the id is not a constant of this one). The first call wins.
+pub fn set_build_id(id: &'static str) {
+    let _ = BUILD_ID.set(id);
 }
 
-/// The workspace member directories [`BUILD_ID`] covers (relative to the root, `.` for the root
-/// package), comma-separated: every member, or a stale binary could pass the handshake.
-pub const BUILD_ID_MEMBERS: &str = env!("COHORT_BUILD_ID_MEMBERS");
+/// The build id the process's binary set: what the handshakes compare, the recordings carry and
+/// `--version` prints. `"unset"` in a library's own unit tests, where no binary set it (both ends
+/// of any handshake in one process then agree on it).
+pub fn build_id() -> &'static str {
+    BUILD_ID.get().copied().unwrap_or("unset")
+}
+
+/// A 64-bit digest of [`build_id`], small enough for a status message.
+pub fn build_id_hash() -> u64 {
+    build_id().bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}

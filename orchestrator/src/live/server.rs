@@ -82,7 +82,7 @@ pub fn start(options: Options) -> Result<&'static Server, StartError> {
     let subscribed = Arc::new(Mutex::new(Vec::new()));
     let handle = ctx
         .websocket_server()
-        .name(format!("cohort {}", cohort_wire::BUILD_ID))
+        .name(format!("cohort {}", cohort_wire::build_id()))
         .bind(host, port)
         .message_backlog_size(BACKLOG)
         .listener(Arc::new(Subscribed(Arc::clone(&subscribed))))

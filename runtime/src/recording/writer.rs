@@ -72,7 +72,7 @@ impl RecordMeta {
         m.insert("readers".into(), ids(&self.readers));
         m.insert("run_id".into(), format!("{:016x}", self.run_id));
         m.insert("wire_schema_version".into(), cohort_wire::msg::SCHEMA_VERSION.to_string());
-        m.insert("build_id".into(), cohort_wire::BUILD_ID.into());
+        m.insert("build_id".into(), cohort_wire::build_id().into());
         m.insert("scenario".into(), self.scenario.clone());
         m.insert("seed".into(), self.seed.to_string());
         // Shortest round-trip form: a reader gets the same f64 back.
@@ -136,7 +136,7 @@ impl<'a> Recording<'a> {
             // Level 1 and no zstd worker threads: the machine's cores belong to the run.
             .compression_level(1)
             .compression_threads(0)
-            .library(format!("cohort {}", cohort_wire::BUILD_ID))
+            .library(format!("cohort {}", cohort_wire::build_id()))
             .create(BufWriter::with_capacity(1 << 20, file))
             .map_err(in_file)?;
         let failed = Arc::new(Mutex::new(None));
