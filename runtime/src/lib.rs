@@ -5,7 +5,8 @@
 //! `run.record` with the replay of one agent against them ([`recording`]), every process's
 //! logging ([`logging`]) and exit codes ([`exit`]), the checked weights files of learned models
 //! ([`weights`]), and the in-process lockstep loop of campaigns and studies, without a transport
-//! ([`lockstep`]).
+//! ([`lockstep`]), and the reading of a process's telemetry while it is written ([`tail`]: the
+//! live view's, on this machine and through a host daemon).
 
 pub mod checkpoint;
 pub mod drive;
@@ -21,5 +22,6 @@ pub mod recording;
 pub mod rng;
 pub mod run_status;
 pub mod solver_stats;
+pub mod tail;
 pub mod units;
 pub mod weights;

@@ -28,6 +28,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use cohort_runtime::record::RunDirs;
+use cohort_runtime::tail::{Journal, journals_in};
 use cohort_wire::transport::zenoh::open_session;
 use cohort_wire::transport::zenoh_security::SecurityConfigError;
 use zenoh::handlers::FifoChannelHandler;
@@ -39,7 +40,8 @@ use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
 
 use crate::hostproto::{
-    self, COLLECTED, ExitReport, Info, RunRequest, SignalRequest, SpawnRequest, Spawned, chunk, request_key,
+    self, COLLECTED, ExitReport, Info, ProcRows, RowsRequest, RunRequest, SignalRequest, SpawnRequest, Spawned, chunk,
+    request_key,
 };
 use crate::supervise::{KEY_FD, SIGNALLED, sibling_binary};
 
@@ -56,6 +58,8 @@ struct RunState {
     kids: HashMap<String, Kid>,
     /// Set when the orchestrator's liveliness token of the run is withdrawn.
     orphaned: Arc<AtomicBool>,
+    /// The journals a live view follows through `rows` requests, by process.
+    tails: HashMap<String, Journal>,
     _watch: Subscriber<()>,
 }
 
@@ -212,6 +216,13 @@ impl Daemon {
                 }
                 Err(e) => Err(e),
             },
+            "rows" => match parse::<RowsRequest>(q) {
+                Ok(r) => {
+                    self.rows(q, &r);
+                    return;
+                }
+                Err(e) => Err(e),
+            },
             "end" => parse::<RunRequest>(q).map(|r| {
                 self.end_run(r.run_id);
                 b"{}".to_vec()
@@ -345,7 +356,7 @@ impl Daemon {
             })
             .wait()
             .map_err(|e| format!("cannot watch the orchestrator: {e}"))?;
-        Ok(RunState { dir, kids: HashMap::new(), orphaned, _watch: watch })
+        Ok(RunState { dir, kids: HashMap::new(), orphaned, tails: HashMap::new(), _watch: watch })
     }
 
     fn signal(&self, r: &SignalRequest) -> Result<(), String> {
@@ -384,6 +395,33 @@ impl Daemon {
                         break;
                     }
                 }
+            }
+        }
+    }
+
+    /// Reply with each process's new decimated telemetry rows (see [`RowsRequest`]), one reply a
+    /// process (a host of many agents answers in many small messages, not one large one).
+    fn rows(&mut self, q: &Query, r: &RowsRequest) {
+        let Some(state) = self.runs.get_mut(&r.run_id) else {
+            let _ = q.reply_err(format!("run {:016x} has nothing here", r.run_id).into_bytes()).wait();
+            return;
+        };
+        let every = r.every.max(1);
+        for (name, path) in journals_in(&RunDirs::new(&state.dir).telemetry()) {
+            let journal = state.tails.entry(name.clone()).or_insert_with(|| Journal::new(&path));
+            let mut rows = journal.poll(|k| k % every == 0);
+            let rows = rows.split_off(rows.len().saturating_sub(r.max_rows));
+            if journal.columns().is_empty() {
+                continue;
+            }
+            let piece = ProcRows {
+                proc_name: name,
+                columns: journal.columns().to_vec(),
+                rows: rows.into_iter().map(|(k, v)| (k, v.iter().map(|x| x.to_bits()).collect())).collect(),
+            };
+            let Ok(body) = serde_json::to_vec(&piece) else { continue };
+            if q.reply(q.key_expr().clone(), body).wait().is_err() {
+                return;
             }
         }
     }

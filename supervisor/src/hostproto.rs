@@ -3,8 +3,10 @@
 //!
 //! - `cohort/host/<name>/<verb>`: the daemon's queryable. Verbs: `info` (name, build id),
 //!   `spawn` ([`SpawnRequest`] → [`Spawned`]), `signal` ([`SignalRequest`]), `collect`
-//!   ([`RunRequest`] → the run's files in [`chunk`]s), `end` ([`RunRequest`]: kill whatever of
-//!   the run is left, remove its directory).
+//!   ([`RunRequest`] → the run's files in [`chunk`]s), `rows` ([`RowsRequest`] → one
+//!   [`ProcRows`] reply per process: the newest decimated telemetry rows since the last request,
+//!   for `launch --live`), `end` ([`RunRequest`]: kill whatever of the run is left, remove its
+//!   directory).
 //! - `cohort/host/<name>`: the daemon's liveliness token (the orchestrator watches it: a daemon
 //!   that disappears takes its processes with it).
 //! - `cohort/<run id>/host/<name>/exit`: [`ExitReport`]s, one per child that ended, as `waitpid`
@@ -92,6 +94,31 @@ pub struct SignalRequest {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunRequest {
     pub run_id: u64,
+}
+
+/// `rows`: the telemetry rows the run's processes on this host appended since the last `rows`
+/// request, of the steps `k` with `k % every == 0`, at most `max_rows` (the newest) per process.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RowsRequest {
+    pub run_id: u64,
+    pub every: u64,
+    pub max_rows: usize,
+}
+
+/// One process's part of a `rows` reply: its columns (`k` first) and rows as (k, the values after
+/// `k` as `f64::to_bits`, so they cross bit for bit, NaN included).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProcRows {
+    pub proc_name: String,
+    pub columns: Vec<String>,
+    pub rows: Vec<(u64, Vec<u64>)>,
+}
+
+impl ProcRows {
+    /// The rows as f64 values.
+    pub fn values(&self) -> Vec<(u64, Vec<f64>)> {
+        self.rows.iter().map(|(k, bits)| (*k, bits.iter().map(|b| f64::from_bits(*b)).collect())).collect()
+    }
 }
 
 /// A child ended: its raw wait status (`ExitStatusExt::from_raw` gives it back).

@@ -27,6 +27,7 @@
 
 pub mod daemon;
 mod hostproto;
+pub use hostproto::ProcRows;
 pub mod linkemu;
 pub mod netlab;
 pub mod observe;

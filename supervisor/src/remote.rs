@@ -17,7 +17,9 @@ use zenoh::pubsub::Subscriber;
 use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
 
-use crate::hostproto::{self, ExitReport, Info, RunRequest, SignalRequest, SpawnRequest, Spawned, request_key};
+use crate::hostproto::{
+    self, ExitReport, Info, ProcRows, RowsRequest, RunRequest, SignalRequest, SpawnRequest, Spawned, request_key,
+};
 
 /// How long a daemon has to answer a request.
 const REQUEST_TIMEOUT: Duration = Duration::from_secs(20);
@@ -369,6 +371,37 @@ impl Remote {
             total += data.len() as u64;
         }
         Ok(total)
+    }
+
+    /// The new decimated telemetry rows of `host`'s processes (see [`RowsRequest`]), for the live
+    /// view: one try, within `timeout` (a slow or lost host shows nothing new, and the view does
+    /// not wait for it longer).
+    pub fn rows(
+        &self,
+        host: &HostLink,
+        every: u64,
+        max_rows: usize,
+        timeout: Duration,
+    ) -> Result<Vec<ProcRows>, String> {
+        let req = RowsRequest { run_id: self.run_id, every, max_rows };
+        let replies = self
+            .control
+            .get(request_key(&host.name, "rows"))
+            .consolidation(zenoh::query::ConsolidationMode::None)
+            .payload(serde_json::to_vec(&req).map_err(|e| e.to_string())?)
+            .timeout(timeout)
+            .wait()
+            .map_err(|e| format!("host {}: rows: {e}", host.name))?;
+        let mut out = Vec::new();
+        while let Ok(r) = replies.recv() {
+            let sample = r.into_result().map_err(|e| {
+                format!("host {}: rows: {}", host.name, String::from_utf8_lossy(&e.payload().to_bytes()))
+            })?;
+            let piece: ProcRows = serde_json::from_slice(&sample.payload().to_bytes())
+                .map_err(|e| format!("host {}: rows: bad reply: {e}", host.name))?;
+            out.push(piece);
+        }
+        Ok(out)
     }
 
     /// Tell `host` the run is over: it kills whatever is left and removes its copy.

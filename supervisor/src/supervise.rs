@@ -379,7 +379,11 @@ impl Resources {
             let remote = Remote::open(run.run_id, &s.hosts, dirs)?;
             let zrun = ZenohRun::new(run.run_id).with_key(run.key);
             let hub = ZenohHub::create(&zrun, &remote.session).map_err(|e| e.to_string())?;
-            return Ok(Resources::Zenoh { hub, remote: Arc::new(remote) });
+            let remote = Arc::new(remote);
+            if !remote.hosts.is_empty() {
+                crate::observe::hosts(Some(&remote));
+            }
+            return Ok(Resources::Zenoh { hub, remote });
         }
         check_descriptors(s.n_agents(), spare)?;
         for id in IoxRun::sweep_stale() {
@@ -410,6 +414,7 @@ impl Resources {
                 drop(claim);
             }
             Resources::Zenoh { hub, remote } => {
+                crate::observe::hosts(None);
                 for link in &remote.hosts {
                     let host = link.name.clone();
                     if link.is_lost() {

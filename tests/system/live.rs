@@ -17,16 +17,16 @@ use tungstenite::client::IntoClientRequest;
 use tungstenite::{Message, WebSocket};
 
 /// A port nobody listens on now (the kernel's choice, released at once).
-fn free_port() -> u16 {
+pub(crate) fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
 }
 
 /// What one client received: per topic, (log time ns, payload).
-type Received = BTreeMap<String, Vec<(u64, Vec<u8>)>>;
+pub(crate) type Received = BTreeMap<String, Vec<(u64, Vec<u8>)>>;
 
 /// Connect (retrying until the server listens, up to `limit`), subscribe to every channel as it
 /// is advertised, and read until the server goes away.
-fn client(port: u16, limit: Duration) -> Received {
+pub(crate) fn client(port: u16, limit: Duration) -> Received {
     let started = Instant::now();
     let mut ws: WebSocket<TcpStream> = loop {
         let mut req = format!("ws://127.0.0.1:{port}").into_client_request().unwrap();
@@ -88,7 +88,7 @@ fn client(port: u16, limit: Duration) -> Received {
 
 /// A flat JSON object's numbers as written (Rust's parser reads the shortest form back exactly;
 /// null is NaN).
-fn json_numbers(payload: &[u8]) -> BTreeMap<String, f64> {
+pub(crate) fn json_numbers(payload: &[u8]) -> BTreeMap<String, f64> {
     let text = std::str::from_utf8(payload).unwrap();
     let inner = text.trim().trim_start_matches('{').trim_end_matches('}');
     inner

@@ -541,3 +541,54 @@ fn a_stopped_host_daemon_leaves_no_empty_per_host_directory() {
     assert!(!base.exists(), "{} left behind, empty", base.display());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `launch --live` of a run whose every process is on a host daemon: the view asks the daemons
+/// for their processes' rows while the run goes on (their journals never reach this machine
+/// before the end), and every row a client gets equals the run's Parquet row bit for bit, once
+/// per step, in step order.
+#[test]
+fn a_live_view_shows_the_rows_of_processes_on_other_hosts() {
+    let _g = heavy();
+    let net = Net { tag: String::new(), namespaces: false, pumped: None };
+    let daemons = Daemons::start(&net);
+    let dir = scratch_dir("multihost-live");
+    let hosts = hosts_file(&net, &dir);
+    let run = dir.join("run");
+    let port = crate::live::free_port();
+    let child = cohort::orchestrator_command()
+        .args(["launch", "topologies/fig1.toml", "--no-plots", "--duration", "6", "--realtime"])
+        .args(["--transport", "zenoh", "--hosts", hosts.to_str().unwrap(), "--live"])
+        .arg(format!("127.0.0.1:{port}"))
+        .arg("--out")
+        .arg(&run)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let client = std::thread::spawn(move || crate::live::client(port, Duration::from_secs(120)));
+    let out = cohort::finish_within(child, cohort::RUN_LIMIT, "orchestrator launch --live across hosts");
+    assert!(out.status.success(), "{}", describe_output(&out));
+    let got = client.join().unwrap();
+    for (topic, stem) in
+        [("/telemetry/plant", "plant"), ("/telemetry/agent-2", "agent-2"), ("/telemetry/agent-3", "agent-3")]
+    {
+        let table = cohort::telemetry_table(&run, stem);
+        let msgs = got.get(topic).map(Vec::as_slice).unwrap_or_default();
+        // 6 s of sim time at 20 rows per sim second, in real time: ≈ 120; a loaded machine's
+        // daemons may answer late, so ask for a third.
+        assert!(msgs.len() >= 40, "{topic}: {} rows live; got topics {:?}", msgs.len(), got.keys());
+        let times: Vec<u64> = msgs.iter().map(|m| m.0).collect();
+        assert!(times.windows(2).all(|w| w[0] < w[1]), "{topic}: log times not increasing: {times:?}");
+        for (_, payload) in msgs {
+            let row = crate::live::json_numbers(payload);
+            let r = table.k.iter().position(|&x| x == row["k"] as u64).expect("a step of the run");
+            for c in &table.columns {
+                assert_eq!(row[&c.name].to_bits(), c.values[r].to_bits(), "{topic} step {}: {}", row["k"], c.name);
+            }
+        }
+    }
+    assert!(got.get("/scene").is_some_and(|m| m.len() >= 40), "too few scenes: {:?}", got.get("/scene").map(Vec::len));
+    assert_nothing_left(&run, &[]);
+    drop(daemons);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -31,14 +31,17 @@
 //! gets the latest scene, rows and progress and the whole roster log at once.
 //!
 //! **Limits.** CSV telemetry (`run.telemetry = "csv"`) is followed as its writers' 64 KiB buffers
-//! reach the file, so its rows come in bursts. In a multi-host run the rows of processes on other
-//! machines reach `telemetry/` only when they end, so their bodies and rows show at the end.
+//! reach the file, so its rows come in bursts. In a multi-host run the journals of processes on
+//! other machines are on those machines: every 200 ms the thread asks each host's daemon for its
+//! processes' new rows (`rows`, decimated there, the newest `rate` per process, one small reply a
+//! process; `cohort_supervisor::observe::remote_rows`), so they show a fraction of a second
+//! later than local ones; a host that does not answer within 1 s shows nothing new until it does.
+//! A remote process's last rows after the final poll are in its Parquet file, not live.
 
 pub mod client;
 mod run;
 mod scene;
 mod server;
-mod tail;
 
 pub use run::LiveRun;
 pub use server::{Options, STEP, start, started};

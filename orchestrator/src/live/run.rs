@@ -4,7 +4,7 @@
 //! publishes them on the server. It only reads: the lockstep processes never wait for it.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, channel};
@@ -19,10 +19,14 @@ use foxglove::{Encode, RawChannel, Schema};
 
 use super::scene::{self, Frame};
 use super::server::{self, STEP, Server, Subscription};
-use super::tail::Journal;
+use cohort_runtime::tail::{Journal, journals_in};
 
 /// How often the thread looks for new rows, events and progress (wall time).
 const POLL: Duration = Duration::from_millis(50);
+/// How often the thread asks the other hosts' daemons for their processes' rows (wall time), and
+/// how long it waits for an answer.
+const REMOTE_POLL: Duration = Duration::from_millis(200);
+const REMOTE_TIMEOUT: Duration = Duration::from_secs(1);
 /// Decimated rows kept per process for the scene (the agents' rows of a step may come a journal
 /// batch later than the plant's).
 const KEEP_ROWS: usize = 64;
@@ -33,14 +37,20 @@ pub struct LiveRun {
     thread: Option<JoinHandle<()>>,
 }
 
-/// A followed process: its journal, channel, latest message and decimated rows by step.
+/// Rows of one process: (step, the values after `k`).
+type Rows = Vec<(u64, Vec<f64>)>;
+
+/// A followed process: its journal (none for a process on another host, whose rows its daemon
+/// sends), columns, channel, latest message and decimated rows by step.
 struct Proc {
-    journal: Journal,
+    journal: Option<Journal>,
+    columns: Vec<String>,
     channel: Option<Arc<RawChannel>>,
     latest: Option<(u64, Vec<u8>)>,
     rows: BTreeMap<u64, Vec<f64>>,
-    /// Rows it may still publish now (see [`View::read_rows`]).
+    /// Rows it may still publish now, and when that was reckoned (see [`View::read_rows`]).
     allowance: f64,
+    refilled: Instant,
 }
 
 /// The state the thread keeps between polls.
@@ -59,7 +69,7 @@ struct View {
     progress: Option<(u64, Vec<u8>)>,
     last_step: u64,
     started: Instant,
-    last_poll: Instant,
+    last_remote: Option<Instant>,
 }
 
 impl LiveRun {
@@ -87,7 +97,7 @@ impl LiveRun {
             progress: None,
             last_step: u64::MAX,
             started: Instant::now(),
-            last_poll: Instant::now(),
+            last_remote: None,
             setup,
         };
         let stop = Arc::new(AtomicBool::new(false));
@@ -199,49 +209,74 @@ impl View {
         }
     }
 
-    /// Start following every journal that appeared in `telemetry/` (one per process).
+    /// Start following every journal that appeared in `telemetry/` (one per process), but for a
+    /// process of another host (its journal arrives here only when the run ends).
     fn follow_new_journals(&mut self) {
-        let Ok(dir) = std::fs::read_dir(&self.telemetry) else { return };
-        for entry in dir.flatten() {
-            let path = entry.path();
-            let Some(name) = journal_process(&path) else { continue };
-            self.procs.entry(name).or_insert_with(|| Proc {
-                journal: Journal::new(&path),
-                channel: None,
-                latest: None,
-                rows: BTreeMap::new(),
-                allowance: 1.0,
-            });
+        for (name, path) in journals_in(&self.telemetry) {
+            let p = self.procs.entry(name).or_insert_with(Proc::new);
+            if p.journal.is_none() && p.columns.is_empty() {
+                p.journal = Some(Journal::new(&path));
+            }
         }
+    }
+
+    /// The rows every process appended since the last poll (decimated): a local one's from its
+    /// journal, another host's from its daemon (every [`REMOTE_POLL`]).
+    fn new_rows(&mut self) -> Vec<(String, Rows)> {
+        let every = self.every;
+        let mut out: Vec<(String, Rows)> = Vec::new();
+        for (name, p) in &mut self.procs {
+            if let Some(j) = p.journal.as_mut() {
+                let rows = j.poll(|k| k % every == 0);
+                if p.columns.is_empty() {
+                    p.columns = j.columns().to_vec();
+                }
+                out.push((name.clone(), rows));
+            }
+        }
+        if self.last_remote.is_none_or(|t| t.elapsed() >= REMOTE_POLL) {
+            self.last_remote = Some(Instant::now());
+            let max_rows = self.server.options.rate_hz.max(1.0).ceil() as usize;
+            let remote = cohort_supervisor::observe::remote_rows(every, max_rows, REMOTE_TIMEOUT);
+            for r in remote {
+                let p = self.procs.entry(r.proc_name.clone()).or_insert_with(Proc::new);
+                // Its rows come from its daemon: a journal of the same name here is the copy
+                // fetched at the end, already shown.
+                p.journal = None;
+                p.columns.clone_from(&r.columns);
+                out.push((r.proc_name.clone(), r.values()));
+            }
+        }
+        out
     }
 
     /// New decimated rows of every process, each published as `/telemetry/<proc>`; a scene for
     /// each new plant row.
     fn read_rows(&mut self) {
-        let every = self.every;
         let rate_hz = self.server.options.rate_hz;
-        let polled_s = self.last_poll.elapsed().as_secs_f64();
-        self.last_poll = Instant::now();
         let mut plant_steps = Vec::new();
-        let names: Vec<String> = self.procs.keys().cloned().collect();
         let dt_ns = self.dt_ns;
         let t = move |k: u64| (k as f64 * dt_ns).round() as u64;
-        for name in names {
+        for (name, mut rows) in self.new_rows() {
             let p = self.procs.get_mut(&name).expect("listed");
-            let mut rows = p.journal.poll(|k| k % every == 0);
             // At most `rate_hz` rows per second of wall time (a token bucket holding one second's
             // worth, so a real-time run's journal bursts pass whole): a fast run shows its newest
             // rows at wall speed instead of flooding the clients and the cores the lockstep uses.
-            p.allowance = (p.allowance + polled_s * rate_hz).min(rate_hz.max(1.0));
+            // Per process: a remote one's rows come every REMOTE_POLL, a local one's every POLL.
+            p.allowance = (p.allowance + p.refilled.elapsed().as_secs_f64() * rate_hz).min(rate_hz.max(1.0));
+            p.refilled = Instant::now();
             let n = rows.len().min(p.allowance as usize);
             p.allowance -= n as f64;
             let rows = rows.split_off(rows.len() - n);
-            if p.channel.is_none() && !p.journal.columns().is_empty() {
-                p.channel =
-                    self.server.channel(&format!("/telemetry/{name}"), "json", row_schema(&name, p.journal.columns()));
+            if p.channel.is_none() && !p.columns.is_empty() {
+                p.channel = self.server.channel(&format!("/telemetry/{name}"), "json", row_schema(&name, &p.columns));
             }
             for (k, values) in rows {
-                let bytes = row_json(p.journal.columns(), k, &values);
+                // Rows of a step already shown (a remote process's, asked again) are not sent twice.
+                if p.latest.as_ref().is_some_and(|(last, _)| k <= *last) {
+                    continue;
+                }
+                let bytes = row_json(&p.columns, k, &values);
                 if let Some(c) = &p.channel {
                     server::log(c, &bytes, t(k));
                 }
@@ -269,7 +304,7 @@ impl View {
         let row = |proc: &str| {
             let p = self.procs.get(proc)?;
             let (_, values) = p.rows.range(..=k).next_back()?;
-            Some((p.journal.columns(), values.as_slice()))
+            Some((p.columns.as_slice(), values.as_slice()))
         };
         let truth = self.bodies.iter().map(|b| scene::position(&b.truth, &row)).collect();
         let estimate = self
@@ -375,6 +410,20 @@ impl View {
     }
 }
 
+impl Proc {
+    fn new() -> Self {
+        Proc {
+            journal: None,
+            columns: Vec::new(),
+            channel: None,
+            latest: None,
+            rows: BTreeMap::new(),
+            allowance: 1.0,
+            refilled: Instant::now(),
+        }
+    }
+}
+
 /// Sum of positions, none when any is missing.
 trait SumPositions {
     fn sum_positions(self) -> Option<[f64; 3]>;
@@ -387,12 +436,4 @@ impl<I: Iterator<Item = Option<[f64; 3]>>> SumPositions for I {
             Some([a[0] + p[0], a[1] + p[1], a[2] + p[2]])
         })
     }
-}
-
-/// `telemetry/agent-3.rows` (a Parquet writer's journal) or `telemetry/agent-3.csv` → `agent-3`
-/// (a hidden or other file → none).
-fn journal_process(path: &Path) -> Option<String> {
-    let name = path.file_name()?.to_str()?;
-    let stem = name.strip_suffix(".rows").or_else(|| name.strip_suffix(".csv"))?;
-    (!stem.starts_with('.')).then(|| stem.to_string())
 }

@@ -110,7 +110,7 @@ impl Journal {
     /// Parse the header out of `pending` (`parquet_out::journal_header`); false until it is
     /// whole, and for a journal of other values than f64 or a damaged one.
     fn read_header(&mut self) -> bool {
-        let Ok(Some(h)) = cohort_runtime::parquet_out::journal_header(&self.pending) else { return false };
+        let Ok(Some(h)) = crate::parquet_out::journal_header(&self.pending) else { return false };
         if !h.holds_f64() {
             return false;
         }
@@ -120,10 +120,27 @@ impl Journal {
     }
 }
 
+/// `telemetry/agent-3.rows` (a Parquet writer's journal) or `telemetry/agent-3.csv` → `agent-3`
+/// (a hidden or other file → none).
+pub fn journal_process(path: &Path) -> Option<String> {
+    let name = path.file_name()?.to_str()?;
+    let stem = name.strip_suffix(".rows").or_else(|| name.strip_suffix(".csv"))?;
+    (!stem.starts_with('.')).then(|| stem.to_string())
+}
+
+/// The journals in a telemetry directory, by process name, in name order.
+pub fn journals_in(telemetry: &Path) -> Vec<(String, PathBuf)> {
+    let Ok(dir) = std::fs::read_dir(telemetry) else { return Vec::new() };
+    let mut found: Vec<(String, PathBuf)> =
+        dir.flatten().filter_map(|e| journal_process(&e.path()).map(|n| (n, e.path()))).collect();
+    found.sort();
+    found
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use cohort_runtime::parquet_out::ParquetWriter;
+    use crate::parquet_out::ParquetWriter;
     use std::io::Write as _;
 
     #[test]
@@ -133,7 +150,7 @@ mod tests {
         let path = dir.join("plant.parquet");
         let columns: Vec<String> = ["k", "t_s", "x_m"].map(String::from).to_vec();
         let mut w = ParquetWriter::<f64>::create(&path, &columns).unwrap();
-        let mut j = Journal::new(&cohort_runtime::parquet_out::journal_path(&path));
+        let mut j = Journal::new(&crate::parquet_out::journal_path(&path));
         for k in 0..10u64 {
             w.row(k, &[k as f64 * 0.01, (k as f64).sqrt() * -1.0e-7]).unwrap();
         }
@@ -158,7 +175,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("agent-1.csv");
         let columns: Vec<String> = ["k", "t_s", "x_m"].map(String::from).to_vec();
-        let mut w = cohort_runtime::record::CsvWriter::create(&path, &columns).unwrap();
+        let mut w = crate::record::CsvWriter::create(&path, &columns).unwrap();
         let mut j = Journal::new(&path);
         for k in 0..4u64 {
             w.row(k, &[k as f64 * 0.01, 1.0 / 3.0 * k as f64]).unwrap();
