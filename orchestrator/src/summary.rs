@@ -82,6 +82,11 @@ pub struct Summary {
     pub process_latency_ns: BTreeMap<String, Percentiles>,
     /// Each process's end report (`status/`, which has no latency histograms).
     pub processes: Vec<ProcessReport>,
+    /// The memory the run's processes used together at its end: the sum of their proportional
+    /// set sizes (each shared page counted once over all), kB. Multi-process runs only (the
+    /// reference run's threads share one process).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pss_total_kb: Option<u64>,
     /// The histograms of the processes' latency logs, (sender, receiver) → buckets (kept in
     /// memory for a soak's merge, never written to `summary.json`).
     #[serde(skip)]
@@ -227,6 +232,7 @@ pub fn build(s: &Setup, dirs: &RunDirs, outcome: Outcome) -> Summary {
         link_latency_ns: link_latency,
         process_latency_ns: process_latency,
         messages_unaccounted: unaccounted(s, &processes, &outcome.timeline),
+        pss_total_kb: (outcome.mode == "multi-process").then(|| processes.iter().map(|p| p.pss_kb).sum()),
         processes,
         histograms,
         timeline: outcome.timeline,

@@ -277,6 +277,12 @@ pub struct ProcessReport {
     /// Peak resident set size of the process, kB (the whole process in the reference run).
     #[serde(default)]
     pub max_rss_kb: u64,
+    /// Proportional set size at the end of the process's run, kB: its private pages plus its
+    /// share of every page it maps with others (iceoryx2's segments, the binary's text), so the
+    /// run's processes' values add up to the memory they use together (0 where
+    /// `/proc/self/smaps_rollup` cannot be read; the whole process in the reference run).
+    #[serde(default)]
+    pub pss_kb: u64,
     /// Headline metrics (plant only). JSON has no NaN: a non-finite metric is written as `null`
     /// and read back as NaN, so a diverged run's report still loads.
     #[serde(deserialize_with = "metrics_with_nulls")]
@@ -354,6 +360,7 @@ impl ProcessReport {
             startup_s: 0.0,
             cpu_s: 0.0,
             max_rss_kb: 0,
+            pss_kb: 0,
             metrics: Default::default(),
             error: None,
             faults: Default::default(),
@@ -622,9 +629,30 @@ pub fn cpu_and_rss() -> (f64, u64) {
     (secs(ru.ru_utime) + secs(ru.ru_stime), hwm_kb)
 }
 
+/// The calling process's proportional set size now, kB (`Pss:` of `/proc/self/smaps_rollup`; 0
+/// where it cannot be read).
+pub fn pss_kb() -> u64 {
+    std::fs::read_to_string("/proc/self/smaps_rollup")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("Pss:"))
+                .and_then(|l| l.split_whitespace().nth(1).and_then(|v| v.parse::<u64>().ok()))
+        })
+        .unwrap_or(0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pss_is_read_and_at_most_the_peak_rss() {
+        let pss = pss_kb();
+        let (_, hwm) = cpu_and_rss();
+        assert!(pss > 0, "no Pss in /proc/self/smaps_rollup");
+        assert!(pss <= hwm, "PSS {pss} kB above the peak RSS {hwm} kB");
+    }
 
     #[test]
     fn latency_histograms_round_trip_through_their_log() {

@@ -231,12 +231,12 @@ pub(super) fn ring_sections(md: &mut String, a: &[Aggregate], ns: &[u32]) {
         );
     }
     md.push_str("\n\"messaging share\": the null round's step time over the real step time (same processes and message sizes, no computation).\n\n");
-    md.push_str("## Consensus ring, adaptive waiting: per-step cost\n\n| N | round p50 µs | round p99 µs | round max ms | agent CPU s / 1000 steps | plant CPU s / 1000 steps | agent RSS MB | plant RSS MB | start-up s |\n|---|---|---|---|---|---|---|---|---|\n");
+    md.push_str("## Consensus ring, adaptive waiting: per-step cost\n\n| N | round p50 µs | round p99 µs | round max ms | agent CPU s / 1000 steps | plant CPU s / 1000 steps | agent RSS MB | plant RSS MB | agent PSS MB | plant PSS MB | total PSS MB | start-up s |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for &n in ns {
         let k = format!("ring/N={n}/adaptive");
         let _ = writeln!(
             md,
-            "| {n} | {:.1} | {:.1} | {:.2} | {:.3} | {:.3} | {:.1} | {:.1} | {:.2} |",
+            "| {n} | {:.1} | {:.1} | {:.2} | {:.3} | {:.3} | {:.1} | {:.1} | {:.1} | {:.1} | {:.0} | {:.2} |",
             med(&k, &|s| s.round_p50_us),
             med(&k, &|s| s.round_p99_us),
             med(&k, &|s| s.round_max_ms),
@@ -244,6 +244,9 @@ pub(super) fn ring_sections(md: &mut String, a: &[Aggregate], ns: &[u32]) {
             med(&k, &|s| s.plant_cpu_s_per_1000_steps),
             med(&k, &|s| s.agent_rss_mb),
             med(&k, &|s| s.plant_rss_mb),
+            med(&k, &|s| s.agent_pss_mb),
+            med(&k, &|s| s.plant_pss_mb),
+            med(&k, &|s| s.total_pss_mb),
             med(&k, &|s| s.startup_s.unwrap_or(f64::NAN)),
         );
     }

@@ -21,6 +21,9 @@ pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> S
     let mut agent_share: Vec<f64> = Vec::new();
     let mut plant_cpu = f64::NAN;
     let mut plant_rss = f64::NAN;
+    let mut agent_pss: Vec<f64> = Vec::new();
+    let mut plant_pss = f64::NAN;
+    let mb = |kb: u64| kb as f64 / 1024.0;
     let (mut solver_p50, mut solver_p99, mut solver_max): (Vec<f64>, Vec<f64>, Vec<f64>) = Default::default();
     for st in summary.processes.iter().filter_map(|p| p.solver.as_ref()).filter(|st| st.solves > 0) {
         solver_p50.push(st.solve_time_p50_s * 1e6);
@@ -37,10 +40,12 @@ pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> S
         wait.spin_s += p.wait.spin_s;
         if p.process == "plant" {
             plant_cpu = per_k(p.cpu_s);
-            plant_rss = p.max_rss_kb as f64 / 1024.0;
+            plant_rss = mb(p.max_rss_kb);
+            plant_pss = mb(p.pss_kb);
         } else {
             agent_cpu.push(per_k(p.cpu_s));
-            agent_rss.push(p.max_rss_kb as f64 / 1024.0);
+            agent_rss.push(mb(p.max_rss_kb));
+            agent_pss.push(mb(p.pss_kb));
             if p.wall_s > 0.0 {
                 agent_share.push(p.cpu_s / p.wall_s);
             }
@@ -73,6 +78,9 @@ pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> S
         agent_cpu_share: median(&mut agent_share),
         agent_rss_mb: median(&mut agent_rss),
         plant_rss_mb: plant_rss,
+        agent_pss_mb: median(&mut agent_pss),
+        plant_pss_mb: plant_pss,
+        total_pss_mb: summary.pss_total_kb.map_or(f64::NAN, mb),
         compute_share,
         solver_p50_us: (!solver_p50.is_empty()).then(|| median(&mut solver_p50)),
         solver_p99_us: largest(&solver_p99),

@@ -43,6 +43,11 @@ pub(super) struct Sample {
     pub(super) agent_cpu_share: f64,
     pub(super) agent_rss_mb: f64,
     pub(super) plant_rss_mb: f64,
+    /// Proportional set sizes at the end (shared pages split among the processes mapping them):
+    /// the median agent's, the plant's, and all processes' together, MB.
+    pub(super) agent_pss_mb: f64,
+    pub(super) plant_pss_mb: f64,
+    pub(super) total_pss_mb: f64,
     /// Share of the plant's round spent in the agents' own computation (median over agents of
     /// compute / round), from timing/.
     pub(super) compute_share: Option<f64>,

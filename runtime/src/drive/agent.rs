@@ -37,6 +37,7 @@ pub fn run_agent<T: Transport + ?Sized>(
     report.wall_s = started.elapsed().as_secs_f64();
     report.solver = algo.solver_stats();
     (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
+    report.pss_kb = crate::record::pss_kb();
     if let Err(e) = result {
         report.error = Some(e.to_report());
     } else {

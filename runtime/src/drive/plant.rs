@@ -53,6 +53,7 @@ pub fn run_plant<T: Transport + ?Sized>(
     report_ready(t, p, Proc::Plant);
     let result = plant_run(t, model, rng, n_agents, p, &mut report);
     (report.cpu_s, report.max_rss_kb) = crate::record::cpu_and_rss();
+    report.pss_kb = crate::record::pss_kb();
     report.metrics = model.metrics().into_iter().collect();
     let mut result = result;
     for (name, text) in model.extra_telemetry() {
