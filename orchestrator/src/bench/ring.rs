@@ -9,23 +9,23 @@ use cohort_scenario::Overrides;
 
 /// How a bench scenario differs from the plain consensus ring.
 #[derive(Clone, Copy)]
-pub(super) struct RingRun<'a> {
-    pub(super) wait: &'a str,
-    pub(super) transport: &'a str,
-    pub(super) link_delay_steps: u32,
+pub(crate) struct RingRun<'a> {
+    pub(crate) wait: &'a str,
+    pub(crate) transport: &'a str,
+    pub(crate) link_delay_steps: u32,
     /// The null plant and algorithm: the same processes and message sizes, no computation.
-    pub(super) null: bool,
-    pub(super) dt_s: f64,
-    pub(super) realtime: bool,
+    pub(crate) null: bool,
+    pub(crate) dt_s: f64,
+    pub(crate) realtime: bool,
     /// run.authenticate: every message sealed and checked with the run's key.
-    pub(super) authenticate: bool,
+    pub(crate) authenticate: bool,
     /// A hosts file placing the processes (multi-host zenoh runs).
-    pub(super) hosts: Option<&'a Path>,
+    pub(crate) hosts: Option<&'a Path>,
     /// An `[algorithm]` section replacing the ring's (a Python twin of the Rust kind).
-    pub(super) algorithm: Option<&'a str>,
+    pub(crate) algorithm: Option<&'a str>,
 }
 
-pub(super) const RING: RingRun<'static> = RingRun {
+pub(crate) const RING: RingRun<'static> = RingRun {
     wait: "adaptive",
     transport: "iceoryx2",
     link_delay_steps: 0,
@@ -37,9 +37,20 @@ pub(super) const RING: RingRun<'static> = RingRun {
     algorithm: None,
 };
 
-/// The consensus ring with `n` agents (each hears i−1 and i+1), `steps` steps, as scenario text
-/// (configured like any file, so the bench runs what users run).
-pub(super) fn ring(n: u32, steps: u64, r: RingRun<'_>) -> Result<Setup, String> {
+/// The consensus ring with `n` agents (each hears i−1 and i+1), `steps` steps, configured like
+/// any file, so the bench runs what users run (`orchestrator generate ring` writes the same text).
+pub(crate) fn ring(n: u32, steps: u64, r: RingRun<'_>) -> Result<Setup, String> {
+    let (name, t) = ring_text(n, steps, r);
+    let file = PathBuf::from(format!("{name}.toml"));
+    let hosts = r.hosts.map(cohort_scenario::hosts::HostsFile::load).transpose().map_err(|e| e.to_string())?;
+    let s = cohort_scenario::parse(&t, &file, &Overrides { hosts, ..Default::default() }).map_err(|e| e.to_string())?;
+    cohort_runtime::paper::configure(s, cohort_registry::PAPERS)
+        .map_err(|problems| cohort_scenario::ScenarioError { file, problems }.to_string())
+}
+
+/// The ring's scenario name and text (see [`ring`]): every agent starts scattered about its slot
+/// on a circle of radius 2·N m, so there is work to do.
+pub(crate) fn ring_text(n: u32, steps: u64, r: RingRun<'_>) -> (String, String) {
     let radius = 2.0 * f64::from(n);
     let name = if r.null { format!("bench-null{n}") } else { format!("bench-ring{n}") };
     let mut t = format!(
@@ -85,9 +96,5 @@ pub(super) fn ring(n: u32, steps: u64, r: RingRun<'_>) -> Result<Setup, String> 
             let _ = writeln!(t, "r0_m = [{:?}, {:?}, {:?}]\nv0_mps = [0.0, 0.0, 0.0]", r0[0], r0[1], r0[2]);
         }
     }
-    let file = PathBuf::from(format!("{name}.toml"));
-    let hosts = r.hosts.map(cohort_scenario::hosts::HostsFile::load).transpose().map_err(|e| e.to_string())?;
-    let s = cohort_scenario::parse(&t, &file, &Overrides { hosts, ..Default::default() }).map_err(|e| e.to_string())?;
-    cohort_runtime::paper::configure(s, cohort_registry::PAPERS)
-        .map_err(|problems| cohort_scenario::ScenarioError { file, problems }.to_string())
+    (name, t)
 }
