@@ -14,7 +14,7 @@
 //! * the same rows go to the final file, written as [`ROWS_PER_GROUP`]-row groups into a hidden
 //!   temporary file, closed and renamed to `telemetry/<proc>.parquet` by
 //!   [`ParquetWriter::finish`], which then removes the journal. The encoding waits for `finish`
-//!   (the rows wait in memory, up to `DEFER_BYTES`, then are encoded as they come): on 2 cores the
+//!   (the rows wait in memory, up to a budget, [`defer_budget`], then are encoded as they come): on 2 cores the
 //!   lockstep leaves no core idle, and encoding during the run slowed fig1's step loop by 16 %
 //!   against CSV (9 % with the writer thread at nice 19); deferred, the loop runs as fast as with
 //!   CSV or faster, and the run's end takes ≈ 0.1–0.3 s longer.
@@ -191,7 +191,7 @@ impl<V: Value> ParquetWriter<V> {
         };
         let (tx, rx) = channel::<Cmd>();
         let thread = std::thread::Builder::new().name(format!("telemetry {name}")).spawn(move || {
-            // What this thread does during the run (journal writes; encoding beyond DEFER_BYTES)
+            // What this thread does during the run (journal writes; encoding beyond its budget)
             // competes for the cores with the lockstep's processes (on 2 cores, seven spinning
             // processes leave none idle): at the lowest priority it takes the time they leave.
             lower_this_threads_priority();
@@ -354,8 +354,16 @@ pub fn read_journal(path: &Path) -> std::io::Result<(Vec<String>, RecordBatch)> 
     File::open(path)?.read_to_end(&mut bytes)?;
     let JournalHeader { value, columns, len } =
         journal_header(&bytes).map_err(bad)?.ok_or_else(|| bad("header cut short"))?;
-    let data = &bytes[len..];
-    let width = columns.len();
+    let schema = schema(&columns, value);
+    let batch = batch_from_words(&bytes[len..], &schema).map_err(std::io::Error::other)?;
+    Ok((columns, batch))
+}
+
+/// The whole rows of journal-format `data` (each row `k`, then every value, 8 little-endian bytes
+/// each) as a batch of `schema` (its value columns Float64 or UInt64); a cut-short last row is
+/// left out.
+fn batch_from_words(data: &[u8], schema: &SchemaRef) -> Result<RecordBatch, arrow_schema::ArrowError> {
+    let width = schema.fields().len();
     let rows = data.len() / (8 * width);
     let word = |r: usize, c: usize| {
         let at = 8 * (r * width + c);
@@ -363,16 +371,15 @@ pub fn read_journal(path: &Path) -> std::io::Result<(Vec<String>, RecordBatch)> 
     };
     let mut arrays: Vec<ArrayRef> =
         vec![Arc::new(UInt64Array::from((0..rows).map(|r| word(r, 0)).collect::<Vec<_>>()))];
-    for c in 1..width {
+    for (c, field) in schema.fields().iter().enumerate().skip(1) {
         let words = (0..rows).map(|r| word(r, c));
-        arrays.push(if value == DataType::Float64 {
+        arrays.push(if field.data_type() == &DataType::Float64 {
             Arc::new(Float64Array::from(words.map(f64::from_bits).collect::<Vec<_>>()))
         } else {
             Arc::new(UInt64Array::from(words.collect::<Vec<_>>()))
         });
     }
-    let batch = RecordBatch::try_new(schema(&columns, value), arrays).map_err(std::io::Error::other)?;
-    Ok((columns, batch))
+    RecordBatch::try_new(schema.clone(), arrays)
 }
 
 /// One UInt64 column of a Parquet file (a timing file's nanoseconds, or any file's `k`).
@@ -426,16 +433,35 @@ struct FileState {
     error: Option<std::io::Error>,
     /// Scratch for a batch's journal bytes.
     bytes: Vec<u8>,
-    /// Batches in the journal, not yet encoded into the final file, and their size in memory.
-    /// Encoding waits for `finish` (up to [`DEFER_BYTES`]): on a 2-core machine every core is busy
+    /// Batches in the journal, not yet encoded into the final file (as their journal bytes,
+    /// 8 bytes a number: a batch of a few rows of a wide file held as Arrow arrays took four
+    /// times its numbers, 128 MB of a 100-agent plant's 211 MB), and their size in memory.
+    /// Encoding waits for `finish` (up to [`defer_budget`]): on a 2-core machine every core is busy
     /// with the lockstep while it runs, and encoding then slowed fig1's step loop by 9–16 % against
-    /// CSV even at the lowest priority.
-    deferred: Vec<RecordBatch>,
+    /// CSV even at the lowest priority. Each batch is encoded as it came (the same rows per
+    /// `write`), so the file's bytes are those of encoding at once.
+    deferred: Vec<Vec<u8>>,
     deferred_bytes: usize,
 }
 
-/// Rows held back from encoding until the process ends, at most (beyond: encoded as they come).
+/// Rows held back from encoding until the process ends, at most, by one writer (beyond: encoded
+/// as they come), and by all the writers of a run together ([`defer_budget`]).
 const DEFER_BYTES: usize = 256 << 20;
+const RUN_DEFER_BYTES: usize = 1 << 30;
+/// The least a writer may hold back: a few journal batches of the widest file.
+const MIN_DEFER_BYTES: usize = 1 << 20;
+/// This process's budget, set by [`defer_budget`] (the largest until then).
+static DEFER_LIMIT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(DEFER_BYTES);
+
+/// Share the rows held back by a run of `processes` processes: each writer of this process holds
+/// back at most 1 GiB / `processes`, between 1 MiB and 256 MiB. Deferred rows are 8 bytes a
+/// number: a 1 000-agent ring's agents would otherwise hold 16 MB each after 100 000 steps (16 GB
+/// together) where 1 MiB each costs them some encoding during the run. The file's bytes do not
+/// depend on it (row groups fall every [`ROWS_PER_GROUP`] rows).
+pub fn defer_budget(processes: u32) {
+    let each = (RUN_DEFER_BYTES / processes.max(1) as usize).clamp(MIN_DEFER_BYTES, DEFER_BYTES);
+    DEFER_LIMIT.store(each, std::sync::atomic::Ordering::Relaxed);
+}
 
 impl FileState {
     fn err(&self, e: impl std::fmt::Display) -> std::io::Error {
@@ -473,9 +499,9 @@ impl FileState {
         journal
             .write_all(&self.bytes)
             .map_err(|e| std::io::Error::other(format!("{}: journal: {e}", self.path.display())))?;
-        self.deferred_bytes += batch.get_array_memory_size();
-        self.deferred.push(batch.clone());
-        if self.deferred_bytes > DEFER_BYTES {
+        self.deferred_bytes += self.bytes.len();
+        self.deferred.push(std::mem::take(&mut self.bytes));
+        if self.deferred_bytes > DEFER_LIMIT.load(std::sync::atomic::Ordering::Relaxed) {
             self.encode_deferred();
         }
         Ok(())
@@ -484,11 +510,16 @@ impl FileState {
     /// [`ROWS_PER_GROUP`] rows whenever this runs, so the bytes do not depend on it).
     fn encode_deferred(&mut self) {
         self.deferred_bytes = 0;
-        for batch in std::mem::take(&mut self.deferred) {
-            if self.error.is_none()
-                && let Some(w) = self.writer.as_mut()
-                && let Err(e) = w.write(&batch)
-            {
+        for bytes in std::mem::take(&mut self.deferred) {
+            if self.error.is_some() {
+                break;
+            }
+            let written = match (batch_from_words(&bytes, &self.schema), self.writer.as_mut()) {
+                (Ok(batch), Some(w)) => w.write(&batch).map_err(|e| e.to_string()),
+                (Err(e), _) => Err(e.to_string()),
+                (Ok(_), None) => Ok(()),
+            };
+            if let Err(e) = written {
                 self.error = Some(self.err(e));
             }
         }

@@ -7,6 +7,7 @@ use crate::record::{TelemetryWriter, TimingWriter};
 
 /// The plant's telemetry (`columns`) and timing files, created.
 pub(super) fn plant_files(p: &DriveParams, columns: &[String]) -> Result<(TelemetryWriter, TimingWriter), RunError> {
+    crate::parquet_out::defer_budget(p.processes);
     let tel_path = p.dirs.telemetry().join(format!("plant.{}", p.telemetry.extension()));
     let tel = TelemetryWriter::create(p.telemetry, &tel_path, columns).map_err(io(tel_path.display().to_string()))?;
     let tim_path = p.dirs.timing().join(format!("plant.{}", p.telemetry.extension()));
@@ -24,6 +25,7 @@ pub(super) fn agent_files(
     columns: &[String],
     append: bool,
 ) -> Result<(TelemetryWriter, TimingWriter), RunError> {
+    crate::parquet_out::defer_budget(p.processes);
     let tel_path = p.dirs.telemetry().join(format!("{name}.{}", p.telemetry.extension()));
     let tim_path = p.dirs.timing().join(format!("{name}.{}", p.telemetry.extension()));
     let timing_columns = ["k".into(), "meas_latency_ns".into(), "neighbour_wait_ns".into(), "compute_ns".into()];

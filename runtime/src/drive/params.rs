@@ -46,6 +46,9 @@ pub struct DriveParams {
     /// `run.authenticate`: the run's MAC key; every message sent is sealed with it and every
     /// message received must carry its tag.
     pub key: Option<MacKey>,
+    /// Processes of the run (the plant and every agent): the telemetry writers share a memory
+    /// budget for the rows they hold back ([`crate::parquet_out::defer_budget`]).
+    pub processes: u32,
 }
 
 impl DriveParams {
@@ -70,6 +73,7 @@ impl DriveParams {
             algorithm_kind: String::new(),
             hold_timeout: Duration::from_secs(60),
             key: None,
+            processes: 1,
         }
     }
 
@@ -101,6 +105,7 @@ impl DriveParams {
             algorithm_kind: setup.algorithm.kind().to_string(),
             hold_timeout: Duration::from_secs_f64(s.run.startup_timeout_s + 2.0 * s.run.step_timeout_s),
             key: None,
+            processes: s.n_agents() + 1,
         }
     }
 }
