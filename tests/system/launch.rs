@@ -382,6 +382,38 @@ fn thirty_agents_run_multi_process_past_the_default_service_limits() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The scale CI can afford (issue: formations of hundreds): `orchestrator generate ring` writes a
+/// 200-agent ring, which runs as 201 processes bit-identical to `--reference`, reports every
+/// process's PSS, and leaves nothing behind.
+#[test]
+fn a_generated_two_hundred_agent_ring_runs_multi_process_bit_identical_to_the_reference() {
+    let _g = heavy();
+    let dir = scratch_dir("ring200");
+    let file = dir.join("ring200.toml");
+    let o = orchestrator()
+        .args(["generate", "ring", "--agents", "200", "--steps", "40", "--out"])
+        .arg(&file)
+        .output_within(cohort::QUICK_LIMIT, "orchestrator generate ring");
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let (mp, rf) = (dir.join("mp"), dir.join("ref"));
+    let o = launch_scenario(&file, &mp, &[]);
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let o = launch_scenario(&file, &rf, &["--reference"]);
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let bits = cohort::telemetry_bits(&mp);
+    let files: std::collections::BTreeSet<&str> = bits.iter().map(|b| b.0.as_str()).collect();
+    assert_eq!(files.len(), 201, "plant + 200 agents: {files:?}");
+    assert_eq!(bits, cohort::telemetry_bits(&rf), "200-agent ring: multi-process differs from the reference");
+    let s = summary(&mp);
+    let processes = s["processes"].as_array().unwrap();
+    assert_eq!(processes.len(), 201);
+    assert!(processes.iter().all(|p| p["pss_kb"].as_u64().unwrap_or(0) > 0), "a process reported no PSS");
+    let total: u64 = processes.iter().map(|p| p["pss_kb"].as_u64().unwrap()).sum();
+    assert_eq!(s["pss_total_kb"].as_u64(), Some(total));
+    assert_clean(&mp, &run_id(&mp));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn in_degrade_mode_an_unplanned_sigkill_is_survived_named_and_fails_the_exit_code() {
     let _g = heavy();
