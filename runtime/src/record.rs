@@ -328,6 +328,9 @@ pub struct WaitStats {
     pub spin_expired: u64,
     /// Wall time spent spinning, s.
     pub spin_s: f64,
+    /// Adaptive waiting: the trials (every 8 192 steps) that chose spinning, and blocking.
+    pub chose_spin: u64,
+    pub chose_block: u64,
 }
 
 impl WaitStats {

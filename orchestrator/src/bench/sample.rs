@@ -38,6 +38,8 @@ pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> S
         wait.spin_stalls += p.wait.spin_stalls;
         wait.spin_expired += p.wait.spin_expired;
         wait.spin_s += p.wait.spin_s;
+        wait.chose_spin += p.wait.chose_spin;
+        wait.chose_block += p.wait.chose_block;
         if p.process == "plant" {
             plant_cpu = per_k(p.cpu_s);
             plant_rss = mb(p.max_rss_kb);

@@ -406,7 +406,7 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
     /// Fill the report from the loop's counters and close the files, also after an error.
     fn finish(mut self, report: &mut ProcessReport, result: Result<(), RunError>) -> Result<(), RunError> {
         report.timeouts = self.w.timeouts;
-        report.wait = self.w.stats;
+        report.wait = self.w.stats();
         let inbox = &self.inbox;
         report.messages_received = inbox.received;
         report.messages_rejected = reject_map(&inbox.rejects);

@@ -15,7 +15,8 @@
 //! [`agent`]'s `AgentDriver`: `open`, `step`, `finish`); the files:
 //! - `plant.rs`, `plant_inbox.rs`: the plant's loop, its inbox and roster;
 //! - `agent.rs`, `agent_inbox.rs`: an agent's loop, its inbox and how it steps from the shares;
-//! - `wait.rs`: the waits and their spin policy; `params.rs`: the settings; `files.rs`: the
+//! - `wait.rs`: the waits and their spin policy, `wait_trial.rs` adaptive waiting's trials of
+//!   spinning against blocking; `params.rs`: the settings; `files.rs`: the
 //!   telemetry and timing files; `status.rs`: status messages and reports; `error.rs`: how a run
 //!   ends in error.
 
@@ -28,6 +29,7 @@ mod plant;
 mod plant_inbox;
 mod status;
 mod wait;
+mod wait_trial;
 
 #[cfg(test)]
 pub(crate) mod tests;

@@ -366,7 +366,7 @@ impl<'a, T: Transport + ?Sized> PlantDriver<'a, T> {
     fn finish(mut self, report: &mut ProcessReport, result: Result<(), RunError>) -> Result<(), RunError> {
         report.wall_s = self.loop_start.elapsed().as_secs_f64();
         report.timeouts = self.w.timeouts;
-        report.wait = self.w.stats;
+        report.wait = self.w.stats();
         report.messages_received = self.inbox.received;
         report.messages_rejected = reject_map(&self.inbox.rejects);
         report.faults.late = self.inbox.late;
