@@ -389,8 +389,10 @@ fn metrics_with_nulls<'de, D: serde::Deserializer<'de>>(
 }
 
 /// A latency histogram (HdrHistogram, 3 significant figures, 100 ns to 60 s) kept by a receiver
-/// per sender.
-pub struct LatencyHist(hdrhistogram::Histogram<u64>);
+/// per sender. Counts are u32 (saturating at 4.29 · 10⁹ messages a bucket): its 21 504 buckets
+/// take 86 kB a link instead of 172 kB (a 100-agent plant keeps 100, each agent one per neighbour
+/// and the plant's); the log's encoding (V2, variable-length counts) does not change.
+pub struct LatencyHist(hdrhistogram::Histogram<u32>);
 
 impl Default for LatencyHist {
     fn default() -> Self {
@@ -403,17 +405,17 @@ impl LatencyHist {
         self.0.saturating_record(ns.max(100));
     }
     /// The histogram itself (to encode it).
-    pub fn histogram(&self) -> &hdrhistogram::Histogram<u64> {
+    pub fn histogram(&self) -> &hdrhistogram::Histogram<u32> {
         &self.0
     }
     pub fn buckets(&self) -> LatencyBuckets {
-        LatencyBuckets(self.0.iter_recorded().map(|v| (v.value_iterated_to(), v.count_at_value())).collect())
+        LatencyBuckets(self.0.iter_recorded().map(|v| (v.value_iterated_to(), u64::from(v.count_at_value()))).collect())
     }
     /// Rebuild from buckets (to merge the runs of a soak).
     pub fn from_buckets(b: &LatencyBuckets) -> Self {
         let mut h = Self::default();
         for &(v, n) in &b.0 {
-            h.0.saturating_record_n(v, n);
+            h.0.saturating_record_n(v, u32::try_from(n).unwrap_or(u32::MAX));
         }
         h
     }
