@@ -1,6 +1,7 @@
 //! The host side of a paper: what it adds to the orchestrator, and what the orchestrator offers it.
 //! A paper implements [`PaperHost`] (on the same value that implements the runtime's `Paper`) to
-//! add summary metrics computed from a run's telemetry, its own figures, and its own subcommand
+//! declare the hooks of its runs on its kinds ([`hooks`]: summary metrics computed from a run's
+//! telemetry, a verdict, figures, a live scene), its trainers and its own subcommand
 //! (`orchestrator <paper> …`: comparison tables, training, campaigns). Paper crates never import
 //! the orchestrator: a command gets a [`Launcher`] that validates and runs scenarios for it.
 
@@ -9,23 +10,18 @@ use std::path::{Path, PathBuf};
 
 use cohort_runtime::exit::{FAILED, INVALID, ToExitCode};
 use cohort_runtime::paper::{Paper, Setup};
-use cohort_runtime::record::{RunDirs, TimelineEvent};
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
 
 pub use cohort_report::{FigureSource, PaperFigure, ReportError};
 pub use cohort_runtime::run_status::RunStatus;
+pub use hooks::{AnalysisError, KindHooks, RunHooks, RunView};
 pub use verdict::{Criterion, Verdict, VerdictInput, VerdictLine};
 
+pub mod hooks;
 pub mod verdict;
 
 /// Summary metrics by name (units in the names).
 pub type Metrics = BTreeMap<String, f64>;
-
-/// A finished (or partial) run as a paper's analysis sees it.
-pub struct RunView<'a> {
-    pub setup: &'a Setup,
-    pub dirs: &'a RunDirs,
-}
 
 /// Three telemetry columns of one process that together are a position, m (`x`, `y`, `z`).
 #[derive(Debug, Clone, PartialEq)]
@@ -37,7 +33,7 @@ pub struct ScenePosition {
 
 /// One body of the live 3-D view (`launch --live`): where its truth is, and, where an algorithm
 /// estimates it, where the estimate puts it, both read from telemetry columns (see
-/// [`PaperHost::scene`]).
+/// [`RunHooks::scene`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneBody {
     /// The entity's name in the scene (`b0`, `agent-3`).
@@ -51,37 +47,13 @@ pub struct SceneBody {
     pub estimate: Vec<ScenePosition>,
 }
 
-/// What a paper adds on the host side. Every method has a default that adds nothing, so a paper
-/// implements only what it has.
+/// What a paper adds on the host side: the hooks of its runs ([`RunHooks`], declared on its
+/// kinds), its trainers and its subcommand. Every method has a default that adds nothing, so a
+/// paper implements only what it has.
 pub trait PaperHost: Paper {
-    /// Summary metrics computed after a run from its telemetry alone (so they are the same for
-    /// the multi-process and the reference run), for a run of this paper's kinds; a paper may
-    /// also write joined series to `derived/`. Called also after a failed run, on what was
-    /// written.
-    fn analyse(&self, _run: &RunView<'_>) -> Result<Metrics, String> {
-        Ok(Metrics::new())
-    }
-    /// The effect of each fault of `timeline` on the paper's headline metric (called after
-    /// [`PaperHost::analyse`], only when faults were carried out).
-    fn fault_effects(&self, _run: &RunView<'_>, _timeline: &[TimelineEvent]) -> Result<Metrics, String> {
-        Ok(Metrics::new())
-    }
-    /// The run against the paper: one line per published bound or value the run speaks to (the
-    /// paper's number, ours from `input.metrics`, pass / fail / n/a), called after
-    /// [`PaperHost::analyse`] and [`PaperHost::fault_effects`]. Default: no verdict (a paper, or
-    /// a generic scenario, with nothing published to compare).
-    fn verdict(&self, _input: &VerdictInput<'_>) -> Vec<VerdictLine> {
-        Vec::new()
-    }
-    /// The paper's figures of the run of `setup` in `run_dir` (drawn before the generic ones), if
-    /// it has any.
-    fn figures(&self, _setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
-        None
-    }
-    /// The bodies of a live 3-D view of a run of `setup` (`launch --live`): which telemetry
-    /// columns place each one. Default: none (the live view then has telemetry, roster and
-    /// progress but no scene).
-    fn scene(&self, _setup: &Setup) -> Vec<SceneBody> {
+    /// The hooks of the runs of this paper's kinds (analysis, verdict, figures, scene, sweep
+    /// criterion), each declared for the kinds it serves. Default: none.
+    fn run_hooks(&self) -> Vec<KindHooks> {
         Vec::new()
     }
     /// Offline training jobs, `orchestrator train <trainer> …`: each a subcommand named for what
@@ -100,13 +72,6 @@ pub trait PaperHost: Paper {
     /// to print on stdout.
     fn run_trainer(&self, name: &str, _matches: &clap::ArgMatches) -> Result<String, CommandError> {
         Err(CommandError::invalid(format!("{} has no trainer {name:?}", self.name())))
-    }
-    /// A section of `orchestrator sweep`'s Markdown for a sweep of `setup` (a scenario of this
-    /// paper's kinds): the paper's published criterion checked on each seed's summary metrics
-    /// (`rows`: seed, metrics, in the order run), appended after the sweep's generic tables.
-    /// Default: none.
-    fn sweep_section(&self, _setup: &Setup, _rows: &[(u64, Metrics)]) -> Option<String> {
-        None
     }
     /// Scenario files (relative to the repository root) that `orchestrator bench` measures
     /// multi-process against the in-process reference: the paper's headline case.

@@ -1,6 +1,6 @@
 //! A run's verdict against its paper: one [`VerdictLine`] per published bound or value a paper
 //! checks (the paper's number, ours, and whether ours meets it), from
-//! [`crate::PaperHost::verdict`]. The orchestrator writes the lines into `summary.json`
+//! [`crate::RunHooks::verdict`]. The orchestrator writes the lines into `summary.json`
 //! (`verdict`, `verdict_overall`) and prints them at the end of `launch`.
 //!
 //! A line is `n/a` (with its reason) when the run cannot speak to the claim: shortened below the

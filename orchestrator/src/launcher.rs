@@ -129,19 +129,20 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
     mark_divergence(s, &mut outcome, &mut summary);
     // Derived quantities come from the telemetry alone, so a partial run gets them too.
     let view = RunView { setup: s, dirs };
-    for host in cohort_registry::hosts_of(s) {
-        match host.analyse(&view) {
+    let hooks = cohort_registry::hooks_of(s);
+    for (paper, h) in &hooks {
+        match h.analyse(&view) {
             Ok(extra) => summary.metrics.extend(extra),
-            Err(reason) => {
-                summary.warnings.push(summary::Warning::AnalysisSkipped { paper: host.name().to_string(), reason })
-            }
+            Err(e) => summary
+                .warnings
+                .push(summary::Warning::AnalysisSkipped { paper: paper.to_string(), reason: e.to_string() }),
         }
         if !outcome.timeline.is_empty() {
-            match host.fault_effects(&view, &outcome.timeline) {
+            match h.fault_effects(&view, &outcome.timeline) {
                 Ok(extra) => summary.metrics.extend(extra),
-                Err(reason) => summary
+                Err(e) => summary
                     .warnings
-                    .push(summary::Warning::FaultEffectsSkipped { paper: host.name().to_string(), reason }),
+                    .push(summary::Warning::FaultEffectsSkipped { paper: paper.to_string(), reason: e.to_string() }),
             }
         }
     }
@@ -151,7 +152,7 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
         status: summary.status,
         faulted: !s.faults.is_empty() || !outcome.timeline.is_empty(),
     };
-    let verdict: Vec<_> = cohort_registry::hosts_of(s).iter().flat_map(|h| h.verdict(&input)).collect();
+    let verdict: Vec<_> = hooks.iter().flat_map(|(_, h)| h.verdict(&input)).collect();
     summary.verdict_overall = cohort_host::verdict::overall(&verdict);
     summary.verdict = verdict;
     if outcome.error.is_none() {
@@ -217,7 +218,7 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, String> {
     };
     let sources: Vec<Box<dyn cohort_host::FigureSource>> = setup
         .as_ref()
-        .map(|s| cohort_registry::hosts_of(s).into_iter().filter_map(|h| h.figures(s, run_dir)).collect())
+        .map(|s| cohort_registry::hooks_of(s).into_iter().filter_map(|(_, h)| h.figures(s, run_dir)).collect())
         .unwrap_or_default();
     let refs: Vec<&dyn cohort_host::FigureSource> = sources.iter().map(|b| b.as_ref()).collect();
     cohort_report::report(run_dir, &refs).map_err(|e| {

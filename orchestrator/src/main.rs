@@ -988,7 +988,7 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
         rows.push((seed, summary.metrics));
     }
     let sections: Vec<String> =
-        cohort_registry::hosts_of(&first).iter().filter_map(|h| h.sweep_section(&first, &rows)).collect();
+        cohort_registry::hooks_of(&first).iter().filter_map(|(_, h)| h.sweep_section(&first, &rows)).collect();
     match sweep_report::write(&root, file, mode, &rows, &sections) {
         Ok(md) => {
             outln!("{md}");

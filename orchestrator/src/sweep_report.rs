@@ -1,7 +1,7 @@
 //! The results of `orchestrator sweep`: every seed's summary metrics (`sweep.csv`) and their
 //! distribution (`sweep.md`: min, median, max, mean and the 99th percentile, by the one quantile
 //! rule of `cohort_report::stats`), followed by the sections the scenario's papers add
-//! (`PaperHost::sweep_section`: a published criterion checked per seed).
+//! (`RunHooks::sweep_section`: a published criterion checked per seed).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;

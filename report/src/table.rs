@@ -10,68 +10,6 @@ use std::path::{Path, PathBuf};
 
 use crate::ReportError;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum FileKind {
-    /// `agent-<id>.csv`.
-    Agent(u32),
-    /// `plant.csv` or any other CSV file.
-    Other,
-}
-
-#[derive(Debug)]
-pub(crate) struct TelemetryFile {
-    pub(crate) path: PathBuf,
-    pub(crate) stem: String,
-    pub(crate) kind: FileKind,
-}
-
-/// The `.csv` files in `dir`: `plant.csv` first, then other non-agent files by name, then
-/// `agent-<id>.csv` by id.
-pub(crate) fn list_telemetry(dir: &Path) -> Result<Vec<TelemetryFile>, ReportError> {
-    let io_err = |error| ReportError::Io { path: dir.to_path_buf(), error };
-    match std::fs::metadata(dir) {
-        Ok(meta) if meta.is_dir() => {}
-        Ok(_) => {
-            return Err(ReportError::MissingTelemetryDir { path: dir.to_path_buf() });
-        }
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            return Err(ReportError::MissingTelemetryDir { path: dir.to_path_buf() });
-        }
-        Err(e) => return Err(io_err(e)),
-    }
-    let mut files = Vec::new();
-    for entry in std::fs::read_dir(dir).map_err(io_err)? {
-        let path = entry.map_err(io_err)?.path();
-        let is_table = path.extension().is_some_and(|ext| ext == "csv" || ext == "parquet");
-        if !is_table || !path.is_file() {
-            continue;
-        }
-        let Some(stem) = path.file_stem().map(|s| s.to_string_lossy().into_owned()) else {
-            continue;
-        };
-        let kind = match stem.strip_prefix("agent-").map(str::parse::<u32>) {
-            Some(Ok(id)) => FileKind::Agent(id),
-            _ => FileKind::Other,
-        };
-        files.push(TelemetryFile { path, stem, kind });
-    }
-    // A stem in both formats: the Parquet file is the run's (`.parquet` sorts after `.csv`).
-    files.sort_by(|a, b| a.stem.cmp(&b.stem).then_with(|| b.path.cmp(&a.path)));
-    files.dedup_by(|later, first| later.stem == first.stem);
-    if files.is_empty() {
-        return Err(ReportError::NoTelemetry { path: dir.to_path_buf() });
-    }
-    files.sort_by(|a, b| {
-        let rank = |f: &TelemetryFile| match f.kind {
-            FileKind::Other if f.stem == "plant" => (0, 0),
-            FileKind::Other => (1, 0),
-            FileKind::Agent(id) => (2, id),
-        };
-        rank(a).cmp(&rank(b)).then_with(|| a.stem.cmp(&b.stem))
-    });
-    Ok(files)
-}
-
 /// One telemetry file (or any CSV of the same shape: `k,t_s,…`), column-major.
 #[derive(Debug, Clone, Default)]
 pub struct Table {

@@ -11,6 +11,7 @@ mod check;
 mod cli;
 mod every_scenario;
 mod faults;
+mod flight_split;
 mod hardening;
 mod launch;
 mod live;

@@ -32,4 +32,5 @@ impl Paper for Generic {
 }
 
 /// The shared kinds have no analysis, figures or commands of their own.
+#[cfg(feature = "host")]
 impl cohort_host::PaperHost for Generic {}

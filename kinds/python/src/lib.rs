@@ -52,4 +52,5 @@ impl Paper for Python {
 }
 
 /// No analysis, figures or commands of their own: a user's run is reported generically.
+#[cfg(feature = "host")]
 impl cohort_host::PaperHost for Python {}

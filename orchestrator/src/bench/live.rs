@@ -26,7 +26,7 @@ const VARIANTS: [(&str, LiveClient); 3] =
 
 /// The live rows of a headline scenario `s` (none when its papers declare no scene).
 pub(super) fn cases(name: &str, s: &Setup) -> Vec<Case> {
-    if cohort_registry::hosts_of(s).iter().all(|h| h.scene(s).is_empty()) {
+    if cohort_registry::hooks_of(s).iter().all(|(_, h)| h.scene(s).is_empty()) {
         return Vec::new();
     }
     let n = s.n_agents();

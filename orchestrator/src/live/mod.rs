@@ -15,7 +15,7 @@
 //! with it none measurable (`orchestrator bench --only live/`).
 //!
 //! **Channels.** `/scene` (`foxglove.SceneUpdate`, [`scene`]): each body the paper declares
-//! (`PaperHost::scene`: which telemetry columns are its position, and which make its
+//! (`RunHooks::scene`: which telemetry columns are its position, and which make its
 //! algorithm's estimate) as a sphere at its truth and a ghost at the estimate, and the
 //! communication graph as lines coloured by link state (green alive, orange delayed, red
 //! dropped or corrupted, grey a dead end). `/telemetry/<proc>` (JSON, a JSON schema with every

@@ -82,7 +82,7 @@ impl LiveRun {
         STEP.store(0, Ordering::Relaxed);
         let dt_s = setup.scenario.dt_s;
         let every = ((1.0 / (server.options.rate_hz * dt_s)).round() as u64).max(1);
-        let bodies = cohort_registry::hosts_of(&setup).iter().flat_map(|h| h.scene(&setup)).collect();
+        let bodies = cohort_registry::hooks_of(&setup).iter().flat_map(|(_, h)| h.scene(&setup)).collect();
         let mut view = View {
             server,
             telemetry: dirs.telemetry(),

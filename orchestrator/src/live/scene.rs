@@ -1,5 +1,5 @@
 //! The 3-D scene (`/scene`, `foxglove.SceneUpdate`): each body of the paper's declaration
-//! (`PaperHost::scene`) as a sphere at its truth and, where its algorithm estimates a position, a
+//! (`RunHooks::scene`) as a sphere at its truth and, where its algorithm estimates a position, a
 //! translucent ghost there; the communication graph as lines between the agents' truths, coloured
 //! by the link's state at that step.
 

@@ -8,21 +8,27 @@
 
 // Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
 #![allow(clippy::needless_range_loop)]
+// The flight build (`agent`, `plant`: no `host` feature) leaves out the host side, so items only
+// the host side reads are unused there.
+#![cfg_attr(not(feature = "host"), allow(dead_code, unused_imports))]
 
+#[cfg(feature = "host")]
 pub mod analysis;
 pub mod attitude;
+#[cfg(feature = "host")]
 mod campaign;
 pub mod config;
 pub mod continuous;
+#[cfg(feature = "host")]
+mod host;
+#[cfg(feature = "host")]
 pub mod readings;
 pub mod rigid_body;
+#[cfg(feature = "host")]
 pub mod tables;
+#[cfg(feature = "host")]
 pub mod verdict;
 
-use std::path::PathBuf;
-
-use clap::{FromArgMatches, Parser, Subcommand};
-use cohort_host::{CommandError, Launcher, Metrics, PaperHost, RunView};
 use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind};
 
 /// The paper: see the crate docs.
@@ -37,64 +43,5 @@ impl Paper for Dai {
     }
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
         &[&config::DaiAttitudeKind]
-    }
-}
-
-/// `orchestrator dai …`: seed 004's campaigns.
-#[derive(Parser)]
-#[command(name = "dai", about = "Seed 004 (deterministic-AI attitude learning): the paper's tables, measured")]
-struct DaiCli {
-    #[command(subcommand)]
-    command: DaiCmd,
-}
-
-#[derive(Subcommand)]
-enum DaiCmd {
-    /// The analogues of the paper's Tables 2 and 4 (continuous-time) and the sampled-data study
-    /// (multi-process at 0.01, 0.1, 1, 10, 100 ms), in Markdown and CSV beside the published
-    /// values, with plots; run from the repository root.
-    Tables {
-        /// Output directory (tables, plots, and every run's directory under runs/).
-        #[arg(long, default_value = "runs/dai-tables")]
-        out: PathBuf,
-        /// Directory holding dai.toml and dai-sampled-diverges.toml.
-        #[arg(long, default_value = "topologies")]
-        topologies: PathBuf,
-        /// Control periods of the sampled-data study, ms (none: skip the study).
-        #[arg(long, value_delimiter = ',', default_values_t = [0.01, 0.1, 1.0, 10.0, 100.0])]
-        periods_ms: Vec<f64>,
-        /// Run the sampled-data study in-process (bit-identical, faster) instead of multi-process.
-        #[arg(long)]
-        in_process: bool,
-    },
-}
-
-impl PaperHost for Dai {
-    fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
-        analysis::analyse(run.setup, run.dirs)
-    }
-    fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
-        verdict::lines(input)
-    }
-    fn command(&self) -> Option<clap::Command> {
-        Some(<DaiCli as clap::CommandFactory>::command())
-    }
-    fn run_command(&self, matches: &clap::ArgMatches, launcher: &dyn Launcher) -> Result<String, CommandError> {
-        let cli = DaiCli::from_arg_matches(matches).map_err(|e| CommandError::invalid(e.to_string()))?;
-        match cli.command {
-            DaiCmd::Tables { out, topologies, periods_ms, in_process } => {
-                if let Some(p) = periods_ms.iter().find(|p| !(p.is_finite() && **p > 0.0)) {
-                    return Err(CommandError::invalid(format!("--periods-ms {p}: periods must be positive")));
-                }
-                let o = tables::Options {
-                    out,
-                    topologies,
-                    periods_s: periods_ms.iter().map(|p| p * 1e-3).collect(),
-                    sampled_multi_process: !in_process,
-                };
-                let md = tables::run_all(&o, launcher).map_err(CommandError::failed)?;
-                Ok(format!("{md}\nwritten: {}", o.out.join("dai-tables.md").display()))
-            }
-        }
     }
 }

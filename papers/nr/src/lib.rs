@@ -26,17 +26,19 @@
 
 // Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
 #![allow(clippy::needless_range_loop)]
+// The flight build (`agent`, `plant`: no `host` feature) leaves out the host side, so items only
+// the host side reads are unused there.
+#![cfg_attr(not(feature = "host"), allow(dead_code, unused_imports))]
 
+#[cfg(feature = "host")]
+mod host;
 pub mod iso;
 pub mod nn;
+#[cfg(feature = "host")]
 mod plots;
 pub mod swarm;
 
-use std::path::Path;
-
-use clap::{FromArgMatches, Parser, Subcommand};
-use cohort_host::{CommandError, FigureSource, Launcher, Metrics, PaperHost, RunView};
-use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind, Setup};
+use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind};
 
 /// The paper: see the crate docs.
 pub struct Nr;
@@ -50,65 +52,5 @@ impl Paper for Nr {
     }
     fn algorithms(&self) -> &'static [&'static dyn AlgorithmKind] {
         &[&iso::host::kinds::NeuralRendezvousKind, &swarm::host::kinds::NrSwarmKind]
-    }
-}
-
-/// `orchestrator nr …`: seed 003's campaigns.
-#[derive(Parser)]
-#[command(name = "nr", about = "Seed 003 (Neural-Rendezvous, ISO encounter): the paper's evaluation, measured")]
-struct NrCli {
-    #[command(subcommand)]
-    command: NrCmd,
-}
-
-#[derive(Subcommand)]
-enum NrCmd {
-    /// Every method over the test ISOs in-process (delivery error, Δv, per-step compute, NR's
-    /// error against b_e(t_f)), the control-interval sweep (Fig. 11) and the γ sweep (Fig. 9,
-    /// one training per γ): campaign.md, CSV files and plots in --out. Run from the repository root.
-    Campaign(iso::campaign::command::CampaignArgs),
-    /// The swarm (Sec. 7.2): cases at N = 8, N = 20 and N = 20 disturbed, each flown by NR over
-    /// the deep set, the deep set alone (in-process reference runs) and the global SCP:
-    /// cases.csv, summary.md (verdicts) and figures in --out. Run from the repository root.
-    SwarmCampaign(swarm::campaign::command::SwarmCampaignArgs),
-}
-
-impl PaperHost for Nr {
-    fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
-        let mut m = iso::host::analysis::analyse(run.setup, run.dirs)?;
-        m.extend(swarm::host::analysis::analyse(run.setup, run.dirs)?);
-        Ok(m)
-    }
-    fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
-        iso::host::verdict::lines(input)
-    }
-    fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
-        let swarm = || swarm::host::figures::SwarmFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>);
-        iso::host::figures::NrFigures::of(setup).map(|f| Box::new(f) as Box<dyn FigureSource>).or_else(swarm)
-    }
-    fn trainers(&self) -> Vec<clap::Command> {
-        vec![iso::train::command::command(), swarm::train::command::command()]
-    }
-    fn trainer_env(&self, _name: &str) -> Vec<(&'static str, &'static str)> {
-        // candle threads its CPU matrix products by this; one thread is the fastest on these
-        // small matrices, and the bytes written do not depend on it.
-        vec![("RAYON_NUM_THREADS", "1")]
-    }
-    fn run_trainer(&self, name: &str, matches: &clap::ArgMatches) -> Result<String, CommandError> {
-        match name {
-            iso::train::command::NAME => iso::train::command::run(matches),
-            swarm::train::command::NAME => swarm::train::command::run(matches),
-            _ => Err(CommandError::invalid(format!("nr has no trainer {name:?}"))),
-        }
-    }
-    fn command(&self) -> Option<clap::Command> {
-        Some(<NrCli as clap::CommandFactory>::command())
-    }
-    fn run_command(&self, matches: &clap::ArgMatches, launcher: &dyn Launcher) -> Result<String, CommandError> {
-        let cli = NrCli::from_arg_matches(matches).map_err(|e| CommandError::invalid(e.to_string()))?;
-        match cli.command {
-            NrCmd::Campaign(a) => iso::campaign::command::run(&a, launcher),
-            NrCmd::SwarmCampaign(a) => swarm::campaign::command::run(&a, launcher),
-        }
     }
 }

@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use cohort_host::PaperHost;
+#[cfg(feature = "host")]
+use cohort_host::{PaperHost, RunHooks};
 use cohort_runtime::paper::{Paper, Setup};
 use cohort_scenario::{Overrides, ScenarioError};
 
@@ -16,6 +17,7 @@ macro_rules! registry {
         /// Every paper's kinds, for configuring a scenario.
         pub static PAPERS: &[&dyn Paper] = &[$(&$paper),*];
         /// Every paper's host side (analysis, figures, commands), in the same order.
+        #[cfg(feature = "host")]
         pub static HOSTS: &[&dyn PaperHost] = &[$(&$paper),*];
     };
 }
@@ -35,9 +37,12 @@ pub fn load(file: &Path, overrides: &Overrides) -> Result<Setup, ScenarioError> 
     cohort_runtime::paper::load(file, overrides, PAPERS)
 }
 
-/// The host sides of the papers a setup uses (its plant's paper first).
-pub fn hosts_of(setup: &Setup) -> Vec<&'static dyn PaperHost> {
-    setup.papers.iter().filter_map(|name| HOSTS.iter().find(|h| h.name() == *name).copied()).collect()
+#[cfg(feature = "host")]
+/// The run hooks that serve a run of `setup`, each with its paper's name: those the plant's paper
+/// declares for the run's kinds first, then the algorithm's paper's ([`cohort_host::KindHooks::serves`]).
+pub fn hooks_of(setup: &Setup) -> Vec<(&'static str, &'static dyn RunHooks)> {
+    let hosts = setup.papers.iter().filter_map(|name| HOSTS.iter().find(|h| h.name() == *name));
+    hosts.flat_map(|h| h.run_hooks().into_iter().filter(|k| k.serves(setup)).map(|k| (h.name(), k.hooks))).collect()
 }
 
 #[cfg(test)]
@@ -69,6 +74,44 @@ mod tests {
         trainers.sort();
         trainers.dedup();
         assert_eq!(trainers.len(), n, "two papers register a trainer of the same name: {trainers:?}");
+    }
+
+    /// Every run-hooks entry names kinds that exist (in its own paper) and at least one of them.
+    #[test]
+    fn run_hooks_name_registered_kinds() {
+        for (paper, host) in PAPERS.iter().zip(HOSTS) {
+            for k in host.run_hooks() {
+                assert!(k.plant.is_some() || k.algorithm.is_some(), "{}: hooks for every run", paper.name());
+                if let Some(p) = k.plant {
+                    assert!(
+                        PAPERS.iter().any(|q| q.plants().iter().any(|x| x.kind() == p)),
+                        "{}: no plant kind {p}",
+                        paper.name()
+                    );
+                }
+                if let Some(a) = k.algorithm {
+                    assert!(
+                        paper.algorithms().iter().any(|x| x.kind() == a),
+                        "{}: no algorithm kind {a} of its own",
+                        paper.name()
+                    );
+                }
+            }
+        }
+    }
+
+    /// The hooks picked for the shipped scenarios: each paper's own runs get its hooks, a run of
+    /// another paper's or a generic kind gets none of them.
+    #[test]
+    fn hooks_are_picked_by_the_run_kinds() {
+        let names = |file: &str| -> Vec<&str> { hooks_of(&scenario(file)).into_iter().map(|(p, _)| p).collect() };
+        assert_eq!(names("fig1.toml"), ["fig1"]);
+        assert_eq!(names("consensus-ring.toml"), Vec::<&str>::new());
+        assert_eq!(names("vtxo-handoff.toml"), ["vtxo"]);
+        assert_eq!(names("nr-iso.toml"), ["nr"]);
+        assert_eq!(names("swarm-8.toml"), ["nr"]);
+        assert_eq!(names("fig1-coast.toml"), Vec::<&str>::new());
+        assert_eq!(names("net-coast.toml"), ["tsnr"]);
     }
 
     /// Every valid scenario file configures, and its resolved TOML (what the child processes

@@ -26,12 +26,16 @@
 
 // Axis loops (`for i in 0..3`) read like the equations they implement.
 #![allow(clippy::needless_range_loop)]
+// The flight build (`agent`, `plant`: no `host` feature) leaves out the host side, so items only
+// the host side reads are unused there.
+#![cfg_attr(not(feature = "host"), allow(dead_code, unused_imports))]
 
 pub mod automaton;
 pub(crate) mod config;
 pub mod flight;
 pub mod formation;
 pub(crate) mod handoff;
+#[cfg(feature = "host")]
 pub(crate) mod host;
 pub mod learn;
 pub mod mission;

@@ -12,11 +12,14 @@
 //! - [`host`]: the kinds in the registry, the run's analysis, figures and verdict;
 //! - [`config`]: the scenario sections; [`cli`]: the commands' argument parsing.
 
+#[cfg(feature = "host")]
 pub mod campaign;
+#[cfg(feature = "host")]
 pub(crate) mod cli;
 pub mod config;
 pub mod control;
 pub mod dynamics;
 pub mod guidance;
 pub mod host;
+#[cfg(feature = "host")]
 pub(crate) mod train;

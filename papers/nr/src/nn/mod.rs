@@ -5,4 +5,5 @@
 //! [`crate::swarm::train`] fit and write.
 
 pub mod sn_dnn;
+#[cfg(feature = "host")]
 pub(crate) mod sn_mlp;

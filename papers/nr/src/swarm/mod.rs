@@ -11,6 +11,7 @@
 //! - [`host`]: the kinds in the registry, the run's analysis and figures;
 //! - [`config`]: the scenario sections.
 
+#[cfg(feature = "host")]
 pub(crate) mod campaign;
 pub(crate) mod config;
 pub mod control;

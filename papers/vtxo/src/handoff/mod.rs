@@ -7,6 +7,7 @@
 //! ([`analysis`]).
 
 pub(crate) mod agent;
+#[cfg(feature = "host")]
 pub(crate) mod analysis;
 pub(crate) mod config;
 pub(crate) mod kind;

@@ -1,16 +1,17 @@
 //! Seed 002's host hooks ("Explainable AI-Enhanced Supervisory Control for High-Precision
 //! Spacecraft Formation"): what the orchestrator asks of the paper — its `orchestrator vtxo …`
 //! commands (the Sec. 7 table, the Sec. 5.1 transient Monte Carlo), its trainers (Secs. 3.2.1 and
-//! 3.2.2), the verdict, the analysis of a run and its figures, each picked by the run's kinds.
+//! 3.2.2), and the hooks of its runs (analysis, verdict, figures), declared on the kinds they serve.
 
 use std::path::{Path, PathBuf};
 
 use clap::{FromArgMatches, Parser, Subcommand};
-use cohort_host::{CommandError, FigureSource, Launcher, Metrics, PaperHost, RunView};
+use cohort_host::{
+    AnalysisError, CommandError, FigureSource, KindHooks, Launcher, Metrics, PaperHost, RunHooks, RunView,
+};
 use cohort_runtime::paper::Setup;
 
 use super::{analysis, figures, sec7, verdict};
-use crate::flight::config::VtxoAlgorithmConfig;
 use crate::learn::{science, transient};
 use crate::model::config::VtxoPlantConfig;
 use crate::{handoff, mission};
@@ -87,30 +88,50 @@ impl PaperHost for crate::Vtxo {
         }
         transient::trainer::run(name, matches)
     }
+    fn run_hooks(&self) -> Vec<KindHooks> {
+        vec![
+            KindHooks::pair("vtxo", "vtxo-formation", &FormationRun),
+            KindHooks::pair("vtxo", "vtxo-handoff", &HandoffRun),
+            KindHooks::pair("vtxo", "vtxo-mission", &MissionRun),
+        ]
+    }
+}
+
+/// The formation flown by the `vtxo-formation` law: Sec. 7's analysis, verdict and figures.
+struct FormationRun;
+
+impl RunHooks for FormationRun {
     fn verdict(&self, input: &cohort_host::VerdictInput<'_>) -> Vec<cohort_host::VerdictLine> {
         verdict::lines(input)
     }
-    fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, String> {
-        if run.setup.plant_as::<VtxoPlantConfig>().is_some()
-            && run.setup.algorithm_as::<handoff::kind::HandoffSetup>().is_some()
-        {
-            let mut m = analysis::analyse(run.dirs)?;
-            m.extend(handoff::analysis::analyse(run.dirs)?);
-            return Ok(m);
-        }
-        // The join needs both of this paper's sides.
-        if run.setup.plant_as::<VtxoPlantConfig>().is_none()
-            || run.setup.algorithm_as::<VtxoAlgorithmConfig>().is_none()
-        {
-            return Ok(Metrics::new());
-        }
-        analysis::analyse(run.dirs)
+    fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, AnalysisError> {
+        Ok(analysis::analyse(run.dirs)?)
     }
     fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
-        if setup.algorithm_as::<mission::config::VtxoMissionConfig>().is_some() {
-            return Some(Box::new(mission::figure::MissionFigures));
-        }
-        let p = setup.plant_as::<VtxoPlantConfig>()?;
-        Some(Box::new(figures::VtxoFigures::of(p)))
+        Some(Box::new(figures::VtxoFigures::of(setup.plant_as::<VtxoPlantConfig>()?)))
+    }
+}
+
+/// The formation handing its leader role over (`vtxo-handoff`): the formation's analysis and the
+/// hand-off's own, and the formation's figures.
+struct HandoffRun;
+
+impl RunHooks for HandoffRun {
+    fn analyse(&self, run: &RunView<'_>) -> Result<Metrics, AnalysisError> {
+        let mut m = analysis::analyse(run.dirs)?;
+        m.extend(handoff::analysis::analyse(run.dirs)?);
+        Ok(m)
+    }
+    fn figures(&self, setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
+        Some(Box::new(figures::VtxoFigures::of(setup.plant_as::<VtxoPlantConfig>()?)))
+    }
+}
+
+/// The mission automaton (`vtxo-mission`): its own figures.
+struct MissionRun;
+
+impl RunHooks for MissionRun {
+    fn figures(&self, _setup: &Setup, _run_dir: &Path) -> Option<Box<dyn FigureSource>> {
+        Some(Box::new(mission::figure::MissionFigures))
     }
 }

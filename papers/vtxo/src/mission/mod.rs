@@ -6,6 +6,7 @@
 
 pub(crate) mod config;
 pub mod discrete;
+#[cfg(feature = "host")]
 pub(crate) mod figure;
 pub(crate) mod kind;
 pub(crate) mod period;

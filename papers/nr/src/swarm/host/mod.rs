@@ -1,7 +1,11 @@
 //! The swarm in the registry and the host (Sec. 7.2 of "Neural-Rendezvous", arXiv:2208.04883):
 //! the `swarm` plant kind and the `nr-swarm` algorithm kind ([`kinds`]), the run's analysis
-//! ([`analysis`]) and figures ([`figures`]).
+//! ([`analysis`]) and figures ([`figures`]), declared to the host as the run's hooks ([`hooks`]).
 
+#[cfg(feature = "host")]
 pub(crate) mod analysis;
+#[cfg(feature = "host")]
 pub(crate) mod figures;
+#[cfg(feature = "host")]
+pub(crate) mod hooks;
 pub(crate) mod kinds;

@@ -2,12 +2,19 @@
 //! arXiv:2208.04883): the problem as the planner sees it ([`problem`]), the centralised SCP
 //! global solution ([`scp`]), the training data ([`data`]), DAgger rounds ([`dagger`]), the
 //! in-process evaluation of a policy alone ([`eval`]), the training run ([`imitation`]) and the
-//! trainer `orchestrator train nr-swarm` ([`command`]).
+//! trainer `orchestrator train nr-swarm` ([`command`]). All but [`problem`] (which the flown
+//! policy reads too) are the host's.
 
+#[cfg(feature = "host")]
 pub(crate) mod command;
+#[cfg(feature = "host")]
 pub(crate) mod dagger;
+#[cfg(feature = "host")]
 pub(crate) mod data;
+#[cfg(feature = "host")]
 pub mod eval;
+#[cfg(feature = "host")]
 pub(crate) mod imitation;
 pub(crate) mod problem;
+#[cfg(feature = "host")]
 pub(crate) mod scp;

@@ -4,10 +4,15 @@
 //! ([`moga`]), the Pareto tables ([`data`]), the DNN's inference ([`dnn`]) and training
 //! ([`train`]), the Table 3 analogue ([`stats`]), and the trainers' command lines ([`trainer`]).
 
+#[cfg(feature = "host")]
 pub(crate) mod data;
 pub mod dnn;
+#[cfg(feature = "host")]
 pub(crate) mod moga;
 pub mod sim;
+#[cfg(feature = "host")]
 pub mod stats;
+#[cfg(feature = "host")]
 pub mod train;
+#[cfg(feature = "host")]
 pub(crate) mod trainer;

@@ -6,12 +6,18 @@
 //! the gains ([`gains`]), the closed-loop Monte Carlo ([`mc`]), and the trainers' and the Monte
 //! Carlo's command lines ([`trainer`]).
 
+#[cfg(feature = "host")]
 pub(crate) mod data;
 pub mod dnn;
 pub mod gains;
+#[cfg(feature = "host")]
 pub(crate) mod mc;
+#[cfg(feature = "host")]
 pub(crate) mod sa;
 pub(crate) mod sim;
+#[cfg(feature = "host")]
 pub(crate) mod stats;
+#[cfg(feature = "host")]
 pub(crate) mod train;
+#[cfg(feature = "host")]
 pub(crate) mod trainer;
