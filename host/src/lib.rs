@@ -195,6 +195,23 @@ impl RunResult {
     }
 }
 
+/// Why a run directory's plots were not drawn ([`Launcher::report`], `orchestrator report`).
+#[derive(Debug, thiserror::Error)]
+pub enum PlotRunError {
+    #[error(transparent)]
+    Report(#[from] ReportError),
+    /// The telemetry is still in journals: the run's orchestrator was killed before it sealed them.
+    #[error(
+        "{source} (its telemetry/ holds .rows journals: the run's orchestrator was killed before it turned them \
+         into files; `orchestrator salvage {}` does)",
+        run_dir.display()
+    )]
+    Unsealed { run_dir: PathBuf, source: ReportError },
+    /// The plotting library panicked (the orchestrator draws on a thread and catches it).
+    #[error("drawing the plots panicked")]
+    Panicked,
+}
+
 /// What the orchestrator does for a paper command.
 pub trait Launcher {
     /// Read, validate and configure a scenario file with every registered paper.
@@ -208,7 +225,7 @@ pub trait Launcher {
     /// error.
     fn run(&self, setup: &Setup, dir: &Path, options: RunOptions) -> Result<RunResult, PrepareRunError>;
     /// Draw a run directory's plots.
-    fn report(&self, run_dir: &Path) -> Result<Vec<PathBuf>, String>;
+    fn report(&self, run_dir: &Path) -> Result<Vec<PathBuf>, PlotRunError>;
     /// The signal that interrupted the orchestrator (Ctrl-C, SIGTERM), if one did: a long command
     /// stops between runs.
     fn interrupted(&self) -> Option<i32>;

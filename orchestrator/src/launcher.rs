@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 
-use cohort_host::{Launcher, Mode, PrepareRunError, RunOptions, RunResult, RunView};
+use cohort_host::{Launcher, Mode, PlotRunError, PrepareRunError, RunOptions, RunResult, RunView};
 use cohort_runtime::paper::{CoupledCtx, Setup};
 use cohort_runtime::record::RunDirs;
 use cohort_scenario::{Overrides, Scenario, ScenarioError};
@@ -208,7 +208,7 @@ pub fn prepare(s: &Setup, out: Option<&Path>) -> Result<RunDirs, PrepareRunError
 
 /// The plots of a run directory: the papers' figures of its scenario, then the generic ones. A
 /// run directory whose scenario no longer validates (an older version's) gets the generic ones.
-pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, PlotRunError> {
     let setup = match load(&run_dir.join("scenario.toml"), &Overrides::default()) {
         Ok(s) => Some(s),
         Err(e) => {
@@ -227,15 +227,7 @@ pub fn report(run_dir: &Path) -> Result<Vec<PathBuf>, String> {
             .flatten()
             .flatten()
             .any(|f| f.path().extension().is_some_and(|x| x == "rows"));
-        if journals {
-            format!(
-                "{e} (its telemetry/ holds .rows journals: the run's orchestrator was killed before it turned them \
-                 into files; `orchestrator salvage {}` does)",
-                run_dir.display()
-            )
-        } else {
-            e.to_string()
-        }
+        if journals { PlotRunError::Unsealed { run_dir: run_dir.to_path_buf(), source: e } } else { e.into() }
     })
 }
 
@@ -270,7 +262,7 @@ impl Launcher for Orchestrator {
             messages_rejected: summary.messages_rejected,
         })
     }
-    fn report(&self, run_dir: &Path) -> Result<Vec<PathBuf>, String> {
+    fn report(&self, run_dir: &Path) -> Result<Vec<PathBuf>, PlotRunError> {
         report(run_dir)
     }
     fn interrupted(&self) -> Option<i32> {

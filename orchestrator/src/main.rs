@@ -555,7 +555,7 @@ fn generic(command: Cmd) -> ExitCode {
                 }
                 ExitCode::SUCCESS
             }
-            Err(e) => fail(CommandError::invalid(e)),
+            Err(e) => fail(CommandError::invalid(e.to_string())),
         },
     }
 }
@@ -905,7 +905,7 @@ fn draw_plots(dirs: &RunDirs, json: bool) -> Option<ExitCode> {
 /// The plots of a finished run, drawn on a thread while this one watches for a signal: Ctrl-C or
 /// SIGTERM while drawing ends the orchestrator at once (128 + signal) instead of being recorded
 /// and ignored. `Err(signal)` then; the drawing thread ends with the process.
-fn report_unless_signalled(run_dir: &Path) -> Result<Result<Vec<PathBuf>, String>, u8> {
+fn report_unless_signalled(run_dir: &Path) -> Result<Result<Vec<PathBuf>, cohort_host::PlotRunError>, u8> {
     let dir = run_dir.to_path_buf();
     let drawing = std::thread::spawn(move || launcher::report(&dir));
     loop {
@@ -914,7 +914,7 @@ fn report_unless_signalled(run_dir: &Path) -> Result<Result<Vec<PathBuf>, String
             return Err(sig as u8);
         }
         if drawing.is_finished() {
-            return Ok(drawing.join().unwrap_or_else(|_| Err("drawing the plots panicked".into())));
+            return Ok(drawing.join().unwrap_or(Err(cohort_host::PlotRunError::Panicked)));
         }
         std::thread::sleep(std::time::Duration::from_millis(20));
     }

@@ -94,21 +94,28 @@ pub struct Link {
     threads: Vec<JoinHandle<()>>,
 }
 
-fn open_tap(name: &str) -> Result<File, String> {
+/// Why a TAP device could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum TapError {
+    #[error("TAP name {name:?} is longer than {} bytes", libc::IFNAMSIZ - 1)]
+    NameTooLong { name: String },
+    #[error("/dev/net/tun: {0}")]
+    Clone(std::io::Error),
+    #[error("TUNSETIFF {name}: {source}")]
+    SetInterface { name: String, source: std::io::Error },
+}
+
+fn open_tap(name: &str) -> Result<File, TapError> {
     if name.len() >= libc::IFNAMSIZ {
-        return Err(format!("TAP name {name:?} is longer than {} bytes", libc::IFNAMSIZ - 1));
+        return Err(TapError::NameTooLong { name: name.into() });
     }
-    let tun = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .open("/dev/net/tun")
-        .map_err(|e| format!("/dev/net/tun: {e}"))?;
+    let tun = std::fs::OpenOptions::new().read(true).write(true).open("/dev/net/tun").map_err(TapError::Clone)?;
     let mut req = IfReq { name: [0; libc::IFNAMSIZ], flags: IFF_TAP | IFF_NO_PI, _pad: [0; 22] };
     req.name[..name.len()].copy_from_slice(name.as_bytes());
     // SAFETY: TUNSETIFF reads and writes one `struct ifreq`, which `req` is laid out as.
     let rc = unsafe { libc::ioctl(tun.as_raw_fd(), TUNSETIFF as _, &mut req) };
     if rc != 0 {
-        return Err(format!("TUNSETIFF {name}: {}", std::io::Error::last_os_error()));
+        return Err(TapError::SetInterface { name: name.into(), source: std::io::Error::last_os_error() });
     }
     Ok(tun)
 }
@@ -132,7 +139,7 @@ fn write_frame(to: &File, frame: &[u8], counts: &Counts) {
 impl Link {
     /// Create TAP devices `inner` and `outer` and start pumping frames between them (no
     /// impairment until one is set). `seed` starts the loss and jitter draws.
-    pub fn start(inner: &str, outer: &str, seed: u64) -> Result<Link, String> {
+    pub fn start(inner: &str, outer: &str, seed: u64) -> Result<Link, TapError> {
         let a = Arc::new(open_tap(inner)?);
         let b = Arc::new(open_tap(outer)?);
         let mut link = Link {

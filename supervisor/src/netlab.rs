@@ -23,13 +23,26 @@ use crate::linkemu;
 pub const NAMES: [&str; 3] = ["a", "b", "c"];
 const BRIDGE_ADDR: &str = "198.18.77.254";
 
-fn sh(args: &[&str]) -> Result<(), String> {
-    let o = Command::new(args[0]).args(&args[1..]).output().map_err(|e| format!("{}: {e}", args.join(" ")))?;
-    if o.status.success() {
-        Ok(())
-    } else {
-        Err(format!("{}: {}", args.join(" "), String::from_utf8_lossy(&o.stderr).trim()))
-    }
+/// Why the lab (or a change to it) could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum LabError {
+    /// A command (`ip`, `tc`) could not run or failed; `reason` is its error or its stderr.
+    #[error("{command}: {reason}")]
+    Command { command: String, reason: String },
+    #[error(transparent)]
+    Tap(#[from] linkemu::TapError),
+    #[error("cannot start the daemon of host {host}: {source}")]
+    Daemon { host: &'static str, source: std::io::Error },
+    #[error("the lab's daemons did not come up: {0}")]
+    NotUp(String),
+    #[error("{}: {source}", path.display())]
+    File { path: PathBuf, source: std::io::Error },
+}
+
+fn sh(args: &[&str]) -> Result<(), LabError> {
+    let failed = |reason: String| LabError::Command { command: args.join(" "), reason };
+    let o = Command::new(args[0]).args(&args[1..]).output().map_err(|e| failed(e.to_string()))?;
+    if o.status.success() { Ok(()) } else { Err(failed(String::from_utf8_lossy(&o.stderr).trim().to_string())) }
 }
 
 /// What the lab's links are, and so what delays them.
@@ -53,7 +66,7 @@ impl Links {
 
 /// Whether the kernel will put a netem qdisc on a device: tried on the loopback of a scratch
 /// namespace (so no real device is touched). `Err` says why not (e.g. no `sch_netem`).
-pub fn netem_probe() -> Result<(), String> {
+pub fn netem_probe() -> Result<(), LabError> {
     let ns = format!("cblq{:05}", std::process::id() % 100_000);
     sh(&["ip", "netns", "add", &ns])?;
     let r = sh(&["ip", "netns", "exec", &ns, "tc", "qdisc", "add", "dev", "lo", "root", "netem", "delay", "1ms"]);
@@ -91,17 +104,17 @@ impl Lab {
     }
 
     /// The lab with veth links where the kernel has netem, else with pumped links.
-    pub fn start() -> Result<Self, String> {
+    pub fn start() -> Result<Self, LabError> {
         Self::start_with(if netem_probe().is_ok() { Links::Veth } else { Links::Pumped })
     }
 
     /// Make the namespaces with `links` and start a daemon in each (from this executable).
-    pub fn start_with(links: Links) -> Result<Self, String> {
+    pub fn start_with(links: Links) -> Result<Self, LabError> {
         let tag = format!("{:05}", std::process::id() % 100_000);
         // Dropped on any error below: the daemons started so far stop, everything made goes.
         let mut lab = Lab { tag, links, daemons: Vec::new(), pumps: Vec::new() };
         lab.build()?;
-        let me = std::env::current_exe().map_err(|e| e.to_string())?;
+        let me = std::env::current_exe().map_err(|source| LabError::File { path: "/proc/self/exe".into(), source })?;
         for (k, x) in NAMES.iter().enumerate() {
             let child = lab
                 .command(x, &me)
@@ -110,7 +123,7 @@ impl Lab {
                 .stdout(Stdio::null())
                 .stderr(Stdio::null())
                 .spawn()
-                .map_err(|e| format!("cannot start the daemon of host {x}: {e}"))?;
+                .map_err(|source| LabError::Daemon { host: x, source })?;
             lab.daemons.push(child);
         }
         // Wait until every daemon answers.
@@ -122,7 +135,7 @@ impl Lab {
         let until = std::time::Instant::now() + Duration::from_secs(20);
         while let Err(e) = crate::remote::preflight(&hosts) {
             if std::time::Instant::now() > until {
-                return Err(format!("the lab's daemons did not come up: {e}"));
+                return Err(LabError::NotUp(e.to_string()));
             }
             std::thread::sleep(Duration::from_millis(200));
         }
@@ -133,7 +146,7 @@ impl Lab {
         self.links
     }
 
-    fn build(&mut self) -> Result<(), String> {
+    fn build(&mut self) -> Result<(), LabError> {
         let br = self.bridge();
         sh(&["ip", "link", "add", &br, "type", "bridge"])?;
         sh(&["ip", "addr", "add", &format!("{BRIDGE_ADDR}/24"), "dev", &br])?;
@@ -173,7 +186,7 @@ impl Lab {
 
     /// Every namespace delays what it sends by `delay` (each direction of a namespace-to-namespace
     /// hop is delayed once); zero removes the delay. netem or the pump, as the lab's links are.
-    pub fn set_delay(&self, delay: Duration) -> Result<(), String> {
+    pub fn set_delay(&self, delay: Duration) -> Result<(), LabError> {
         match self.links {
             Links::Pumped => {
                 for p in &self.pumps {
@@ -198,7 +211,7 @@ impl Lab {
     }
 
     /// A hosts file: the plant on a, agents alternately on b and c.
-    pub fn hosts_file(dir: &std::path::Path, n: u32) -> Result<PathBuf, String> {
+    pub fn hosts_file(dir: &std::path::Path, n: u32) -> Result<PathBuf, LabError> {
         let b: Vec<String> = (1..=n).filter(|i| i % 2 == 1).map(|i| i.to_string()).collect();
         let c: Vec<String> = (1..=n).filter(|i| i % 2 == 0).map(|i| i.to_string()).collect();
         let text = format!(
@@ -210,9 +223,9 @@ impl Lab {
             Self::endpoint(2),
             c.join(", ")
         );
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|source| LabError::File { path: dir.into(), source })?;
         let path = dir.join(format!("hosts-{n}.toml"));
-        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+        std::fs::write(&path, text).map_err(|source| LabError::File { path: path.clone(), source })?;
         Ok(path)
     }
 }

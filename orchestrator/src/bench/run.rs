@@ -35,13 +35,16 @@ pub enum BenchError {
     /// A case could not be set up or run (exit 1).
     #[error("{0}")]
     Failed(String),
+    /// The network lab could not be set up or changed (exit 1).
+    #[error(transparent)]
+    Lab(#[from] cohort_supervisor::netlab::LabError),
 }
 
 impl cohort_runtime::exit::ToExitCode for BenchError {
     fn exit_code(&self) -> u8 {
         match self {
             Self::Invalid(_) => cohort_runtime::exit::INVALID,
-            Self::Failed(_) => cohort_runtime::exit::FAILED,
+            Self::Failed(_) | Self::Lab(_) => cohort_runtime::exit::FAILED,
         }
     }
 }

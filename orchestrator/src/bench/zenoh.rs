@@ -74,7 +74,7 @@ pub(super) fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> R
         push(label.clone(), *n, "iceoryx2", load("iceoryx2", None)?, None);
         push(label.clone(), *n, "zenoh", load("zenoh", None)?, None);
         if let Some(dir) = lab_dir {
-            let hosts = Lab::hosts_file(dir, *n)?;
+            let hosts = Lab::hosts_file(dir, *n).map_err(|e| e.to_string())?;
             push(label.clone(), *n, "zenoh-3ns", load("zenoh", Some(&hosts))?, Some(Duration::ZERO));
             push(label.clone(), *n, "zenoh-3ns-1ms", load("zenoh", Some(&hosts))?, Some(DELAY_1MS));
         }
@@ -150,7 +150,7 @@ pub(super) fn start_lab() -> (Option<Lab>, Option<Rtt>) {
     };
     let veth_rtt = (links == Links::Pumped)
         .then(|| {
-            let veth = Lab::start_with(Links::Veth)?;
+            let veth = Lab::start_with(Links::Veth).map_err(|e| e.to_string())?;
             measure_rtt(Some(&veth), "namespace a → b across veth (no pump, no delay)", None)
         })
         .transpose()
@@ -171,9 +171,9 @@ pub(super) fn start_lab() -> (Option<Lab>, Option<Rtt>) {
 pub(super) fn lab_rtts(l: &Lab) -> Result<Vec<Rtt>, String> {
     let how = l.links().describe();
     let plain = measure_rtt(Some(l), &format!("namespace a → b ({how}, no delay)"), Some("zenoh-3ns"))?;
-    l.set_delay(DELAY_1MS)?;
+    l.set_delay(DELAY_1MS).map_err(|e| e.to_string())?;
     let delayed = measure_rtt(Some(l), &format!("namespace a → b, 1 ms each way ({how})"), Some("zenoh-3ns-1ms"));
-    l.set_delay(Duration::ZERO)?;
+    l.set_delay(Duration::ZERO).map_err(|e| e.to_string())?;
     Ok(vec![plain, delayed?])
 }
 
