@@ -17,6 +17,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+use cohort_report::markdown::{Align, MdTable};
 use cohort_runtime::paper::Setup;
 use cohort_runtime::record::LatencyHist;
 use cohort_runtime::run_status::RunStatus;
@@ -553,6 +554,49 @@ fn us(ns: u64) -> String {
     format!("{:.1}", ns as f64 / 1e3)
 }
 
+/// One row per run: its outcome, traffic, latency and faults.
+fn runs_table(runs: &[RunRecord]) -> MdTable {
+    let header = [
+        "run",
+        "seed",
+        "status",
+        "steps",
+        "wall s",
+        "sent",
+        "received",
+        "rejected",
+        "held",
+        "steps missing (full queue or skipped)",
+        "deadline misses",
+        "latency p99 µs",
+        "latency max µs",
+        "faults",
+    ];
+    let mut t = MdTable::new(header);
+    for c in (0..13).filter(|&c| c != 2) {
+        t = t.align(c, Align::Right);
+    }
+    for x in runs {
+        t.row([
+            x.run.to_string(),
+            x.seed.to_string(),
+            x.status.to_string(),
+            x.steps.to_string(),
+            format!("{:.1}", x.wall_s),
+            x.messages_sent.to_string(),
+            x.messages_received.to_string(),
+            x.messages_rejected.to_string(),
+            x.shares_held.to_string(),
+            x.steps_missing.to_string(),
+            x.deadline_misses.to_string(),
+            x.latency.as_ref().map_or("—".into(), |l| us(l.p99_ns)),
+            x.latency.as_ref().map_or("—".into(), |l| us(l.max_ns)),
+            x.faults.join(" "),
+        ]);
+    }
+    t
+}
+
 fn markdown(r: &SoakReport) -> String {
     let mut s = format!(
         "# Soak of {} — {:.0} s wall ({} runs{})\n\n",
@@ -565,42 +609,23 @@ fn markdown(r: &SoakReport) -> String {
         "Verdict: **{}**\n\n",
         if r.problems.is_empty() { "pass".to_string() } else { format!("FAIL — {}", r.problems.join("; ")) }
     ));
-    s.push_str("## Per-link latency (send → receipt, µs, all runs)\n\n| link | samples | p50 | p99 | p99.9 | max |\n|---|---:|---:|---:|---:|---:|\n");
+    s.push_str("## Per-link latency (send → receipt, µs, all runs)\n\n");
+    let mut links = MdTable::new(["link", "samples", "p50", "p99", "p99.9", "max"]);
+    for c in 1..6 {
+        links = links.align(c, Align::Right);
+    }
     for (k, l) in &r.links {
-        s.push_str(&format!(
-            "| {k} | {} | {} | {} | {} | {} |\n",
-            l.samples,
-            us(l.p50_ns),
-            us(l.p99_ns),
-            us(l.p999_ns),
-            us(l.max_ns)
-        ));
+        links.row([k.clone(), l.samples.to_string(), us(l.p50_ns), us(l.p99_ns), us(l.p999_ns), us(l.max_ns)]);
     }
-    s.push_str(&format!("\nDeadline misses (plant, real time): {}\n\n", r.deadline_misses));
-    s.push_str("## Runs\n\n| run | seed | status | steps | wall s | sent | received | rejected | held | steps missing (full queue or skipped) | deadline misses | latency p99 µs | latency max µs | faults |\n|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
-    for x in &r.runs {
-        s.push_str(&format!(
-            "| {} | {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-            x.run,
-            x.seed,
-            x.status,
-            x.steps,
-            x.wall_s,
-            x.messages_sent,
-            x.messages_received,
-            x.messages_rejected,
-            x.shares_held,
-            x.steps_missing,
-            x.deadline_misses,
-            x.latency.as_ref().map_or("—".into(), |l| us(l.p99_ns)),
-            x.latency.as_ref().map_or("—".into(), |l| us(l.max_ns)),
-            x.faults.join(" ")
-        ));
-    }
-    s.push_str("\n## RSS, first and last sample (kB)\n\n| process | first | last |\n|---|---:|---:|\n");
+    s.push_str(&links.to_string());
+    s.push_str(&format!("\nDeadline misses (plant, real time): {}\n\n## Runs\n\n", r.deadline_misses));
+    s.push_str(&runs_table(&r.runs).to_string());
+    s.push_str("\n## RSS, first and last sample (kB)\n\n");
+    let mut rss = MdTable::new(["process", "first", "last"]).align(1, Align::Right).align(2, Align::Right);
     for (p, (a, b)) in &r.rss_first_last_kb {
-        s.push_str(&format!("| {p} | {a} | {b} |\n"));
+        rss.row([p.clone(), a.to_string(), b.to_string()]);
     }
+    s.push_str(&rss.to_string());
     s.push_str(&format!(
         "\niceoryx2 entries (/dev/shm and /tmp/iceoryx2, every Cohort run): {} before, {} after.\n",
         r.shm_entries_before, r.shm_entries_after

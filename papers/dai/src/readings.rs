@@ -11,6 +11,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use cohort_host::Launcher;
+use cohort_report::markdown::MdTable;
 use cohort_runtime::paper::{Setup, table_of};
 
 use crate::campaign::{Run, T4_TRACK_DEV, T4_TRACK_MEAN, g, rel, run, variant};
@@ -93,11 +94,17 @@ pub(crate) fn study(
          from `dai.toml` per row (cases a reading does not change repeat the project's runs). The \
          last column counts the five cases within 30 %.\n"
     );
-    let _ = writeln!(
-        md,
-        "| reading | what changes | original (mean; pub. −0.0401) | original dev (pub. 0.1761) | r = 0.5 (0.0296) | r = 1 (0.0246) | r = 2 (0.0189) | r = 4 (0.0143) | within 30 % |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|");
+    let mut table = MdTable::new([
+        "reading",
+        "what changes",
+        "original (mean; pub. −0.0401)",
+        "original dev (pub. 0.1761)",
+        "r = 0.5 (0.0296)",
+        "r = 1 (0.0246)",
+        "r = 2 (0.0189)",
+        "r = 4 (0.0143)",
+        "within 30 %",
+    ]);
     let project_row = ("project (dai.toml)", "ω(0) from Table 3, ω_d(0) from z0, gain 1, torque (8)", project.to_vec());
     let mut rows = vec![project_row];
     for (i, reading) in READINGS.iter().enumerate() {
@@ -126,12 +133,12 @@ pub(crate) fn study(
         rows.push((reading.name, reading.what, runs));
     }
     for (name, what, runs) in &rows {
-        let mut line = format!("| {name} | {what} | {} |", g(runs[0].m("tracking_error_mean")));
+        let mut row = vec![name.to_string(), what.to_string(), g(runs[0].m("tracking_error_mean"))];
         let mut within = 0;
         for (j, run) in runs.iter().enumerate() {
             let (dev, published) = (run.m("tracking_error_dev"), T4_TRACK_DEV[j]);
             within += usize::from(((dev - published) / published).abs() <= 0.3);
-            let _ = write!(line, " {} ({}) |", g(dev), rel(dev, published));
+            row.push(format!("{} ({})", g(dev), rel(dev, published)));
             let case = if j == 0 { "original".to_string() } else { format!("specific_r{}", run.r) };
             let _ = writeln!(
                 csv,
@@ -140,8 +147,10 @@ pub(crate) fn study(
                 100.0 * (dev - published) / published
             );
         }
-        let _ = writeln!(md, "{line} {within} / 5 |");
+        row.push(format!("{within} / 5"));
+        table.row(row);
     }
+    let _ = write!(md, "{table}");
     let _ = writeln!(
         md,
         "\nPublished mean tracking error: original {}, specific {} (every r).\n",

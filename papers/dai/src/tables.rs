@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use cohort_host::Launcher;
 use cohort_report::Table;
 use cohort_report::chart::{FONT_FAMILY as FONT, series_color};
+use cohort_report::markdown::MdTable;
 use cohort_scenario::Overrides;
 use plotters::prelude::*;
 
@@ -153,11 +154,15 @@ fn table2(md: &mut String, t2: &[Run], r0: f64) -> String {
          incomplete (Table 1 prints I_zz = 3 *and* products of inertia, and no θ̂(0)); the measured \
          column is the fully specified Sec. 3.2 case. Compare orders of magnitude and ranking, not digits.\n"
     );
-    let _ = writeln!(
-        md,
-        "| figure of merit | original: measured | published | general: measured | published | specific: measured | published |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|");
+    let mut table = MdTable::new([
+        "figure of merit",
+        "original: measured",
+        "published",
+        "general: measured",
+        "published",
+        "specific: measured",
+        "published",
+    ]);
     let rows2: [(&str, &str, [f64; 3]); 4] = [
         ("parameter error mean", "param_error_mean", T2_PARAM_MEAN),
         ("parameter error deviation", "param_error_dev", T2_PARAM_DEV),
@@ -165,39 +170,40 @@ fn table2(md: &mut String, t2: &[Run], r0: f64) -> String {
         ("tracking error deviation (rad/s)", "tracking_error_dev", T2_TRACK_DEV),
     ];
     for (name, key, published) in rows2 {
-        let mut line = format!("| {name} |");
+        let mut row = vec![name.to_string()];
         for (i, run) in t2.iter().enumerate() {
-            let _ = write!(line, " {} | {} |", g(run.m(key)), g(published[i]));
+            row.extend([g(run.m(key)), g(published[i])]);
             let _ = writeln!(csv2, "{key},{},{:e},{:e}", run.law, run.m(key), published[i]);
         }
-        let _ = writeln!(md, "{line}");
+        table.row(row);
     }
     for (name, key) in [
         ("final ‖e‖/‖e(0)‖ (issue)", "final_error_ratio"),
         ("final ‖ω′‖/‖ω_d‖ (code's nw)", "final_state_error_norm_ratio"),
         ("final ‖ω′‖²/‖ω_d‖² (eq. 15)", "final_state_error_norm_ratio_eq15"),
     ] {
-        let mut line = format!("| {name} |");
+        let mut row = vec![name.to_string()];
         for run in t2 {
             let published = match (run.law.as_str(), key) {
                 ("specific", "final_state_error_norm_ratio_eq15") => format!("~{FINAL_SPECIFIC:e}"),
                 ("original", "final_state_error_norm_ratio_eq15") => format!("~{FINAL_ORIGINAL:e}"),
                 _ => "—".into(),
             };
-            let _ = write!(line, " {} | {published} |", g(run.m(key)));
+            row.extend([g(run.m(key)), published]);
             let _ = writeln!(csv2, "{key},{},{:e},", run.law, run.m(key));
         }
-        let _ = writeln!(md, "{line}");
+        table.row(row);
     }
-    let mut line = "| solver, wall time |".to_string();
+    let mut row = vec!["solver, wall time".to_string()];
     for run in t2 {
         let method = std::fs::read_to_string(run.dir.join("logs/plant.log"))
             .ok()
             .and_then(|l| l.split("method ").nth(1).map(|x| x.split(',').next().unwrap_or("").to_string()))
             .unwrap_or_default();
-        let _ = write!(line, " {method}, {:.2} s | |", run.wall_s);
+        row.extend([format!("{method}, {:.2} s", run.wall_s), String::new()]);
     }
-    let _ = writeln!(md, "{line}\n");
+    table.row(row);
+    let _ = writeln!(md, "{table}");
     csv2
 }
 
@@ -205,8 +211,7 @@ fn table2(md: &mut String, t2: &[Run], r0: f64) -> String {
 /// returns its CSV.
 fn table4(md: &mut String, t4: &[Run]) -> String {
     let _ = writeln!(md, "## Table 4 analogue — specific law, r sweep, continuous-time\n");
-    let _ = writeln!(md, "| figure of merit | original | r = 0.5 | r = 1 | r = 2 | r = 4 |");
-    let _ = writeln!(md, "|---|---|---|---|---|---|");
+    let mut table = MdTable::new(["figure of merit", "original", "r = 0.5", "r = 1", "r = 2", "r = 4"]);
     let mut csv4 = String::from("figure_of_merit,case,measured,published_table4,difference_pct\n");
     let rows4: [(&str, &str, Option<[f64; 5]>); 7] = [
         ("parameter error mean", "param_error_mean", Some(T4_PARAM_MEAN)),
@@ -218,12 +223,12 @@ fn table4(md: &mut String, t4: &[Run]) -> String {
         ("final ‖ω′‖²/‖ω_d‖² (eq. 15)", "final_state_error_norm_ratio_eq15", None),
     ];
     for (name, key, published) in rows4 {
-        let mut line = format!("| {name} |");
+        let mut row = vec![name.to_string()];
         for (i, run) in t4.iter().enumerate() {
             let case = if i == 0 { "original".to_string() } else { format!("specific_r{}", run.r) };
             match published {
                 Some(p) => {
-                    let _ = write!(line, " {} (pub. {}, {}) |", g(run.m(key)), g(p[i]), rel(run.m(key), p[i]));
+                    row.push(format!("{} (pub. {}, {})", g(run.m(key)), g(p[i]), rel(run.m(key), p[i])));
                     let _ = writeln!(
                         csv4,
                         "{key},{case},{:e},{:e},{:.1}",
@@ -233,13 +238,14 @@ fn table4(md: &mut String, t4: &[Run]) -> String {
                     );
                 }
                 None => {
-                    let _ = write!(line, " {} |", g(run.m(key)));
+                    row.push(g(run.m(key)));
                     let _ = writeln!(csv4, "{key},{case},{:e},,", run.m(key));
                 }
             }
         }
-        let _ = writeln!(md, "{line}");
+        table.row(row);
     }
+    let _ = write!(md, "{table}");
     let devs: Vec<f64> = t4[1..].iter().map(|r| r.m("tracking_error_dev")).collect();
     let falling = devs.windows(2).all(|w| w[1] < w[0]);
     let within: Vec<String> = t4
@@ -289,18 +295,24 @@ fn sampled_table(md: &mut String, o: &Options, r0: f64, sampled_runs: &[Run], cs
          Φ(ω̄, Δω/Δt)θ = u over the last period. Statistics over the control instants (rows k = 0..N−1), \
          final values at t = 5 s − Δt.\n"
     );
-    let _ = writeln!(
-        md,
-        "| period | law | tracking mean (rad/s) | tracking dev (rad/s) | final ‖e‖/‖e(0)‖ | final ‖ω′‖²/‖ω_d‖² | param error mean | param error final | ‖K_d‖²Δt/λ_min(J) at the end | wall (s) | outcome |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut table = MdTable::new([
+        "period",
+        "law",
+        "tracking mean (rad/s)",
+        "tracking dev (rad/s)",
+        "final ‖e‖/‖e(0)‖",
+        "final ‖ω′‖²/‖ω_d‖²",
+        "param error mean",
+        "param error final",
+        "‖K_d‖²Δt/λ_min(J) at the end",
+        "wall (s)",
+        "outcome",
+    ]);
     for run in sampled_runs {
         let p = run.period_s.unwrap_or(f64::NAN);
-        let _ = writeln!(
-            md,
-            "| {} ms | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {} |",
-            p * 1e3,
-            run.law,
+        table.row([
+            format!("{} ms", p * 1e3),
+            run.law.clone(),
             g(run.m("tracking_error_mean")),
             g(run.m("tracking_error_dev")),
             g(run.m("final_error_ratio")),
@@ -308,9 +320,9 @@ fn sampled_table(md: &mut String, o: &Options, r0: f64, sampled_runs: &[Run], cs
             g(run.m("param_error_mean")),
             g(run.m("param_error_final")),
             g(run.m("sampling_index_final")),
-            run.wall_s,
-            run.failed.as_deref().unwrap_or("ok (5 s)")
-        );
+            format!("{:.2}", run.wall_s),
+            run.failed.clone().unwrap_or_else(|| "ok (5 s)".into()),
+        ]);
         let _ = writeln!(
             csv_s,
             "{p:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{:e},{:.3},{}",
@@ -328,6 +340,7 @@ fn sampled_table(md: &mut String, o: &Options, r0: f64, sampled_runs: &[Run], cs
             run.failed.as_deref().unwrap_or("ok")
         );
     }
+    let _ = write!(md, "{table}");
 }
 
 /// Specific against original per period, why the specific runs diverged, and the shortest period

@@ -5,6 +5,7 @@
 use std::fmt::Write as _;
 
 use cohort_host::Metrics;
+use cohort_report::markdown::MdTable;
 
 use crate::verdict::{E_LEVEL_M, ZETA_LEVEL_MPS};
 
@@ -30,15 +31,17 @@ pub fn section(rows: &[(u64, Metrics)]) -> Option<String> {
     let _ = writeln!(
         md,
         "Seed 000 criterion (paper: ‖eᵢ‖ ≈ {E_LEVEL_M} m after 200 s, ‖ζ̃ᵢ‖ ≈ {ZETA_LEVEL_MPS} m/s after 150 s): \
-         worst servicer per seed.\n\n| seed | max e_rms_200_end (m) | max zeta_err_rms_150_end (m/s) | within both |\n|---|---|---|---|"
+         worst servicer per seed.\n"
     );
+    let mut table = MdTable::new(["seed", "max e_rms_200_end (m)", "max zeta_err_rms_150_end (m/s)", "within both"]);
     let mut pass = 0;
     for (seed, m) in rows {
         let (e, z) = (worst(m, ".e_rms_200_").unwrap_or(f64::NAN), worst(m, ".zeta_err_rms_150_").unwrap_or(f64::NAN));
         let ok = e <= E_LEVEL_M && z <= ZETA_LEVEL_MPS;
         pass += usize::from(ok);
-        let _ = writeln!(md, "| {seed} | {} | {} | {} |", g(e), g(z), if ok { "yes" } else { "no" });
+        table.row([seed.to_string(), g(e), g(z), (if ok { "yes" } else { "no" }).to_string()]);
     }
+    let _ = write!(md, "{table}");
     let _ = writeln!(md, "\n{pass} of {} seeds meet both bounds for every servicer.", rows.len());
     Some(md)
 }
