@@ -129,12 +129,15 @@ impl LiveRun {
     }
 }
 
-/// A JSON schema of a telemetry row: `k`, then every column as a number with its unit.
+/// A JSON schema of a telemetry row: `k`, then every column as a number with its unit. A NaN or
+/// infinite value is sent as `null`; the field is still typed `number`, not `["number", "null"]`,
+/// because Lichtblick (the open-source Foxglove fork) refuses a schema with a type list and then
+/// plots none of the topic's fields.
 fn row_schema(process: &str, columns: &[String]) -> Schema {
     let mut props = serde_json::Map::new();
     props.insert("k".into(), serde_json::json!({"type": "integer", "description": "step"}));
     for c in &columns[1..] {
-        let mut p = serde_json::json!({"type": ["number", "null"]});
+        let mut p = serde_json::json!({"type": "number"});
         if let Some(u) = cohort_runtime::units::unit_of(c) {
             p["description"] = u.into();
         }
