@@ -2,8 +2,8 @@
 //! Deterministic-AI attitude-rate control: the `rigid-body` plant ([`rigid_body`]), the
 //! `dai-attitude` agent with the feedforward (2) and the original (3), general (6) and specific
 //! (10), (13) learning laws ([`attitude`]), the paper's own coupling of plant and learner as one
-//! ODE ([`continuous`]), the run analysis ([`analysis`]) and the measured Tables 2 and 4 with the
-//! sampled-data study (`orchestrator dai tables`, [`tables`], [`readings`]). Scenarios:
+//! ODE ([`continuous`]), the run analysis ([`host::analysis`]) and the measured Tables 2 and 4 with the
+//! sampled-data study (`orchestrator dai tables`, [`host::tables`], [`host::readings`]). Scenarios:
 //! `topologies/dai*.toml`.
 
 // Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
@@ -12,22 +12,12 @@
 // the host side reads are unused there.
 #![cfg_attr(not(feature = "host"), allow(dead_code, unused_imports))]
 
-#[cfg(feature = "host")]
-pub mod analysis;
 pub mod attitude;
-#[cfg(feature = "host")]
-mod campaign;
 pub mod config;
 pub mod continuous;
 #[cfg(feature = "host")]
-mod host;
-#[cfg(feature = "host")]
-pub mod readings;
+pub mod host;
 pub mod rigid_body;
-#[cfg(feature = "host")]
-pub mod tables;
-#[cfg(feature = "host")]
-pub mod verdict;
 
 use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind};
 

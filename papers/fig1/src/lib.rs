@@ -3,7 +3,7 @@
 //! spacecraft from partial relative-position measurements: the `orbital` plant ([`servicing`],
 //! ECI truth with J2 and drag), the `lb-dnn-servicing` agent ([`lbdnn_servicing`]: ρ-filter
 //! observer (24)–(26), Lb-DNN controller (27), distributed adaptation (28)), the run analysis
-//! (ζ̃ᵢ joined from truth and estimates, [`analysis`]) and the paper's Figs. 2–4 ([`figures`]).
+//! (ζ̃ᵢ joined from truth and estimates, [`host::analysis`]) and the paper's Figs. 2–4 ([`host::figures`]).
 //! Scenarios: `topologies/fig1*.toml`.
 
 // Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
@@ -12,20 +12,12 @@
 // the host side reads are unused there.
 #![cfg_attr(not(feature = "host"), allow(dead_code, unused_imports))]
 
-#[cfg(feature = "host")]
-pub mod analysis;
 pub mod config;
 #[cfg(feature = "host")]
-pub mod figures;
-#[cfg(feature = "host")]
-mod host;
+pub mod host;
 pub mod lbdnn_network;
 pub mod lbdnn_servicing;
 pub mod servicing;
-#[cfg(feature = "host")]
-pub mod sweep;
-#[cfg(feature = "host")]
-pub mod verdict;
 
 use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind};
 

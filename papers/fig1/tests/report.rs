@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 
-use cohort_paper_fig1::figures::Fig1Figures;
+use cohort_paper_fig1::host::figures::Fig1Figures;
 use cohort_report::{ReportError, report};
 
 /// A scratch run directory, removed on drop.

@@ -4,9 +4,9 @@
 //! [`net_plant`]), Clohessy–Wiltshire relative motion ([`cw`]), desired capture trajectories
 //! ([`trajectory`]), the DNN tension predictor (7)–(11) ([`predictor`], trained by
 //! `orchestrator train tsnr-tension`, [`train`]), and the `tsnr-formation` agents AEMC, DMPC and
-//! SMC ([`agents`]); the run analysis ([`analysis`]), the paper's figures ([`figures`]) and the
-//! Tables 1–2 analogue (`orchestrator tsnr compare`, [`compare`]), the ablation campaign
-//! (`orchestrator tsnr ablation`, [`ablation`]) with the oracle forecast ([`oracle_forecast`]). Scenarios:
+//! SMC ([`agents`]); the run analysis ([`host::analysis`]), the paper's figures ([`host::figures`]) and the
+//! Tables 1–2 analogue (`orchestrator tsnr compare`, [`host::compare`]), the ablation campaign
+//! (`orchestrator tsnr ablation`, [`host::ablation`]) with the oracle forecast ([`oracle_forecast`]). Scenarios:
 //! `topologies/tsnr-case*.toml`, `net-coast.toml`.
 
 // Axis loops (`for a in 0..3`) read like the equations they implement; keep them.
@@ -15,21 +15,13 @@
 // the host side reads are unused there.
 #![cfg_attr(not(feature = "host"), allow(dead_code, unused_imports))]
 
-#[cfg(feature = "host")]
-pub mod ablation;
 pub mod agents;
-#[cfg(feature = "host")]
-pub mod analysis;
-#[cfg(feature = "host")]
-pub mod compare;
 pub mod config;
 pub mod cw;
 pub mod dnn_forecast;
-#[cfg(feature = "host")]
-pub mod figures;
 pub mod forecast;
 #[cfg(feature = "host")]
-mod host;
+pub mod host;
 pub mod net;
 pub mod net_plant;
 pub mod oracle_forecast;
@@ -37,8 +29,6 @@ pub mod predictor;
 #[cfg(feature = "host")]
 pub mod train;
 pub mod trajectory;
-#[cfg(feature = "host")]
-pub mod verdict;
 
 use cohort_runtime::paper::{AlgorithmKind, Paper, PlantKind};
 

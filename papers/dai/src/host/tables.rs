@@ -16,8 +16,10 @@ use cohort_report::markdown::MdTable;
 use cohort_scenario::Overrides;
 use plotters::prelude::*;
 
-use crate::campaign::{Run, T4_PARAM_DEV, T4_PARAM_MEAN, T4_R, T4_TRACK_DEV, T4_TRACK_MEAN, g, rel, run, variant};
 use crate::config::{DaiAttitude, Law};
+use crate::host::campaign::{
+    Run, T4_PARAM_DEV, T4_PARAM_MEAN, T4_R, T4_TRACK_DEV, T4_TRACK_MEAN, g, rel, run, variant,
+};
 
 /// Published values (the paper's Tables 2 and 4).
 /// Table 2 (Sec. 3.1): original, general, specific.
@@ -55,7 +57,7 @@ pub fn run_all(o: &Options, launcher: &dyn Launcher) -> Result<String, String> {
     let r0 = base.r;
 
     let (t2, t4) = continuous_runs(o, launcher, &cont, r0)?;
-    let (readings_md, readings_csv) = crate::readings::study(launcher, &cont, &t4, &o.out)?;
+    let (readings_md, readings_csv) = crate::host::readings::study(launcher, &cont, &t4, &o.out)?;
     let sampled_runs = sampled_runs(o, launcher, &sampled, r0)?;
 
     let mut md = String::new();

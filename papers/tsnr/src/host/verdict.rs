@@ -4,7 +4,7 @@
 //!
 //! - capture: "at 30 s, the debris is finally captured" (Figs. 6–7) — every MU ends at its
 //!   terminal state (`mu_<i>.terminal_ok`, within 0.1 m and 0.05 m/s: tolerances of ours, the
-//!   paper gives none; see [`crate::analysis`]);
+//!   paper gives none; see [`crate::host::analysis`]);
 //! - fuel: Tables 1–2's total "control input generated" for this case and method, beside our
 //!   Σₖ‖uᵢ(t_k)‖ summed over the MUs (N). Always n/a: the paper does not say how its figure is
 //!   summed, and ours is ≈ 34× larger (Case 1 AEMC: 4750 against 140.77); the paper's claim is the order of the methods,
@@ -36,8 +36,8 @@ pub fn lines(input: &VerdictInput<'_>) -> Vec<VerdictLine> {
         )
         .with_note("terminal tolerance 0.1 m, 0.05 m/s is ours"),
     ];
-    let case = crate::compare::paper_case(&setup.scenario.name);
-    if let Some(paper) = case.and_then(|c| crate::compare::paper_fuel_total_n(c, a.method.name())) {
+    let case = crate::host::compare::paper_case(&setup.scenario.name);
+    if let Some(paper) = case.and_then(|c| crate::host::compare::paper_fuel_total_n(c, a.method.name())) {
         let ours = input.metric("fuel_total_ns").map(|f| f / setup.scenario.dt_s);
         out.push(
             VerdictLine::compare(

@@ -14,8 +14,8 @@ use cohort_host::Launcher;
 use cohort_report::markdown::MdTable;
 use cohort_runtime::paper::{Setup, table_of};
 
-use crate::campaign::{Run, T4_TRACK_DEV, T4_TRACK_MEAN, g, rel, run, variant};
 use crate::config::{DaiAttitude, Law, RigidBodyPlant, SpecificTorque};
+use crate::host::campaign::{Run, T4_TRACK_DEV, T4_TRACK_MEAN, g, rel, run, variant};
 
 /// Which of the Table 4 cases a reading changes (the others keep the project's runs).
 #[derive(Clone, Copy, PartialEq)]

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use cohort_host::Metrics;
 use cohort_report::markdown::MdTable;
 
-use crate::verdict::{E_LEVEL_M, ZETA_LEVEL_MPS};
+use crate::host::verdict::{E_LEVEL_M, ZETA_LEVEL_MPS};
 
 /// Numbers as the sweep's tables print them: 4 decimals, scientific outside [1e-3, 1e5).
 fn g(x: f64) -> String {

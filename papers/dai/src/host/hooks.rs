@@ -1,11 +1,12 @@
-//! Seed 004's host side: the hooks of a `rigid-body` run (analysis, verdict) and the command
+//! The hooks of a `rigid-body` run (analysis, verdict) and the command
 //! `orchestrator dai tables`.
 
 use clap::{FromArgMatches, Parser, Subcommand};
 use cohort_host::{AnalysisError, CommandError, KindHooks, Launcher, Metrics, PaperHost, RunHooks, RunView};
 use std::path::PathBuf;
 
-use crate::{Dai, analysis, tables, verdict};
+use super::{analysis, tables, verdict};
+use crate::Dai;
 
 /// `orchestrator dai …`: seed 004's campaigns.
 #[derive(Parser)]

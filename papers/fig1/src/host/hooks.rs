@@ -1,4 +1,4 @@
-//! Seed 000's host side: the hooks of a servicing run (the `orbital` plant flown by
+//! The hooks of a servicing run (the `orbital` plant flown by
 //! `lb-dnn-servicing` agents) — the live scene, the analysis of ζ̃ᵢ and the fault effects, the
 //! verdict, the sweep criterion and the figures — and the headline bench scenario.
 
@@ -11,7 +11,8 @@ use cohort_host::{
 use cohort_runtime::paper::Setup;
 use cohort_runtime::record::TimelineEvent;
 
-use crate::{Fig1, analysis, figures, sweep, verdict};
+use super::{analysis, figures, sweep, verdict};
+use crate::Fig1;
 
 /// Body `b`'s (0 the defunct spacecraft) or an agent's three position columns, `<stem>_{x,y,z}_m`.
 fn position(process: &str, stem: &str) -> ScenePosition {

@@ -1,7 +1,7 @@
 //! `orchestrator tsnr compare`: one multi-process run per method, then the analogue of the paper's
 //! Tables 1–2 — fuel per MU and method beside the published figures — with the tracking, thrust
 //! and solver metrics of each run (`compare.md`, `compare.csv`). The numbers are the runs'
-//! `summary.json` metrics (plant: fuel, thrust, tension; [`crate::analysis`]: tracking errors, QP
+//! `summary.json` metrics (plant: fuel, thrust, tension; [`crate::host::analysis`]: tracking errors, QP
 //! statistics).
 
 use std::collections::BTreeMap;
@@ -13,7 +13,7 @@ use cohort_scenario::{Overrides, ScenarioError};
 
 use crate::config::formation::{Method, with_method};
 
-use crate::analysis::{TERMINAL_POSITION_TOL_M, TERMINAL_VELOCITY_TOL_MPS};
+use crate::host::analysis::{TERMINAL_POSITION_TOL_M, TERMINAL_VELOCITY_TOL_MPS};
 
 /// MUs in the paper's tables.
 const PAPER_MUS: usize = 4;
@@ -140,7 +140,7 @@ pub fn command(
     // worth losing the tables over, so a failure is a warning.
     let figures = if plots {
         let dirs: Vec<(String, PathBuf)> = methods.iter().map(|m| (m.clone(), root.join(m))).collect();
-        crate::figures::draw_comparison(&root, &dirs, Some(&first.scenario.name)).unwrap_or_else(|e| {
+        crate::host::figures::draw_comparison(&root, &dirs, Some(&first.scenario.name)).unwrap_or_else(|e| {
             tracing::warn!("comparison figures not drawn: {e}");
             Vec::new()
         })

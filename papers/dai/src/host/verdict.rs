@@ -9,9 +9,9 @@
 
 use cohort_host::{Criterion, VerdictInput, VerdictLine};
 
-use crate::campaign::{T4_R, T4_TRACK_DEV};
 use crate::config::{DaiAttitude, Law};
-use crate::tables::{FINAL_ORIGINAL, FINAL_SPECIFIC, T2_TRACK_DEV};
+use crate::host::campaign::{T4_R, T4_TRACK_DEV};
+use crate::host::tables::{FINAL_ORIGINAL, FINAL_SPECIFIC, T2_TRACK_DEV};
 
 /// The paper's run length, s (Appendix A: t = 0:0.001:5).
 pub const PAPER_DURATION_S: f64 = 5.0;

@@ -1,4 +1,4 @@
-//! Seed 001's host side: the hooks of a `tsnr-net` run (analysis, verdict, figures), the trainer
+//! The hooks of a `tsnr-net` run (analysis, verdict, figures), the trainer
 //! `orchestrator train tsnr-tension` and the commands `orchestrator tsnr compare|ablation`.
 
 use clap::{FromArgMatches, Parser, Subcommand};
@@ -8,7 +8,8 @@ use cohort_host::{
 use cohort_runtime::paper::Setup;
 use std::path::{Path, PathBuf};
 
-use crate::{Tsnr, ablation, analysis, compare, figures, train, verdict};
+use super::{ablation, analysis, compare, figures, verdict};
+use crate::{Tsnr, train};
 
 /// `orchestrator tsnr …`: seed 001's campaigns.
 #[derive(Parser)]
