@@ -16,6 +16,7 @@ pub use cohort_report::{FigureSource, PaperFigure, ReportError};
 pub use cohort_runtime::run_status::RunStatus;
 pub use verdict::{Criterion, Verdict, VerdictInput, VerdictLine};
 
+pub mod campaign;
 pub mod verdict;
 
 /// Summary metrics by name (units in the names).
