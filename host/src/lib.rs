@@ -17,6 +17,7 @@ pub use cohort_runtime::run_status::RunStatus;
 pub use hooks::{AnalysisError, KindHooks, RunHooks, RunView};
 pub use verdict::{Criterion, Verdict, VerdictInput, VerdictLine};
 
+pub mod campaign;
 pub mod hooks;
 pub mod verdict;
 

@@ -21,6 +21,8 @@
 //! drawn per trajectory. The dither and the two tracker variants keep the thrust history from
 //! being a fixed function of the state, so the network sees how thrust moves the tension.
 
+use cohort_host::campaign::Campaign;
+
 use crate::net::{N_MU, Net, NetParams, adjacent_mus};
 use crate::predictor::{FEATURES_PER_STEP, Sample};
 use rand::{Rng, SeedableRng};
@@ -181,20 +183,9 @@ pub fn simulate(seed: u64, index: u64, net: &mut Net) -> Trajectory {
 /// and the same for any number of threads.
 pub fn simulate_all(seed: u64, indices: std::ops::Range<u64>, threads: usize) -> Vec<Trajectory> {
     let all: Vec<u64> = indices.collect();
-    let threads = threads.clamp(1, all.len().max(1));
-    let chunks: Vec<&[u64]> = all.chunks(all.len().div_ceil(threads).max(1)).collect();
-    std::thread::scope(|scope| {
-        let handles: Vec<_> = chunks
-            .iter()
-            .map(|chunk| {
-                scope.spawn(move || {
-                    let mut net = Net::new(NetParams::default()).expect("our net is valid");
-                    chunk.iter().map(|&i| simulate(seed, i, &mut net)).collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        handles.into_iter().flat_map(|h| h.join().expect("a data thread panicked")).collect()
-    })
+    Campaign::new(all.len())
+        .workers(threads)
+        .map_with(|| Net::new(NetParams::default()).expect("our net is valid"), |net, k| simulate(seed, all[k], net))
 }
 
 /// Windows of eq. (7): inputs (27·N_t each, f64) and targets T(t_{e+1..e+N_t}) (3·N_t each, N).

@@ -8,8 +8,8 @@
 
 use std::ops::Range;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
+use cohort_host::campaign::{Campaign, CampaignError};
 use cohort_report::markdown::MdTable;
 use cohort_report::stats::{mean, median, quantile, sorted};
 use serde::Serialize;
@@ -127,37 +127,17 @@ fn fly_once(o: &CampaignOptions, method: Method, iso: u32) -> Result<RunResult, 
 }
 
 /// Every (method, ISO) run, on `threads` threads; results in (method, ISO) order. `stop` is
-/// asked by the calling thread every 50 ms while the runs go on (so it need not be `Sync`, e.g.
-/// "has a signal come?"): once it says true, no further run starts, the runs under way finish,
-/// and the result is an error.
+/// asked by the calling thread between runs and every 50 ms while they go on (so it need not be
+/// `Sync`, e.g. "has a signal come?"): once it says true, no further run starts, the runs under
+/// way finish, and the result is an error. A failing run stops the hand-out too; the error is
+/// the one of the first failing run in (method, ISO) order.
 pub fn run_all(o: &CampaignOptions, stop: &dyn Fn() -> bool) -> Result<Vec<RunResult>, String> {
     let jobs: Vec<(Method, u32)> = o.methods.iter().flat_map(|m| o.isos.clone().map(move |i| (*m, i))).collect();
-    let next = AtomicUsize::new(0);
-    let (halt, finished) = (AtomicBool::new(false), AtomicUsize::new(0));
-    let threads = o.threads.max(1);
-    let mut results: Vec<Option<Result<RunResult, String>>> = vec![None; jobs.len()];
-    let slots: Vec<std::sync::Mutex<&mut Option<Result<RunResult, String>>>> =
-        results.iter_mut().map(std::sync::Mutex::new).collect();
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| {
-                while !halt.load(Ordering::Relaxed) {
-                    let j = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(&(m, i)) = jobs.get(j) else { break };
-                    **slots[j].lock().expect("no thread panics while holding it") = Some(run_one(o, m, i));
-                }
-                finished.fetch_add(1, Ordering::Release);
-            });
-        }
-        while finished.load(Ordering::Acquire) < threads {
-            if !halt.load(Ordering::Relaxed) && stop() {
-                halt.store(true, Ordering::Relaxed);
-            }
-            std::thread::sleep(std::time::Duration::from_millis(50));
-        }
-    });
-    drop(slots);
-    results.into_iter().map(|r| r.unwrap_or_else(|| Err("stopped before every run finished".into()))).collect()
+    let runs = Campaign::new(jobs.len()).workers(o.threads).stop(stop).run(|j| run_one(o, jobs[j].0, jobs[j].1));
+    runs.map_err(|e| match e {
+        CampaignError::Case(f) => f.source,
+        CampaignError::Stopped { .. } => "stopped before every run finished".into(),
+    })
 }
 
 /// Summaries per method (in the options' order).

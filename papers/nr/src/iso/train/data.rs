@@ -18,8 +18,8 @@
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
+use cohort_host::campaign::Campaign;
 use cohort_runtime::solver_stats::SolveLog;
 use nalgebra::{Matrix6, Matrix6x3};
 use rand::Rng;
@@ -147,28 +147,9 @@ pub fn sample(o: &DataOptions, i: u32, s: u32, log: &mut SolveLog) -> Sample {
 /// Every sample, in (ISO, sample) order, computed on `threads` threads.
 pub fn generate(o: &DataOptions, threads: usize) -> Vec<Sample> {
     let jobs: Vec<(u32, u32)> = o.isos.clone().flat_map(|i| (0..o.samples_per_iso).map(move |s| (i, s))).collect();
-    let next = AtomicUsize::new(0);
-    let mut parts: Vec<Vec<(usize, Sample)>> = Vec::new();
-    std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..threads.max(1))
-            .map(|_| {
-                sc.spawn(|| {
-                    let mut log = SolveLog::new("training data");
-                    let mut out = Vec::new();
-                    loop {
-                        let j = next.fetch_add(1, Ordering::Relaxed);
-                        let Some(&(i, s)) = jobs.get(j) else { break };
-                        out.push((j, sample(o, i, s, &mut log)));
-                    }
-                    out
-                })
-            })
-            .collect();
-        parts = handles.into_iter().map(|h| h.join().expect("a data thread panicked")).collect();
-    });
-    let mut all: Vec<(usize, Sample)> = parts.into_iter().flatten().collect();
-    all.sort_by_key(|(j, _)| *j);
-    all.into_iter().map(|(_, s)| s).collect()
+    Campaign::new(jobs.len())
+        .workers(threads)
+        .map_with(|| SolveLog::new("training data"), |log, j| sample(o, jobs[j].0, jobs[j].1, log))
 }
 
 /// The cache file for `o` in `dir`.

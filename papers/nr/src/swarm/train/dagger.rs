@@ -13,6 +13,8 @@
 //! per vehicle per node, as in the perturbed set, so a round doubles nothing but the states.
 //! Deterministic: no random draw at all.
 
+use cohort_host::campaign::Campaign;
+
 use crate::swarm::control::obs::{SwarmObservation, SwarmPolicy};
 use crate::swarm::train::data::{Expert, SwarmDataOptions, SwarmSample};
 use crate::swarm::train::problem::{A_MAX_MPS2, DT_S, R_COMM_M, STEPS, t_to_go_s};
@@ -47,14 +49,8 @@ pub fn visited_all(
     policy: &dyn SwarmPolicy,
     threads: usize,
 ) -> Vec<SwarmSample> {
-    let chunk = experts.len().div_ceil(threads.max(1)).max(1);
-    std::thread::scope(|sc| {
-        let handles: Vec<_> = experts
-            .chunks(chunk)
-            .map(|part| sc.spawn(move || part.iter().flat_map(|e| visited(o, e, policy)).collect::<Vec<_>>()))
-            .collect();
-        handles.into_iter().flat_map(|h| h.join().expect("a DAgger thread panicked")).collect()
-    })
+    let per_expert = Campaign::new(experts.len()).workers(threads).map(|k| visited(o, &experts[k], policy));
+    per_expert.into_iter().flatten().collect()
 }
 
 #[cfg(test)]

@@ -22,7 +22,7 @@
 //! Deterministic: a case is a function of (seed, c) alone (its own RNG stream), generated on any
 //! number of threads and gathered in case order, so the set is the same bytes on every run.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use cohort_host::campaign::Campaign;
 
 use rand::Rng;
 use rand_distr::StandardNormal;
@@ -182,28 +182,7 @@ pub fn generate_with_experts(
     o: &SwarmDataOptions,
     threads: usize,
 ) -> (Vec<CaseOutcome>, Vec<SwarmSample>, Vec<Expert>) {
-    let next = AtomicUsize::new(0);
-    let mut parts: Vec<Vec<CaseData>> = Vec::new();
-    std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..threads.max(1))
-            .map(|_| {
-                sc.spawn(|| {
-                    let mut out = Vec::new();
-                    loop {
-                        let c = next.fetch_add(1, Ordering::Relaxed);
-                        if c >= o.cases {
-                            break;
-                        }
-                        out.push(case_data(o, c));
-                    }
-                    out
-                })
-            })
-            .collect();
-        parts = handles.into_iter().map(|h| h.join().expect("a data thread panicked")).collect();
-    });
-    let mut all: Vec<CaseData> = parts.into_iter().flatten().collect();
-    all.sort_by_key(|(oc, _, _)| oc.case);
+    let all: Vec<CaseData> = Campaign::new(o.cases).workers(threads).map(|c| case_data(o, c));
     let outcomes = all.iter().map(|(oc, _, _)| oc.clone()).collect();
     let mut samples = Vec::new();
     let mut experts = Vec::new();

@@ -18,9 +18,9 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
+
+use cohort_host::campaign::Campaign;
 
 use crate::learn::science::moga::{self, Design, Settings};
 use crate::learn::science::sim::{self, ScienceLaw, Start};
@@ -142,26 +142,11 @@ pub fn run(o: &Options) -> Result<Summary, DataError> {
         )));
     }
     let t0 = Instant::now();
-    let next = AtomicUsize::new(0);
-    let done = AtomicUsize::new(0);
-    let out: Mutex<Vec<Option<DrawFronts>>> = Mutex::new(vec![None; o.draws]);
-    std::thread::scope(|s| {
-        for _ in 0..o.threads {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    if i >= o.draws {
-                        break;
-                    }
-                    let f = draw_fronts(o, i as u64);
-                    out.lock().unwrap_or_else(|e| e.into_inner())[i] = Some(f);
-                    let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-                    tracing::info!("{NAME}: {n}/{} draws, {:.1} s", o.draws, t0.elapsed().as_secs_f64());
-                }
-            });
-        }
-    });
-    let all: Vec<DrawFronts> = out.into_inner().unwrap_or_else(|e| e.into_inner()).into_iter().flatten().collect();
+    let progress = |n: usize, draws: usize| {
+        tracing::info!("{NAME}: {n}/{draws} draws, {:.1} s", t0.elapsed().as_secs_f64());
+    };
+    let all: Vec<DrawFronts> =
+        Campaign::new(o.draws).workers(o.threads).progress(&progress).map(|i| draw_fronts(o, i as u64));
     let io = |path: &Path| {
         let path = path.to_path_buf();
         move |source| DataError::Io { path, source }

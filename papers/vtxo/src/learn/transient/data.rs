@@ -21,10 +21,9 @@
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
+use cohort_host::campaign::Campaign;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -180,23 +179,7 @@ fn truncate_to_rows(path: &Path, rows: usize) -> Result<(), DataError> {
 
 /// Points [from, to) computed on `threads` threads, returned in index order.
 fn compute(o: &Options, from: usize, to: usize) -> Vec<Point> {
-    let next = AtomicUsize::new(from);
-    let out: Mutex<Vec<Option<Point>>> = Mutex::new(vec![None; to - from]);
-    std::thread::scope(|s| {
-        for _ in 0..o.threads.max(1) {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    if i >= to {
-                        break;
-                    }
-                    let p = point(o.seed, i as u64, o.iterations, o.dt_s);
-                    out.lock().unwrap_or_else(|e| e.into_inner())[i - from] = Some(p);
-                }
-            });
-        }
-    });
-    out.into_inner().unwrap_or_else(|e| e.into_inner()).into_iter().flatten().collect()
+    Campaign::new(to - from).workers(o.threads).map(|k| point(o.seed, (from + k) as u64, o.iterations, o.dt_s))
 }
 
 /// What a run did.

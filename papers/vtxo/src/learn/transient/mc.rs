@@ -14,6 +14,8 @@
 
 use std::path::Path;
 
+use cohort_host::campaign::Campaign;
+
 use crate::learn::transient::data::draw;
 use crate::learn::transient::dnn::TransientDnn;
 use crate::learn::transient::sa;
@@ -37,28 +39,14 @@ fn p99(rows: &[Row], k: usize) -> f64 {
 /// Fly `draws` draws of seed `seed` (parallel over `threads`); markdown of the result.
 pub fn run(weights: &Path, draws: usize, seed: u64, iterations: u32, threads: usize) -> Result<String, String> {
     let dnn = TransientDnn::load(weights).map_err(|e| e.to_string())?;
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let rows = std::sync::Mutex::new(vec![[0.0; 6]; draws]);
-    std::thread::scope(|s| {
-        for _ in 0..threads.max(1) {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    if i >= draws {
-                        break;
-                    }
-                    let (start, w, mut rng) = draw(seed, i as u64);
-                    let p = dnn.predict(&start.q, &start.omega_rad_s, w);
-                    let f = sim::fly(&start, p.k1, p.k2, p.duration_s, DT_S);
-                    let o = f.outcome(p.duration_s, w);
-                    let sa = sa::anneal(&start, w, iterations, DT_S, &mut rng).outcome;
-                    let row = [o.error_deg, o.energy_j, sa.error_deg, sa.energy_j, p.error_deg, p.energy_j];
-                    rows.lock().unwrap_or_else(|e| e.into_inner())[i] = row;
-                }
-            });
-        }
+    let rows: Vec<Row> = Campaign::new(draws).workers(threads).map(|i| {
+        let (start, w, mut rng) = draw(seed, i as u64);
+        let p = dnn.predict(&start.q, &start.omega_rad_s, w);
+        let f = sim::fly(&start, p.k1, p.k2, p.duration_s, DT_S);
+        let o = f.outcome(p.duration_s, w);
+        let sa = sa::anneal(&start, w, iterations, DT_S, &mut rng).outcome;
+        [o.error_deg, o.energy_j, sa.error_deg, sa.energy_j, p.error_deg, p.energy_j]
     });
-    let rows = rows.into_inner().unwrap_or_else(|e| e.into_inner());
     let ok = |x: f64, b: f64| if x < b { "yes" } else { "**no**" };
     let mut md = format!(
         "Transient Monte Carlo: {draws} draws, seed {seed}, SA {iterations} iterations, step {DT_S} s\n\n\
