@@ -19,6 +19,18 @@ pub fn repo_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The `*.toml` file names in `rel` (a directory under the repository root), sorted.
+pub fn tomls_in(rel: &str) -> Vec<String> {
+    let dir = repo_root().join(rel);
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
+        .map(|e| e.expect("readable directory entry").file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".toml"))
+        .collect();
+    names.sort();
+    names
+}
+
 /// Path of a workspace binary (e.g. `"orchestrator"`) built with the same profile as the running
 /// test. A test executable runs from `<target dir>/<profile>/deps/`, and binaries sit one level
 /// up, in `<target dir>/<profile>/`. `cargo test` does not build them: run the tests with
@@ -42,8 +54,42 @@ pub fn heavy() -> std::sync::MutexGuard<'static, ()> {
     HEAVY.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// A test's scratch directory ([`scratch_dir`]): removed when it goes out of scope, unless the
+/// test is failing (then it stays, and its path is printed, for a look at what the run left).
+#[derive(Debug)]
+pub struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for Scratch {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for Scratch {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.as_os_str()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!("kept for a look: {}", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
 /// A fresh, empty scratch directory under the system temp dir, unique per call.
-pub fn scratch_dir(tag: &str) -> PathBuf {
+pub fn scratch_dir(tag: &str) -> Scratch {
     use std::sync::atomic::{AtomicU32, Ordering};
     static N: AtomicU32 = AtomicU32::new(0);
     let dir = std::env::temp_dir().join(format!(
@@ -53,7 +99,13 @@ pub fn scratch_dir(tag: &str) -> PathBuf {
     ));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("creating a scratch directory");
-    dir
+    Scratch(dir)
+}
+
+/// What a test that launches runs starts with: the [`heavy`] lock and its [`scratch_dir`] (the
+/// directory goes first when both drop at the end of the test).
+pub fn heavy_scratch(tag: &str) -> (std::sync::MutexGuard<'static, ()>, Scratch) {
+    (heavy(), scratch_dir(tag))
 }
 
 /// Pids of live processes whose command line mentions `needle` (e.g. a run directory), other

@@ -16,7 +16,7 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 
 use cohort::OutputWithin;
-use cohort::{bin_path, repo_root};
+use cohort::{bin_path, repo_root, tomls_in};
 
 /// Invalid files with no `# expect:` line, mapped to the text their error must contain.
 const NO_EXPECT_LINE: &[(&str, &str)] = &[
@@ -101,18 +101,6 @@ fn fixture_dirs() -> Vec<String> {
         }
     }
     dirs
-}
-
-/// The `*.toml` file names in `rel` (a directory under the repository root), sorted.
-fn tomls_in(rel: &str) -> Vec<String> {
-    let dir = repo_root().join(rel);
-    let mut names: Vec<String> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
-        .map(|e| e.expect("readable directory entry").file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".toml"))
-        .collect();
-    names.sort();
-    names
 }
 
 /// (valid scenarios `topologies/*.toml`, invalid fixtures of every [`fixture_dirs`] folder), each
@@ -365,5 +353,4 @@ fn every_problem_of_a_file_is_reported_in_one_pass_at_its_place() {
         );
     }
     assert!(run.stderr.contains("(3 problems)"), "{}", run.report());
-    let _ = std::fs::remove_dir_all(&dir);
 }

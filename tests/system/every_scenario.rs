@@ -9,22 +9,11 @@
 
 use std::path::Path;
 
-use cohort::{describe_output, heavy, launch_scenario, repo_root, scratch_dir, summary};
+use cohort::{describe_output, heavy, launch_scenario, repo_root, scratch_dir, summary, tomls_in};
 use cohort_scenario::{Expect, Overrides};
 
 /// The longest stretch of simulated time a scenario is run for here, s (or this many steps).
 const MAX_DURATION_S: f64 = 10.0;
-
-fn runnable_scenarios() -> Vec<String> {
-    let dir = repo_root().join("topologies");
-    let mut names: Vec<String> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()))
-        .map(|e| e.expect("readable directory entry").file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".toml"))
-        .collect();
-    names.sort();
-    names
-}
 
 /// Launch `name` as described above; a description of what went wrong, if anything did.
 fn launch_one(name: &str, out: &Path) -> Option<String> {
@@ -62,7 +51,7 @@ fn launch_one(name: &str, out: &Path) -> Option<String> {
 #[test]
 fn every_runnable_scenario_completes_shortened_to_ten_seconds() {
     let _g = heavy();
-    let names = runnable_scenarios();
+    let names = tomls_in("topologies");
     assert!(names.len() >= 20, "expected the shipped scenarios in topologies/, found {names:?}");
     let root = scratch_dir("every-scenario");
     let failures: Vec<String> = names

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use cohort::{
-    describe_output, heavy, iceoryx2_leftovers, launch_scenario, processes_mentioning, scratch_dir, summary,
+    describe_output, heavy_scratch, iceoryx2_leftovers, launch_scenario, processes_mentioning, scratch_dir, summary,
     telemetry_bits,
 };
 use serde_json::Value;
@@ -39,8 +39,7 @@ fn process<'a>(s: &'a Value, name: &str) -> &'a Value {
 
 #[test]
 fn fig1_survives_the_kill_of_servicer_3_and_the_other_five_keep_converging() {
-    let _g = heavy();
-    let dir = scratch_dir("fault-kill");
+    let (_g, dir) = heavy_scratch("fault-kill");
     let run = dir.join("run");
     let o = launch_scenario(Path::new("topologies/fig1.toml"), &run, &["--fault", "kill:agent=3@t=120"]);
     assert!(o.status.success(), "a planned kill is not a failure:\n{}", describe_output(&o));
@@ -63,7 +62,6 @@ fn fig1_survives_the_kill_of_servicer_3_and_the_other_five_keep_converging() {
         assert_eq!(process(&s, &format!("agent-{i}"))["steps_completed"], 36_000);
     }
     assert_clean(&run);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Freeze servicer 2 for 5 s, later restart it after 2 s, and have servicers 1 and 4 lose and
@@ -91,8 +89,7 @@ fn freeze_restart_drop_corrupt(run: &Path) -> Value {
 
 #[test]
 fn fig1_freeze_restart_drop_and_corrupt_complete_count_exactly_and_repeat_bit_for_bit() {
-    let _g = heavy();
-    let dir = scratch_dir("fault-mix");
+    let (_g, dir) = heavy_scratch("fault-mix");
     let (a, b) = (dir.join("a"), dir.join("b"));
     let s = freeze_restart_drop_corrupt(&a);
     assert_eq!(s["status"], "ok");
@@ -159,13 +156,11 @@ fn fig1_freeze_restart_drop_and_corrupt_complete_count_exactly_and_repeat_bit_fo
         assert_eq!(x, y, "fault runs differ (file, line, column, bits)");
     }
     assert_clean(&b);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_damaged_checkpoint_is_refused_and_the_agent_stays_off_the_roster() {
-    let _g = heavy();
-    let dir = scratch_dir("fault-badckpt");
+    let (_g, dir) = heavy_scratch("fault-badckpt");
     let run = dir.join("run");
     // Agent 2 of the consensus ring is restarted at 10 s; its latest checkpoint (step 500, 5 s)
     // is damaged by a watcher thread long before (real time at rate 2: 2.5 s of wall time).
@@ -205,7 +200,6 @@ fn a_damaged_checkpoint_is_refused_and_the_agent_stays_off_the_roster() {
     assert!(events(&s, 2, "alive").is_empty(), "a refused checkpoint must not bring the agent back");
     assert_eq!(s["steps_completed"], 1200);
     assert_clean(&run);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -223,13 +217,11 @@ fn bad_fault_arguments_are_refused_before_anything_runs() {
         assert!(err.contains(says), "{args:?}: expected {says:?} in:\n{err}");
         assert!(!dir.join("run").exists(), "{args:?}: a run directory was created");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn in_real_time_a_frozen_agent_costs_deadline_misses_until_it_is_declared_dead() {
-    let _g = heavy();
-    let dir = scratch_dir("fault-realtime");
+    let (_g, dir) = heavy_scratch("fault-realtime");
     let run = dir.join("run");
     // Ring at 100 Hz in real time; agent 2 frozen at 2 s for 3 s, step timeout 1 s: the plant
     // misses agent 2's command at every step's deadline (and flies the last one) until a second
@@ -254,7 +246,6 @@ fn in_real_time_a_frozen_agent_costs_deadline_misses_until_it_is_declared_dead()
     assert_eq!(events(&s, 2, "alive")[0]["step"], 500);
     assert_eq!(s["steps_completed"], 600);
     assert_clean(&run);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Rows agent `id` has journalled so far in a running run (see `parquet_out`: a header of three
@@ -275,8 +266,7 @@ fn rows_journalled(run: &Path, id: u32) -> u64 {
 /// journal batch (plus the detection delay) short of the step the plant saw it die at.
 #[test]
 fn an_agent_killed_by_surprise_keeps_its_parquet_telemetry_up_to_a_step_close_to_the_kill() {
-    let _g = heavy();
-    let dir = scratch_dir("fault-sigkill");
+    let (_g, dir) = heavy_scratch("fault-sigkill");
     let run = dir.join("run");
     // In real time (100 steps/s), so that the kill lands mid-run whatever the machine's speed.
     let child = cohort::orchestrator_command()
@@ -344,5 +334,4 @@ fn an_agent_killed_by_surprise_keeps_its_parquet_telemetry_up_to_a_step_close_to
     let k = cohort_runtime::record::timing_column(&timing, "agent-3", "k");
     assert!(k.len() >= 500 && k.windows(2).all(|w| w[0] < w[1]), "{} timing rows", k.len());
     assert_clean(&run);
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -14,7 +14,8 @@ use std::time::{Duration, Instant};
 
 use cohort::OutputWithin;
 use cohort::{
-    describe_output, heavy, iceoryx2_leftovers, orchestrator_command, repo_root, scratch_dir, summary, telemetry_bits,
+    describe_output, heavy, heavy_scratch, iceoryx2_leftovers, orchestrator_command, repo_root, scratch_dir, summary,
+    telemetry_bits,
 };
 
 fn ring() -> String {
@@ -86,14 +87,12 @@ fn bad_command_line_values_are_refused_without_a_panic() {
         assert!(err.contains(says), "{what}: expected {says:?}\n{err}");
         assert!(err.len() < 2000, "{what}: a {}-byte error", err.len());
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Finding 3: `launch … | true` and `> /dev/full` end quietly with the run's exit code.
 #[test]
 fn a_closed_or_full_stdout_ends_quietly_with_the_runs_exit_code() {
-    let _g = heavy();
-    let dir = scratch_dir("stdout");
+    let (_g, dir) = heavy_scratch("stdout");
     // stdout a pipe whose read end is closed before the run prints anything.
     let mut child = orchestrator_command()
         .args(["launch", &ring(), "--duration", "2", "--no-plots", "--out"])
@@ -117,15 +116,13 @@ fn a_closed_or_full_stdout_ends_quietly_with_the_runs_exit_code() {
         .unwrap();
     no_panic("> /dev/full", &o);
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Finding 4: SIGHUP (a closed terminal) stops the run like SIGTERM: 128 + 1, a summary, and no
 /// iceoryx2 resource left. SIGTERM likewise.
 #[test]
 fn sighup_and_sigterm_stop_a_run_in_order() {
-    let _g = heavy();
-    let dir = scratch_dir("hup");
+    let (_g, dir) = heavy_scratch("hup");
     for (sig, code) in [(libc::SIGHUP, 129), (libc::SIGTERM, 143)] {
         let out = dir.join(format!("sig{sig}"));
         let child = orchestrator_command()
@@ -151,14 +148,12 @@ fn sighup_and_sigterm_stop_a_run_in_order() {
         assert_eq!(summary(&out)["status"], "interrupted", "signal {sig}");
         assert_clean(&out);
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Finding 5: a scenario the open-file limit cannot hold is refused up front in words.
 #[test]
 fn a_run_too_large_for_the_open_file_limit_is_refused_up_front() {
-    let _g = heavy();
-    let dir = scratch_dir("nofile");
+    let (_g, dir) = heavy_scratch("nofile");
     let file = dir.join("ring60.toml");
     std::fs::write(&file, null_ring(60)).unwrap();
     let mut cmd = orchestrator_command();
@@ -178,7 +173,6 @@ fn a_run_too_large_for_the_open_file_limit_is_refused_up_front() {
     assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     assert!(err.contains("open files, the limit is 512; raise it with ulimit -n"), "{err}");
     assert!(started.elapsed() < Duration::from_secs(20), "not refused up front");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// iceoryx2's event sockets live in the run's root directory, and a unix socket path has at most
@@ -217,7 +211,6 @@ fn a_long_runtime_dir_runs_or_is_refused_with_the_reason() {
         }
         let _ = std::fs::remove_dir_all(&xdg);
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A one-step run: each agent's only share is also the plant's first sample from it, and an
@@ -226,8 +219,7 @@ fn a_long_runtime_dir_runs_or_is_refused_with_the_reason() {
 /// until the orchestrator's stop, sent when the plant is done.
 #[test]
 fn a_one_step_run_loses_no_share() {
-    let _g = heavy();
-    let dir = scratch_dir("onestep");
+    let (_g, dir) = heavy_scratch("onestep");
     let file = dir.join("ring50.toml");
     std::fs::write(&file, null_ring(50).replace("duration_s = 0.1", "duration_s = 0.01")).unwrap();
     for i in 0..2 {
@@ -243,7 +235,6 @@ fn a_one_step_run_loses_no_share() {
         assert_eq!(s["steps_completed"], 1);
         assert_clean(&run);
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A ring of `n` agents with the null plant and algorithm, 10 steps (`duration_s = 0.1`).
@@ -261,8 +252,7 @@ fn null_ring(n: u32) -> String {
 /// Finding 7: on a full disk the cause comes first, and no summary or status file is left empty.
 #[test]
 fn a_full_disk_is_reported_first_and_leaves_no_empty_json() {
-    let _g = heavy();
-    let dir = scratch_dir("full");
+    let (_g, dir) = heavy_scratch("full");
     let mnt = dir.join("mnt");
     std::fs::create_dir_all(&mnt).unwrap();
     let mounted = Command::new("mount").args(["-t", "tmpfs", "-o", "size=256k", "tmpfs"]).arg(&mnt).output();
@@ -291,14 +281,12 @@ fn a_full_disk_is_reported_first_and_leaves_no_empty_json() {
     assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let first = err.lines().find(|l| l.starts_with("error:") || l.starts_with("warning:")).unwrap_or("");
     assert!(first.starts_with("error:") && first.contains("No space left on device"), "first: {first}\n{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Finding 6: a run with `--authenticate` has the telemetry of one without, and rejects nothing.
 #[test]
 fn an_authenticated_run_has_the_same_telemetry_and_rejects_nothing() {
-    let _g = heavy();
-    let dir = scratch_dir("auth");
+    let (_g, dir) = heavy_scratch("auth");
     let run = |tag: &str, extra: &[&str]| -> PathBuf {
         let out = dir.join(tag);
         let o = orchestrator_command()
@@ -315,7 +303,6 @@ fn an_authenticated_run_has_the_same_telemetry_and_rejects_nothing() {
     let s = summary(&sealed);
     assert_eq!(s["messages_rejected"].as_object().map(|m| m.values().filter_map(|v| v.as_u64()).sum::<u64>()), Some(0));
     assert_clean(&sealed);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Finding 1: after root has run, a second user runs too (each user has its own iceoryx2
@@ -374,8 +361,7 @@ fn a_second_user_can_run_after_root() {
 /// `event` 3.2 s). The bench's loaded row measures the same with the 1.2× goal.
 #[test]
 fn waiting_survives_two_cpu_hogs() {
-    let _g = heavy();
-    let dir = scratch_dir("loaded");
+    let (_g, dir) = heavy_scratch("loaded");
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let hogs: Vec<_> = (0..2)
         .map(|_| {
@@ -403,5 +389,4 @@ fn waiting_survives_two_cpu_hogs() {
         h.join().unwrap();
     }
     assert!(adaptive <= 2.0 * event + 0.5, "under load: adaptive {adaptive:.2} s, event {event:.2} s");
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -11,8 +11,8 @@ use std::time::{Duration, Instant};
 
 use cohort::OutputWithin;
 use cohort::{
-    bin_path, describe_output, heavy, iceoryx2_leftovers, launch_scenario, orchestrator_command, processes_mentioning,
-    repo_root, scratch_dir, summary, telemetry_bits,
+    bin_path, describe_output, heavy_scratch, iceoryx2_leftovers, launch_scenario, orchestrator_command,
+    processes_mentioning, repo_root, scratch_dir, summary, telemetry_bits,
 };
 
 fn orchestrator() -> Command {
@@ -70,8 +70,7 @@ fn assert_clean(run_dir: &Path, id: &str) {
 
 #[test]
 fn multi_process_and_reference_telemetry_are_bit_identical() {
-    let _g = heavy();
-    let dir = scratch_dir("determinism");
+    let (_g, dir) = heavy_scratch("determinism");
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
     let o = launch(&mp, &[]);
     assert!(o.status.success(), "multi-process launch failed:\n{}", describe_output(&o));
@@ -100,14 +99,12 @@ fn multi_process_and_reference_telemetry_are_bit_identical() {
     }
     assert!(mp.join("scenario.toml").is_file());
     assert_clean(&mp, &run_id(&mp));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_different_seed_changes_the_telemetry() {
     // Guards the determinism test against passing vacuously (e.g. noise not applied).
-    let _g = heavy();
-    let dir = scratch_dir("seed");
+    let (_g, dir) = heavy_scratch("seed");
     let o = launch(&dir.join("a"), &["--reference", "--duration", "1"]);
     assert!(o.status.success(), "{}", describe_output(&o));
     let o = launch(&dir.join("b"), &["--reference", "--duration", "1", "--seed", "8"]);
@@ -115,13 +112,11 @@ fn a_different_seed_changes_the_telemetry() {
     let a = std::fs::read(dir.join("a/telemetry/plant.parquet")).unwrap();
     let b = std::fs::read(dir.join("b/telemetry/plant.parquet")).unwrap();
     assert_ne!(a, b, "seed 7 and seed 8 gave the same plant telemetry");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn two_concurrent_launches_both_succeed_and_match() {
-    let _g = heavy();
-    let dir = scratch_dir("concurrent");
+    let (_g, dir) = heavy_scratch("concurrent");
     let spawn = |out: &Path| -> Child {
         orchestrator()
             .arg("launch")
@@ -145,7 +140,6 @@ fn two_concurrent_launches_both_succeed_and_match() {
     assert_same_telemetry(&a, &b);
     assert_clean(&a, &run_id(&a));
     assert_clean(&b, &run_id(&b));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Start a long multi-process run and wait until its plant is stepping.
@@ -191,8 +185,7 @@ fn pid_of(out: &Path, what: &str) -> u32 {
 
 #[test]
 fn in_abort_mode_sigkill_of_an_agent_ends_the_run_cleanly_naming_it_and_the_step() {
-    let _g = heavy();
-    let dir = scratch_dir("sigkill");
+    let (_g, dir) = heavy_scratch("sigkill");
     let out = dir.join("run");
     let step_timeout_s = 10.0;
     // Abort mode: an agent's death ends the run. Long enough that the kill lands mid-run.
@@ -220,13 +213,11 @@ fn in_abort_mode_sigkill_of_an_agent_ends_the_run_cleanly_naming_it_and_the_step
     let plant_rows = cohort::telemetry_table(&out, "plant").rows();
     assert!(plant_rows > 100, "plant telemetry lost: {plant_rows} rows");
     assert_clean(&out, &run_id(&out));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn sigint_to_the_orchestrator_stops_everything_with_130() {
-    let _g = heavy();
-    let dir = scratch_dir("sigint");
+    let (_g, dir) = heavy_scratch("sigint");
     let out = dir.join("run");
     let child = start_long_run(&out, "10", "abort", "3000");
     // SAFETY: kill(2) on our own child.
@@ -238,7 +229,6 @@ fn sigint_to_the_orchestrator_stops_everything_with_130() {
     let s = summary(&out);
     assert_eq!(s["status"], "interrupted");
     assert_clean(&out, &run_id(&out));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -251,7 +241,6 @@ fn a_child_built_from_other_sources_refuses_to_run() {
         .output_within(cohort::QUICK_LIMIT, "an agent of another build");
     assert_eq!(o.status.code(), Some(3), "{}", describe_output(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("rebuild"), "{}", describe_output(&o));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -269,13 +258,11 @@ fn a_missing_child_binary_is_refused_with_a_clear_message() {
     assert_eq!(o.status.code(), Some(1), "{}", describe_output(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("binary is missing") && err.contains("plant"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn in_abort_mode_a_frozen_agent_ends_the_run_at_the_step_timeout_naming_it() {
-    let _g = heavy();
-    let dir = scratch_dir("freeze");
+    let (_g, dir) = heavy_scratch("freeze");
     let out = dir.join("run");
     let step_timeout_s = 2.0;
     let child = start_long_run(&out, "2", "abort", "3000");
@@ -294,13 +281,11 @@ fn in_abort_mode_a_frozen_agent_ends_the_run_at_the_step_timeout_naming_it() {
     assert!(err.contains("agent 5"), "the silent agent must be named:\n{err}");
     // The frozen process was stopped by the shutdown ladder (SIGKILL reaches a stopped process).
     assert_clean(&out, &run_id(&out));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_killed_orchestrator_leaves_no_orphan_and_the_next_launch_sweeps_its_resources() {
-    let _g = heavy();
-    let dir = scratch_dir("orchkill");
+    let (_g, dir) = heavy_scratch("orchkill");
     let out = dir.join("run");
     let mut child = start_long_run(&out, "10", "degrade", "3000");
     let plant = processes_mentioning(&out.display().to_string())
@@ -325,7 +310,6 @@ fn a_killed_orchestrator_leaves_no_orphan_and_the_next_launch_sweeps_its_resourc
         describe_output(&o)
     );
     assert!(iceoryx2_leftovers(&id).is_empty(), "stale resources remain: {:?}", iceoryx2_leftovers(&id));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -333,8 +317,7 @@ fn thirty_agents_run_multi_process_past_the_default_service_limits() {
     // iceoryx2's defaults (8 subscribers, 16 notifiers, 20/36 nodes) break past ~15 agents; the
     // services are sized from the scenario. A dense graph (each agent hears 6 others) also
     // exercises wide fan-out.
-    let _g = heavy();
-    let dir = scratch_dir("thirty");
+    let (_g, dir) = heavy_scratch("thirty");
     let n = 30u32;
     let mut toml = String::from(
         "[scenario]\nname = \"ring30\"\nseed = 3\ndt_s = 0.01\nduration_s = 1.0\n\n[run]\nstep_timeout_s = 20.0\n\n\
@@ -379,7 +362,6 @@ fn thirty_agents_run_multi_process_past_the_default_service_limits() {
         assert!(a == b, "{f} differs");
     }
     assert_clean(&mp, &run_id(&mp));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The scale CI can afford (issue: formations of hundreds): `orchestrator generate ring` writes a
@@ -387,8 +369,7 @@ fn thirty_agents_run_multi_process_past_the_default_service_limits() {
 /// process's PSS, and leaves nothing behind.
 #[test]
 fn a_generated_two_hundred_agent_ring_runs_multi_process_bit_identical_to_the_reference() {
-    let _g = heavy();
-    let dir = scratch_dir("ring200");
+    let (_g, dir) = heavy_scratch("ring200");
     let file = dir.join("ring200.toml");
     let o = orchestrator()
         .args(["generate", "ring", "--agents", "200", "--steps", "40", "--out"])
@@ -411,13 +392,11 @@ fn a_generated_two_hundred_agent_ring_runs_multi_process_bit_identical_to_the_re
     let total: u64 = processes.iter().map(|p| p["pss_kb"].as_u64().unwrap()).sum();
     assert_eq!(s["pss_total_kb"].as_u64(), Some(total));
     assert_clean(&mp, &run_id(&mp));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn in_degrade_mode_an_unplanned_sigkill_is_survived_named_and_fails_the_exit_code() {
-    let _g = heavy();
-    let dir = scratch_dir("degrade-kill");
+    let (_g, dir) = heavy_scratch("degrade-kill");
     let out = dir.join("run");
     let child = start_long_run(&out, "10", "degrade", "600");
     let agent3 = pid_of(&out, "agent --id 3 ");
@@ -444,13 +423,11 @@ fn in_degrade_mode_an_unplanned_sigkill_is_survived_named_and_fails_the_exit_cod
     let lag = dead["wall_s"].as_f64().unwrap() - died["wall_s"].as_f64().unwrap();
     assert!(lag < 10.0, "detected {lag} s after the death");
     assert_clean(&out, &run_id(&out));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn killing_the_plant_ends_the_run_cleanly_naming_it() {
-    let _g = heavy();
-    let dir = scratch_dir("plant-kill");
+    let (_g, dir) = heavy_scratch("plant-kill");
     let out = dir.join("run");
     let child = start_long_run(&out, "5", "degrade", "3000");
     let plant = pid_of(&out, "plant --run-dir");
@@ -462,5 +439,4 @@ fn killing_the_plant_ends_the_run_cleanly_naming_it() {
     assert!(err.contains("plant") && err.contains("SIGKILL"), "the plant (the clock) must be named:\n{err}");
     assert_eq!(summary(&out)["status"], "failed");
     assert_clean(&out, &run_id(&out));
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -10,7 +10,7 @@ use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 use cohort::{
-    OutputWithin, QUICK_LIMIT, RUN_LIMIT, finish_within, heavy, orchestrator_command, repo_root, scratch_dir,
+    OutputWithin, QUICK_LIMIT, RUN_LIMIT, finish_within, heavy_scratch, orchestrator_command, repo_root,
     telemetry_bits, telemetry_table,
 };
 use tungstenite::client::IntoClientRequest;
@@ -115,8 +115,7 @@ fn launch_live(out: &Path, port: u16, extra: &[&str]) -> std::process::Child {
 
 #[test]
 fn two_clients_get_scene_and_telemetry_equal_to_the_runs_rows() {
-    let _g = heavy();
-    let dir = scratch_dir("live");
+    let (_g, dir) = heavy_scratch("live");
     let run = dir.join("run");
     let port = free_port();
     let child = launch_live(&run, port, &["--duration", "8", "--realtime"]);
@@ -177,8 +176,7 @@ fn two_clients_get_scene_and_telemetry_equal_to_the_runs_rows() {
 
 #[test]
 fn live_changes_no_telemetry_bit_and_a_port_in_use_is_exit_2() {
-    let _g = heavy();
-    let dir = scratch_dir("live-bits");
+    let (_g, dir) = heavy_scratch("live-bits");
     let (plain, live) = (dir.join("plain"), dir.join("live"));
     let o = cohort::launch_scenario(Path::new("topologies/fig1.toml"), &plain, &["--duration", "2"]);
     assert!(o.status.success(), "{}", cohort::describe_output(&o));

@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::Output;
 
 use cohort::OutputWithin;
-use cohort::{describe_output, heavy, orchestrator_command, repo_root, scratch_dir};
+use cohort::{describe_output, heavy_scratch, orchestrator_command, repo_root};
 
 /// `orchestrator [FLAGS] launch consensus-ring --duration 1` into `out`, with `RUST_LOG` set to
 /// `rust_log` (or removed).
@@ -56,8 +56,7 @@ fn child_levels(text: &str, name: &str) -> Vec<String> {
 
 #[test]
 fn a_default_run_logs_info_and_every_child_line_has_time_level_and_name() {
-    let _g = heavy();
-    let dir = scratch_dir("log-default");
+    let (_g, dir) = heavy_scratch("log-default");
     let run = dir.join("run");
     let o = launch(&run, &[], None);
     let err = stderr(&o);
@@ -70,13 +69,11 @@ fn a_default_run_logs_info_and_every_child_line_has_time_level_and_name() {
         assert!(levels.iter().any(|l| l == "INFO"), "{name}: {levels:?}");
         assert!(!levels.iter().any(|l| l == "DEBUG" || l == "TRACE"), "{name}: {levels:?}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn rust_log_debug_and_v_show_debug_lines_in_the_orchestrator_and_every_child() {
-    let _g = heavy();
-    let dir = scratch_dir("log-debug");
+    let (_g, dir) = heavy_scratch("log-debug");
     for (tag, flags, env) in [("env", &[][..], Some("debug")), ("v", &["-v"][..], None)] {
         let run = dir.join(tag);
         let o = launch(&run, flags, env);
@@ -87,13 +84,11 @@ fn rust_log_debug_and_v_show_debug_lines_in_the_orchestrator_and_every_child() {
             assert!(levels.iter().any(|l| l == "DEBUG"), "{tag}: {name}: {levels:?}");
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn q_keeps_warnings_and_errors_only_and_the_output() {
-    let _g = heavy();
-    let dir = scratch_dir("log-quiet");
+    let (_g, dir) = heavy_scratch("log-quiet");
     let run = dir.join("run");
     let o = launch(&run, &["-q"], None);
     let err = stderr(&o);
@@ -101,13 +96,11 @@ fn q_keeps_warnings_and_errors_only_and_the_output() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("done: 100 steps"), "{}", describe_output(&o));
     let levels = child_levels(&log(&run, "agent-4"), "agent-4");
     assert!(levels.iter().all(|l| l == "WARN" || l == "ERROR"), "the children are quiet too: {levels:?}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_bad_rust_log_is_named_and_ignored() {
-    let _g = heavy();
-    let dir = scratch_dir("log-bad");
+    let (_g, dir) = heavy_scratch("log-bad");
     let run = dir.join("run");
     let o = launch(&run, &[], Some("agent=loudest"));
     let err = stderr(&o);
@@ -120,13 +113,11 @@ fn a_bad_rust_log_is_named_and_ignored() {
     // The children log at the fallback level, without a warning of their own.
     let levels = child_levels(&log(&run, "plant"), "plant");
     assert!(levels.iter().any(|l| l == "INFO") && !levels.iter().any(|l| l == "WARN"), "{levels:?}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn v_and_q_typed_on_the_command_line_win_over_rust_log() {
-    let _g = heavy();
-    let dir = scratch_dir("log-flags-win");
+    let (_g, dir) = heavy_scratch("log-flags-win");
     // `-v` over `RUST_LOG=warn`: debug lines, in the orchestrator and the children.
     let run = dir.join("v");
     let o = launch(&run, &["-v"], Some("warn"));
@@ -146,5 +137,4 @@ fn v_and_q_typed_on_the_command_line_win_over_rust_log() {
     let o = launch(&run, &[], Some("warn"));
     let err = stderr(&o);
     assert!(!err.lines().any(|l| l.starts_with("info:")), "RUST_LOG=warn alone: {err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -23,7 +23,8 @@ use std::time::{Duration, Instant};
 
 use cohort::OutputWithin;
 use cohort::{
-    bin_path, describe_output, heavy, processes_mentioning, repo_root, scratch_dir, sh, summary, telemetry_bits,
+    bin_path, describe_output, heavy, heavy_scratch, processes_mentioning, repo_root, scratch_dir, sh, summary,
+    telemetry_bits,
 };
 use serde_json::Value;
 
@@ -374,13 +375,11 @@ fn fig1_across_three_hosts_is_bit_identical_survives_kills_and_host_loss_and_net
     }
     println!("multi-host cases took {:.1} s", t0.elapsed().as_secs_f64());
     drop(daemons);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn fig1_over_zenoh_on_one_host_is_bit_identical_to_the_reference() {
-    let _g = heavy();
-    let dir = scratch_dir("zenoh-one-host");
+    let (_g, dir) = heavy_scratch("zenoh-one-host");
     let (zenoh, reference) = (dir.join("zenoh"), dir.join("reference"));
     let o = launch_here(&zenoh, &["--transport", "zenoh"]);
     assert!(o.status.success(), "{}", describe_output(&o));
@@ -389,7 +388,6 @@ fn fig1_over_zenoh_on_one_host_is_bit_identical_to_the_reference() {
     assert_eq!(telemetry_bits(&zenoh), telemetry_bits(&reference));
     let id = summary(&zenoh)["run_id"].as_str().unwrap().to_string();
     assert!(processes_mentioning(&id).is_empty(), "{:?}", processes_mentioning(&id));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A launch refused before anything starts: exit 2, its message, no process of the run.
@@ -433,7 +431,6 @@ fn an_unreachable_daemon_or_one_of_another_build_is_refused_before_anything_star
     // The right build but another name: no daemon of that name answers.
     let misnamed = format!("[[hosts]]\nname = \"z\"\nendpoint = \"{at}\"\n{PLACEMENT}");
     assert_refused(&dir, &misnamed, "no daemon named \"z\"");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -453,7 +450,6 @@ fn fig1_across_three_loopback_daemons_is_bit_identical_to_the_reference() {
     assert_eq!(telemetry_bits(&run), telemetry_bits(&reference), "loopback multi-host telemetry differs");
     assert_nothing_left(&run, &[]);
     drop(daemons);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A 20-agent consensus ring over zenoh on one host, as text: many sessions connecting at once
@@ -482,8 +478,7 @@ fn ring20_over_zenoh() -> String {
 
 #[test]
 fn twenty_agents_over_zenoh_start_every_time() {
-    let _g = heavy();
-    let dir = scratch_dir("zenoh-ring20");
+    let (_g, dir) = heavy_scratch("zenoh-ring20");
     let file = dir.join("ring20.toml");
     std::fs::write(&file, ring20_over_zenoh()).unwrap();
     // With the lowlatency transport about half of these launches hung at start-up (and the
@@ -504,7 +499,6 @@ fn twenty_agents_over_zenoh_start_every_time() {
         let id = summary(&run)["run_id"].as_str().unwrap().to_string();
         assert!(processes_mentioning(&id).is_empty(), "{:?}", processes_mentioning(&id));
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Issue 36, item 9.4: a host daemon that stops (SIGTERM) leaves no empty per-host directory
@@ -539,7 +533,6 @@ fn a_stopped_host_daemon_leaves_no_empty_per_host_directory() {
     assert!(status.code().is_some(), "the daemon ends by itself on SIGTERM, not by the signal: {status:?}");
     assert!(!base.join("tidy").exists(), "{} left behind", base.join("tidy").display());
     assert!(!base.exists(), "{} left behind, empty", base.display());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `launch --live` of a run whose every process is on a host daemon: the view asks the daemons
@@ -590,5 +583,4 @@ fn a_live_view_shows_the_rows_of_processes_on_other_hosts() {
     assert!(got.get("/scene").is_some_and(|m| m.len() >= 40), "too few scenes: {:?}", got.get("/scene").map(Vec::len));
     assert_nothing_left(&run, &[]);
     drop(daemons);
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 
 use cohort::OutputWithin;
 use cohort::{
-    describe_output, heavy, launch_scenario, orchestrator_command, repo_root, scratch_dir, summary, telemetry_bits,
+    describe_output, heavy_scratch, launch_scenario, orchestrator_command, repo_root, scratch_dir, summary,
+    telemetry_bits,
 };
 
 fn example(file: &str) -> PathBuf {
@@ -36,8 +37,7 @@ fn launch_ok(file: &Path, run: &Path, extra: &[&str]) -> serde_json::Value {
 
 #[test]
 fn the_python_consensus_ring_equals_the_rust_kind_and_its_reference_bit_for_bit() {
-    let _g = heavy();
-    let dir = scratch_dir("python-consensus");
+    let (_g, dir) = heavy_scratch("python-consensus");
     let (py, py_ref, rust) = (dir.join("py"), dir.join("py-ref"), dir.join("rust"));
     let s = launch_ok(&example("consensus-ring.toml"), &py, &[]);
     assert_eq!(s["status"], "ok");
@@ -46,13 +46,11 @@ fn the_python_consensus_ring_equals_the_rust_kind_and_its_reference_bit_for_bit(
     assert_same_bits(&py, &py_ref, "python: processes vs --reference");
     launch_ok(Path::new("topologies/consensus-ring.toml"), &rust, &[]);
     assert_same_bits(&py, &rust, "python kind vs the Rust consensus-formation kind");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_python_plant_flown_by_rust_agents_is_the_same_as_processes_and_in_reference() {
-    let _g = heavy();
-    let dir = scratch_dir("python-plant");
+    let (_g, dir) = heavy_scratch("python-plant");
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
     let s = launch_ok(&example("hcw-ring.toml"), &mp, &[]);
     assert_eq!(s["steps_completed"], 2000);
@@ -63,13 +61,11 @@ fn a_python_plant_flown_by_rust_agents_is_the_same_as_processes_and_in_reference
     let spread = cohort::telemetry_column(&mp, "plant", "spread_m");
     let last = *spread.last().unwrap();
     assert!((9.0..11.0).contains(&last), "spread {last} m after 20 s (hexagon of radius 10 m)");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn python_station_keeping_on_the_orbital_plant_survives_a_restart_and_repeats_bit_for_bit() {
-    let _g = heavy();
-    let dir = scratch_dir("python-hcw");
+    let (_g, dir) = heavy_scratch("python-hcw");
     let (a, b) = (dir.join("a"), dir.join("b"));
     let s = launch_ok(&example("hcw-station-keeping.toml"), &a, &[]);
     assert_eq!(s["status"], "ok", "{s}");
@@ -100,7 +96,6 @@ fn python_station_keeping_on_the_orbital_plant_survives_a_restart_and_repeats_bi
     launch_ok(&unfaulted, &mp, &["--duration", "100"]);
     launch_ok(&unfaulted, &rf, &["--duration", "100", "--reference"]);
     assert_same_bits(&mp, &rf, "python on the orbital plant: processes vs --reference");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A two-agent double-integrator scenario flying `class` of `module` (a fixture file).
@@ -149,13 +144,11 @@ fn check_names_each_mistake_in_a_python_module_at_its_key_path() {
         .arg(&ok)
         .output_within(cohort::QUICK_LIMIT, "check of a sound Python module");
     assert!(o.status.success(), "{}", describe_output(&o));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_python_algorithm_that_raises_or_returns_the_wrong_thing_fails_the_run_naming_it() {
-    let _g = heavy();
-    let dir = scratch_dir("python-run-errors");
+    let (_g, dir) = heavy_scratch("python-run-errors");
     let cases = [
         ("RaisesInStep", "RaisesInStep.step() raised ValueError: agent 1: gain matrix not positive definite"),
         ("WrongLength", "WrongLength.share() command: expected 3 values, got 2"),
@@ -192,15 +185,13 @@ fn a_python_algorithm_that_raises_or_returns_the_wrong_thing_fails_the_run_namin
     assert!(err.contains("agent 2 went silent") && err.contains("run.step_timeout_s"), "{err}");
     let id = summary(&run)["run_id"].as_str().unwrap().to_string();
     assert!(cohort::processes_mentioning(&id).is_empty(), "{:?}", cohort::processes_mentioning(&id));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The debugging loop of docs/python-algorithms.md: record, replay (identical), edit the module,
 /// replay again (the first differing share named); and the same ring over zenoh on one host.
 #[test]
 fn a_recorded_python_agent_replays_and_an_edit_is_named_at_its_first_differing_share() {
-    let _g = heavy();
-    let dir = scratch_dir("python-replay");
+    let (_g, dir) = heavy_scratch("python-replay");
     let module = dir.join("consensus.py");
     std::fs::copy(example("consensus.py"), &module).unwrap();
     let text = std::fs::read_to_string(example("consensus-ring.toml")).unwrap();
@@ -232,15 +223,13 @@ fn a_recorded_python_agent_replays_and_an_edit_is_named_at_its_first_differing_s
     launch_ok(&example("consensus-ring.toml"), &zenoh, &["--transport", "zenoh", "--duration", "5"]);
     launch_ok(&example("consensus-ring.toml"), &reference, &["--reference", "--duration", "5"]);
     assert_same_bits(&zenoh, &reference, "python over zenoh vs --reference");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// docs/python-algorithms.md's tutorial, as written: its class and scenario (the page's first
 /// Python and TOML blocks) check and fly, and bring the spacecraft to rest.
 #[test]
 fn the_tutorials_class_and_scenario_fly_as_written() {
-    let _g = heavy();
-    let dir = scratch_dir("python-tutorial");
+    let (_g, dir) = heavy_scratch("python-tutorial");
     let page = std::fs::read_to_string(repo_root().join("docs/python-algorithms.md")).unwrap();
     let block = |lang: &str| {
         let start = page.find(&format!("```{lang}\n")).unwrap_or_else(|| panic!("no {lang} block")) + lang.len() + 4;
@@ -259,5 +248,4 @@ fn the_tutorials_class_and_scenario_fly_as_written() {
     let v = cohort::telemetry_column(&run, "plant", "a1_v_x_mps");
     let (first, last) = (v[0], *v.last().unwrap());
     assert!(first == 1.0 && last.abs() < 0.05, "v_x of agent 1 from {first} to {last} m/s");
-    let _ = std::fs::remove_dir_all(&dir);
 }

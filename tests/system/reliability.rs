@@ -11,7 +11,7 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use cohort::OutputWithin;
-use cohort::{describe_output, heavy, orchestrator_command, repo_root, scratch_dir, summary};
+use cohort::{describe_output, heavy, heavy_scratch, orchestrator_command, repo_root, scratch_dir, summary};
 
 fn ring() -> PathBuf {
     repo_root().join("topologies/consensus-ring.toml")
@@ -29,8 +29,7 @@ fn scenario_seed(run_dir: &Path) -> u64 {
 /// 2 naming the directory, before it writes anything.
 #[test]
 fn of_two_launches_into_one_out_one_runs_and_the_other_is_refused() {
-    let _g = heavy();
-    let dir = scratch_dir("race");
+    let (_g, dir) = heavy_scratch("race");
     for round in 0..8 {
         let out = dir.join(format!("r{round}"));
         let spawn = |seed: u64| -> std::process::Child {
@@ -62,7 +61,6 @@ fn of_two_launches_into_one_out_one_runs_and_the_other_is_refused() {
         let said = String::from_utf8_lossy(&winner.stdout);
         assert!(said.contains("done"), "round {round}: {said}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Defect 3: a FIFO, a device and a file past the documented size are refused at once with exit 2
@@ -97,7 +95,6 @@ fn a_fifo_a_device_or_an_oversized_file_is_refused_at_once() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains(says), "{what}: expected {says:?}\n{err}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Defect 6: a valid checkpoint of another run (seed 8's agent 2) copied over agent 2's own
@@ -105,8 +102,7 @@ fn a_fifo_a_device_or_an_oversized_file_is_refused_at_once() {
 /// (before, it was restored from and the run ended 0).
 #[test]
 fn a_checkpoint_of_another_run_is_refused() {
-    let _g = heavy();
-    let dir = scratch_dir("foreign-ckpt");
+    let (_g, dir) = heavy_scratch("foreign-ckpt");
     let other = dir.join("seed-8");
     let o = cohort::launch_scenario(&ring(), &other, &["--duration", "6", "--seed", "8"]);
     assert!(o.status.success(), "{}", describe_output(&o));
@@ -142,7 +138,6 @@ fn a_checkpoint_of_another_run_is_refused() {
     let of_2 = |ev: &str| timeline.iter().filter(|e| e["agent"] == 2 && e["event"] == ev).count();
     assert_eq!(of_2("restore-failed"), 1, "{}", s["timeline"]);
     assert_eq!(of_2("alive"), 0, "a foreign checkpoint must not bring the agent back");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Defect 7: another user owns the per-user base directory (here `$XDG_RUNTIME_DIR/cohort`, in a
@@ -183,7 +178,6 @@ fn a_base_directory_squatted_by_another_user_is_replaced_by_a_private_one() {
         assert_eq!(left, vec![std::ffi::OsString::from("cohort")], "round {round}: left in {}", xdg.display());
     }
     let _ = std::fs::remove_dir_all(&xdg);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The pid of `parent`'s child process whose command name is `name`, if there is one.
@@ -232,8 +226,7 @@ fn wait_until_running(run: &Path, n_logs: usize) {
 /// bound from its telemetry and the agents' reports, and says so.
 #[test]
 fn a_killed_plant_still_gives_the_steps_the_run_completed() {
-    let _g = heavy();
-    let dir = scratch_dir("plant-kill");
+    let (_g, dir) = heavy_scratch("plant-kill");
     let run = dir.join("run");
     let child = spawn_ring(
         &run,
@@ -261,7 +254,6 @@ fn a_killed_plant_still_gives_the_steps_the_run_completed() {
     assert!(done + 1 >= most && done <= most, "steps_completed {done}, agents {agents:?}");
     let warnings = s["warnings"].to_string();
     assert!(warnings.contains("lower bound"), "{warnings}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Defect 8: a bad value given on the command line is cited by its flag, not by a line of the
@@ -282,15 +274,13 @@ fn a_bad_command_line_value_cites_its_flag() {
             err.split("consensus-ring.toml:").skip(1).any(|after| after.starts_with(|c: char| c.is_ascii_digit()));
         assert!(!cites_a_line, "{args:?}: cites a line of the file\n{err}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Defect 8: SIGTERM while the plots are drawn ends the orchestrator at once with 143 (before,
 /// the drawing went on and the launch exited 0).
 #[test]
 fn sigterm_while_drawing_the_plots_exits_143() {
-    let _g = heavy();
-    let dir = scratch_dir("plot-term");
+    let (_g, dir) = heavy_scratch("plot-term");
     let run = dir.join("run");
     let mut child = orchestrator_command()
         .args(["launch", "--duration", "600", "--out"])
@@ -315,7 +305,6 @@ fn sigterm_while_drawing_the_plots_exits_143() {
     assert_eq!(o.status.code(), Some(143), "{}", describe_output(&o));
     assert!(err.contains("while drawing the plots"), "{err}");
     assert!(started.elapsed() < Duration::from_secs(10), "took {:?} to stop", started.elapsed());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Defect 8: on a file system with room for the run directory's first files but not for a single
@@ -323,8 +312,7 @@ fn sigterm_while_drawing_the_plots_exits_143() {
 /// not "see logs/".
 #[test]
 fn on_a_full_disk_with_empty_logs_the_error_gives_the_cause() {
-    let _g = heavy();
-    let dir = scratch_dir("full-logs");
+    let (_g, dir) = heavy_scratch("full-logs");
     let mnt = dir.join("mnt");
     std::fs::create_dir_all(&mnt).unwrap();
     let mounted = Command::new("mount").args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"]).arg(&mnt).output();
@@ -367,8 +355,7 @@ fn replay_agent_2(run: &Path, what: &str) -> Output {
 /// All 200 take well under a minute (each replay is a few ms here).
 #[test]
 fn replays_of_200_damaged_recordings_end_with_0_1_or_2() {
-    let _g = heavy();
-    let dir = scratch_dir("flips");
+    let (_g, dir) = heavy_scratch("flips");
     let run = dir.join("run");
     let o = cohort::launch_scenario(&ring(), &run, &["--duration", "2", "--record"]);
     assert!(o.status.success(), "{}", describe_output(&o));
@@ -403,7 +390,6 @@ fn replays_of_200_damaged_recordings_end_with_0_1_or_2() {
     }
     assert!(started.elapsed() < Duration::from_secs(60), "200 replays took {:?}", started.elapsed());
     assert!(codes.get(&Some(2)).copied().unwrap_or(0) > 50, "exit codes: {codes:?}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Defect 4: the recording of an agent SIGKILLed by a fault has no footer; its replay reads it up
@@ -411,8 +397,7 @@ fn replays_of_200_damaged_recordings_end_with_0_1_or_2() {
 /// readable MCAP file").
 #[test]
 fn a_killed_agents_recording_replays_up_to_its_last_complete_chunk() {
-    let _g = heavy();
-    let dir = scratch_dir("footerless");
+    let (_g, dir) = heavy_scratch("footerless");
     let run = dir.join("run");
     let o = cohort::launch_scenario(&ring(), &run, &["--duration", "30", "--record", "--fault", "kill:agent=2@t=25"]);
     assert!(o.status.success(), "{}", describe_output(&o));
@@ -428,7 +413,6 @@ fn a_killed_agents_recording_replays_up_to_its_last_complete_chunk() {
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("{said}"));
     assert!(steps > 100 && steps <= 2500, "{said}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Defect 5: the orchestrator SIGKILLed mid-run leaves only `.rows` journals (its children die
@@ -437,8 +421,7 @@ fn a_killed_agents_recording_replays_up_to_its_last_complete_chunk() {
 /// draws the run.
 #[test]
 fn salvage_turns_a_killed_runs_journals_into_files_past_a_damaged_one() {
-    let _g = heavy();
-    let dir = scratch_dir("salvage");
+    let (_g, dir) = heavy_scratch("salvage");
     let run = dir.join("run");
     let mut child = spawn_ring(
         &run,
@@ -476,7 +459,6 @@ fn salvage_turns_a_killed_runs_journals_into_files_past_a_damaged_one() {
     let o =
         orchestrator_command().arg("report").arg(&run).output_within(cohort::QUICK_LIMIT, "report of a salvaged run");
     assert_eq!(o.status.code(), Some(0), "{}", describe_output(&o));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Defect 1: in real time, a plant stopped for longer than the step timeout (SIGSTOP 11 s, then
@@ -485,8 +467,7 @@ fn salvage_turns_a_killed_runs_journals_into_files_past_a_damaged_one() {
 /// misses.
 #[test]
 fn in_real_time_a_stalled_plant_drops_no_healthy_agent() {
-    let _g = heavy();
-    let dir = scratch_dir("plant-stall");
+    let (_g, dir) = heavy_scratch("plant-stall");
     let run = dir.join("run");
     let child = spawn_ring(&run, &["--realtime", "--no-plots"], Stdio::piped(), Stdio::piped());
     std::thread::sleep(Duration::from_secs(2));
@@ -512,7 +493,6 @@ fn in_real_time_a_stalled_plant_drops_no_healthy_agent() {
     assert!(said.contains("real time: "), "{said}");
     let log = std::fs::read_to_string(run.join("logs/plant.log")).unwrap();
     assert!(log.contains("behind its real-time schedule"), "{log}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Issue 36, item 9.2: a soak's report has every run's latency figures, read from the run's
@@ -520,8 +500,7 @@ fn in_real_time_a_stalled_plant_drops_no_healthy_agent() {
 /// them after, and so found nothing). The runs' samples add up to the links' over all runs.
 #[test]
 fn a_soak_report_has_each_runs_latency_figures_though_its_timing_dir_is_gone() {
-    let _g = heavy();
-    let dir = scratch_dir("soak-timing");
+    let (_g, dir) = heavy_scratch("soak-timing");
     let out = dir.join("soak");
     let o = orchestrator_command()
         .arg("soak")
@@ -546,7 +525,6 @@ fn a_soak_report_has_each_runs_latency_figures_though_its_timing_dir_is_gone() {
     assert_eq!(run_samples, link_samples, "{report}");
     let md = std::fs::read_to_string(out.join("soak.md")).unwrap();
     assert!(md.contains("| latency p99 µs | latency max µs |"), "{md}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Issue 36, item 9.3: `bench --only X` builds the network-namespace lab only when a chosen case
@@ -556,8 +534,7 @@ fn a_soak_report_has_each_runs_latency_figures_though_its_timing_dir_is_gone() {
 /// lock, as the other lab users are.
 #[test]
 fn bench_only_a_one_host_case_builds_no_network_lab() {
-    let _g = heavy();
-    let dir = scratch_dir("bench-nolab");
+    let (_g, dir) = heavy_scratch("bench-nolab");
     let no_numpy = dir.join("no-numpy");
     std::fs::create_dir_all(no_numpy.join("numpy")).unwrap();
     std::fs::write(no_numpy.join("numpy/__init__.py"), "raise ImportError('no numpy in this test')\n").unwrap();
@@ -575,7 +552,6 @@ fn bench_only_a_one_host_case_builds_no_network_lab() {
     let keys: Vec<&str> = results["cases"].as_array().unwrap().iter().map(|c| c["key"].as_str().unwrap()).collect();
     assert_eq!(keys, ["ring/N=6/event"]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("not building it"), "{}", describe_output(&o));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Issue 36, item 9.6: SIGTERM while a zenoh process waits for its peers (`ZenohPending::ready`)
@@ -583,8 +559,7 @@ fn bench_only_a_one_host_case_builds_no_network_lab() {
 /// The agent's peers (the plant, its readers, the orchestrator) never come.
 #[test]
 fn sigterm_ends_a_zenoh_process_waiting_for_peers_that_never_come() {
-    let _g = heavy();
-    let dir = scratch_dir("zenoh-pending-term");
+    let (_g, dir) = heavy_scratch("zenoh-pending-term");
     let text = std::fs::read_to_string(ring()).unwrap().replace(
         "[run]\nstep_timeout_s = 10.0\n",
         "[run]\nstep_timeout_s = 10.0\ntransport = \"zenoh\"\nstartup_timeout_s = 300.0\n",
@@ -611,5 +586,4 @@ fn sigterm_ends_a_zenoh_process_waiting_for_peers_that_never_come() {
     assert_eq!(o.status.code(), Some(4), "the stopped status: {err}");
     assert!(err.contains("stopped on request"), "{err}");
     assert!(cohort::processes_mentioning(&dir.display().to_string()).is_empty(), "an orphan is left");
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 
 use cohort::OutputWithin;
-use cohort::{describe_output, heavy, launch_scenario, orchestrator_command, repo_root, scratch_dir, telemetry_bits};
+use cohort::{describe_output, heavy_scratch, launch_scenario, orchestrator_command, repo_root, telemetry_bits};
 use cohort_wire::layout;
 use cohort_wire::msg::Share;
 
@@ -85,8 +85,7 @@ fn launch_with_restart(run: &Path) {
 
 #[test]
 fn fig1_fixed_recorded_agent_3_replays_bit_for_bit_and_a_tampered_share_is_named() {
-    let _g = heavy();
-    let dir = scratch_dir("replay");
+    let (_g, dir) = heavy_scratch("replay");
     let (rec, plain) = (dir.join("rec"), dir.join("plain"));
     launch(&rec, &["--record"]);
     launch(&plain, &[]);
@@ -132,26 +131,22 @@ fn fig1_fixed_recorded_agent_3_replays_bit_for_bit_and_a_tampered_share_is_named
         assert_eq!(o.status.code(), Some(2), "{}", describe_output(&o));
         assert!(stderr(&o).contains(says), "expected {says:?}\n{}", describe_output(&o));
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_reference_run_records_too_and_its_agent_replays_bit_for_bit() {
-    let _g = heavy();
-    let dir = scratch_dir("replayref");
+    let (_g, dir) = heavy_scratch("replayref");
     let (rec, plain): (PathBuf, PathBuf) = (dir.join("rec"), dir.join("plain"));
     launch(&rec, &["--record", "--reference"]);
     launch(&plain, &[]);
     assert_eq!(telemetry_bits(&rec), telemetry_bits(&plain), "--record --reference changed the telemetry");
     let o = replay(&rec, "3");
     assert!(stdout(&o).contains(&format!("all {STEPS} shares identical")), "{}", describe_output(&o));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_restarted_agent_replays_each_incarnation_from_its_own_recording() {
-    let _g = heavy();
-    let dir = scratch_dir("replay-restart");
+    let (_g, dir) = heavy_scratch("replay-restart");
     let run = dir.join("run");
     launch_with_restart(&run);
     let (first, relaunch) = (run.join("record/agent-3.mcap"), run.join("record/agent-3.1.mcap"));
@@ -187,5 +182,4 @@ fn a_restarted_agent_replays_each_incarnation_from_its_own_recording() {
     let o = replay(&run, "3");
     assert_eq!(o.status.code(), Some(2), "{}", describe_output(&o));
     assert!(stderr(&o).contains("without the checkpoint it resumed from"), "{}", describe_output(&o));
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -7,7 +7,7 @@ use std::process::Output;
 use std::time::Instant;
 
 use cohort::OutputWithin;
-use cohort::{heavy, launch_scenario, orchestrator_command, scratch_dir};
+use cohort::{heavy_scratch, launch_scenario, orchestrator_command, scratch_dir};
 
 fn orchestrator(args: &[&str]) -> Output {
     orchestrator_command().args(args).output_within(cohort::RUN_LIMIT, "the orchestrator")
@@ -35,8 +35,7 @@ fn telemetry(dir: &Path) -> Vec<(String, Vec<u8>)> {
 
 #[test]
 fn waiting_strategies_and_transports_never_change_the_telemetry() {
-    let _g = heavy();
-    let dir = scratch_dir("options");
+    let (_g, dir) = heavy_scratch("options");
     let base = dir.join("reference");
     launch(&base, &["--reference"]);
     let want = telemetry(&base);
@@ -53,13 +52,11 @@ fn waiting_strategies_and_transports_never_change_the_telemetry() {
         launch(&d, extra);
         assert!(telemetry(&d) == want, "{name}: telemetry differs from the reference");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn a_link_delay_is_deterministic_and_really_changes_the_model() {
-    let _g = heavy();
-    let dir = scratch_dir("linkdelay");
+    let (_g, dir) = heavy_scratch("linkdelay");
     let (mp, rf, none) = (dir.join("mp"), dir.join("ref"), dir.join("none"));
     launch(&mp, &["--link-delay", "1"]);
     launch(&rf, &["--link-delay", "1", "--reference"]);
@@ -71,13 +68,11 @@ fn a_link_delay_is_deterministic_and_really_changes_the_model() {
         serde_json::from_str(&std::fs::read_to_string(mp.join("summary.json")).unwrap()).unwrap();
     let err = s["metrics"]["formation_error_final_m"].as_f64().unwrap();
     assert!(err < 0.05, "formation error {err} m with a one-step link delay");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn realtime_pacing_follows_the_wall_clock() {
-    let _g = heavy();
-    let dir = scratch_dir("realtime");
+    let (_g, dir) = heavy_scratch("realtime");
     let started = Instant::now();
     // 1 s of sim time at 4× real time: at least 0.25 s of wall time.
     launch(&dir.join("rt"), &["--duration", "1", "--realtime", "--rate", "4"]);
@@ -87,7 +82,6 @@ fn realtime_pacing_follows_the_wall_clock() {
         serde_json::from_str(&std::fs::read_to_string(dir.join("rt/summary.json")).unwrap()).unwrap();
     let sps = s["steps_per_s"].as_f64().unwrap();
     assert!(sps <= 100.0 * 4.0 * 1.05, "{sps} steps/s exceeds the pace (400/s)");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -98,13 +92,11 @@ fn bench_only_a_prefix_no_case_has_exits_2() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("--only \"no-such-group\": no case key starts with it") && err.contains("headline/"), "{err}");
     assert!(!dir.join("results.md").exists());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn bench_quick_writes_its_results() {
-    let _g = heavy();
-    let dir = scratch_dir("bench");
+    let (_g, dir) = heavy_scratch("bench");
     // The bench's own scratch files go under TMPDIR: it must leave nothing there.
     let tmp = scratch_dir("bench-tmpdir");
     std::fs::create_dir_all(&tmp).unwrap();
@@ -130,5 +122,4 @@ fn bench_quick_writes_its_results() {
         let sps = c["steps_per_s_median"].as_f64().unwrap_or(0.0);
         assert!(sps > 0.0, "{}: no steps/s", c["key"]);
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use cohort::OutputWithin;
-use cohort::{describe_output, heavy, orchestrator_command, read_json, scratch_dir, summary};
+use cohort::{describe_output, heavy_scratch, orchestrator_command, read_json, summary};
 use serde_json::Value;
 
 /// The bound on a short fig1 run's summary.json. What it holds scales with the processes (7
@@ -43,8 +43,7 @@ fn agent_table(text: &str) -> (Vec<String>, Vec<Vec<String>>) {
 
 #[test]
 fn a_short_fig1_run_has_a_small_summary_its_histograms_a_verdict_and_json_on_stdout() {
-    let _g = heavy();
-    let dir = scratch_dir("summary-fig1");
+    let (_g, dir) = heavy_scratch("summary-fig1");
     let run = dir.join("run");
     let o = orchestrator_command()
         .args(["launch", "topologies/fig1.toml", "--duration", "2", "--no-plots", "--json", "--out"])
@@ -126,7 +125,6 @@ fn a_short_fig1_run_has_a_small_summary_its_histograms_a_verdict_and_json_on_std
     assert!((shown - dv).abs() <= 5e-4 * dv.abs(), "servicer 1 Δv {dv} shown as {shown}");
     assert!(err.contains("verdict against the paper: N/A"), "{err}");
     assert!(!err.lines().any(|l| l.trim_start().starts_with("servicer_1.dv_total_mps = ")), "old output: {err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Every process's status has its counters but no histogram, its latency log is in `timing/`,
@@ -171,8 +169,7 @@ fn status_and_timing(run: &Path, format: &str, steps: usize) {
 /// them as they read Parquet.
 #[test]
 fn a_csv_fig1_run_writes_its_timing_as_csv_and_the_summary_reads_it() {
-    let _g = heavy();
-    let dir = scratch_dir("summary-fig1-csv");
+    let (_g, dir) = heavy_scratch("summary-fig1-csv");
     let run = dir.join("run");
     let o = orchestrator_command()
         .args(["launch", "topologies/fig1.toml", "--duration", "2", "--no-plots", "--telemetry", "csv", "--out"])
@@ -182,13 +179,11 @@ fn a_csv_fig1_run_writes_its_timing_as_csv_and_the_summary_reads_it() {
     status_and_timing(&run, "csv", 200);
     let s = summary(&run);
     assert_eq!(s["link_latency_ns"].as_object().map(|m| m.len()), Some(24), "{}", s["link_latency_ns"]);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn dai_and_nr_main_scenarios_get_a_verdict_with_pass_or_fail() {
-    let _g = heavy();
-    let dir = scratch_dir("summary-verdict");
+    let (_g, dir) = heavy_scratch("summary-verdict");
     // Both whole runs are short: dai 5 s of sim in-process, nr one day in 144 steps.
     for file in ["topologies/dai.toml", "topologies/nr-iso.toml"] {
         let run = dir.join(Path::new(file).file_stem().unwrap());
@@ -210,5 +205,4 @@ fn dai_and_nr_main_scenarios_get_a_verdict_with_pass_or_fail() {
         let shown = stdout.lines().filter(|l| l.starts_with("  PASS") || l.starts_with("  FAIL")).count();
         assert_eq!(shown, verdict.len(), "{file}: {stdout}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 
 use cohort::{
-    OutputWithin, QUICK_LIMIT, RUN_LIMIT, bin_path, describe_output, heavy, processes_mentioning, repo_root,
+    OutputWithin, QUICK_LIMIT, RUN_LIMIT, Scratch, bin_path, describe_output, heavy, processes_mentioning, repo_root,
     scratch_dir, sh, summary, telemetry_bits,
 };
 
@@ -152,7 +152,7 @@ fn make_ca_and_cert(dir: &Path, ca: &str) {
 
 /// The test's files: CAs `good` and `rogue`, the dictionary and a wrong one.
 struct Pki {
-    dir: PathBuf,
+    dir: Scratch,
 }
 
 impl Pki {
@@ -190,12 +190,6 @@ impl Pki {
             format!("[[hosts]]\nname = \"a\"\nendpoint = \"{endpoint}\"\nplant = true\nagents = [1, 2, 3, 4, 5, 6]\n");
         std::fs::write(&path, text).unwrap();
         path
-    }
-}
-
-impl Drop for Pki {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
     }
 }
 

@@ -5,15 +5,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
-use std::sync::Mutex;
 
-use cohort::{describe_output, launch_scenario, repo_root, scratch_dir, summary};
-
-static HEAVY: Mutex<()> = Mutex::new(());
-
-fn heavy() -> std::sync::MutexGuard<'static, ()> {
-    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
-}
+use cohort::{describe_output, heavy_scratch, launch_scenario, repo_root, summary};
 
 fn topology(name: &str) -> PathBuf {
     repo_root().join("topologies").join(name)
@@ -46,8 +39,7 @@ fn continuous(name: &str, dir: &Path) -> serde_json::Value {
 
 #[test]
 fn continuous_time_reproduces_the_final_error_ratios_and_the_r_trend_of_table_4() {
-    let _g = heavy();
-    let dir = scratch_dir("dai-continuous");
+    let (_g, dir) = heavy_scratch("dai-continuous");
     let specific = continuous("dai", &dir);
     let original = continuous("dai-original", &dir);
     assert_eq!(specific["labels"]["law"], "specific");
@@ -76,13 +68,11 @@ fn continuous_time_reproduces_the_final_error_ratios_and_the_r_trend_of_table_4(
     for (dev, published) in devs[2..].iter().zip([0.0189, 0.0143]) {
         assert!((dev - published).abs() <= 0.3 * published, "{dev} vs {published}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn sampled_data_multi_process_run_is_bit_identical_to_the_reference() {
-    let _g = heavy();
-    let dir = scratch_dir("dai-sampled");
+    let (_g, dir) = heavy_scratch("dai-sampled");
     // The specific law's sampled loop diverges after ≈ 2.4 s at 1 ms (a finding, see the note):
     // 2 s keep it finite; the general law (matrix-exponential update) runs the full 5 s.
     for (file, duration) in [("dai-sampled-diverges.toml", "2"), ("dai-sampled-general.toml", "5")] {
@@ -106,7 +96,6 @@ fn sampled_data_multi_process_run_is_bit_identical_to_the_reference() {
             assert_eq!(metric(&s, key), metric(&summary(&rf), key), "{file}: {key}");
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -114,8 +103,7 @@ fn sampled_specific_law_runs_at_100_ms_when_the_body_spins_slowly() {
     // The paper's spin-up makes the sampled specific law diverge at every period from 0.1 ms up
     // (its sampling index ‖K_d‖²Δt/λ_min(J) reaches ≈ 100); at a hundredth of the test torque the
     // index stays small and the same law runs all 5 s at a 100 ms period.
-    let _g = heavy();
-    let dir = scratch_dir("dai-slow");
+    let (_g, dir) = heavy_scratch("dai-slow");
     let out = dir.join("run");
     let o = launch(&topology("dai-sampled-slow.toml"), &out, &[]);
     assert!(o.status.success(), "{}", describe_output(&o));
@@ -126,5 +114,4 @@ fn sampled_specific_law_runs_at_100_ms_when_the_body_spins_slowly() {
     let index = metric(&s, "sampling_index_final");
     assert!(index > 0.0 && index < 0.1, "{index}");
     assert!(metric(&s, "tracking_error_dev") < 0.1 && metric(&s, "param_error_final") < 0.1);
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -5,11 +5,8 @@
 
 use std::path::Path;
 use std::process::Output;
-use std::sync::Mutex;
 
-use cohort::{describe_output, orchestrator_command, scratch_dir};
-
-static HEAVY: Mutex<()> = Mutex::new(());
+use cohort::{describe_output, heavy, orchestrator_command, scratch_dir};
 
 fn orchestrator(args: &[&str], out: &Path) -> Output {
     orchestrator_command().args(args).arg("--out").arg(out).output().expect("running the orchestrator")
@@ -17,7 +14,7 @@ fn orchestrator(args: &[&str], out: &Path) -> Output {
 
 #[test]
 fn fig1_runs_multi_process_for_360_s_bit_identical_to_the_reference_with_its_figures() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("fig1");
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
     let o = orchestrator(&["launch", "topologies/fig1.toml"], &mp);
@@ -57,14 +54,13 @@ fn fig1_runs_multi_process_for_360_s_bit_identical_to_the_reference_with_its_fig
         let len = std::fs::metadata(&p).map(|m| m.len()).unwrap_or(0);
         assert!(len > 5_000, "{} missing or empty ({len} bytes)", p.display());
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn over_10_seeds_every_servicer_meets_the_papers_bounds() {
     // Paper (Figs. 3–4): ‖ζ̃ᵢ‖ ≈ 5 m/s after ≈ 150 s, ‖eᵢ‖ ≈ 5 m after ≈ 200 s. The sweep runs
     // in-process (bit-identical to multi-process, shown by the test above) for speed.
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("fig1sweep");
     let o = orchestrator(&["sweep", "topologies/fig1.toml", "--seeds", "10"], &dir);
     assert!(o.status.success(), "{}", describe_output(&o));
@@ -90,5 +86,4 @@ fn over_10_seeds_every_servicer_meets_the_papers_bounds() {
     assert_eq!(rows, 10);
     let md = std::fs::read_to_string(dir.join("sweep.md")).unwrap();
     assert!(md.contains("10 of 10 seeds meet both bounds"), "{md}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

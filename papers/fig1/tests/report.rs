@@ -3,23 +3,17 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU32, Ordering};
 
+use cohort::{Scratch, scratch_dir};
 use cohort_paper_fig1::host::figures::Fig1Figures;
 use cohort_report::{ReportError, report};
 
-/// A scratch run directory, removed on drop.
-struct TempRun(PathBuf);
+/// A scratch run directory with an empty `telemetry/` (removed on drop unless the test fails).
+struct TempRun(Scratch);
 
 impl TempRun {
     fn new(tag: &str) -> Self {
-        static COUNTER: AtomicU32 = AtomicU32::new(0);
-        let dir = std::env::temp_dir().join(format!(
-            "cohort-fig1-report-{tag}-{}-{}",
-            std::process::id(),
-            COUNTER.fetch_add(1, Ordering::Relaxed)
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = scratch_dir(&format!("fig1-report-{tag}"));
         std::fs::create_dir_all(dir.join("telemetry")).unwrap();
         TempRun(dir)
     }
@@ -28,12 +22,6 @@ impl TempRun {
         let path = self.0.join("telemetry").join(name);
         std::fs::write(&path, contents).unwrap();
         path
-    }
-}
-
-impl Drop for TempRun {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
     }
 }
 

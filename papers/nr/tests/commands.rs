@@ -55,7 +55,6 @@ fn the_trainer_writes_the_same_weights_and_report_twice() {
         report.contains("orchestrator train nr-iso --seed 7 --out W --epochs 2 --isos 0..2 --samples 3"),
         "{report}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -86,7 +85,6 @@ fn a_tiny_campaign_writes_its_tables() {
     // A header and one row per (method, ISO).
     assert_eq!(runs.lines().count(), 3, "{runs}");
     assert!(out.join("dt_sweep.csv").is_file() && out.join("summary.csv").is_file());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -114,7 +112,6 @@ fn bad_arguments_are_refused_with_exit_code_2_naming_the_flag() {
         );
     }
     assert!(!dir.join("x").exists(), "a refused command wrote its output");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -152,7 +149,6 @@ fn the_swarm_trainer_writes_the_same_weights_twice_and_refuses_bad_arguments() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", describe_output(&o));
         assert!(String::from_utf8_lossy(&o.stderr).contains(flag), "{args:?}: {}", describe_output(&o));
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -202,5 +198,4 @@ fn a_tiny_swarm_campaign_writes_its_csv_and_summary() {
             std::fs::read_to_string(out.join("runs").join(name).join("scenario.toml")).expect("the run's scenario");
         assert_eq!(sc.contains("[algorithm.safety]"), filtered, "{name}:\n{sc}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

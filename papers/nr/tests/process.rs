@@ -9,14 +9,11 @@
 //! Build the binaries first (`scripts/test` does).
 
 use std::path::Path;
-use std::sync::Mutex;
 
 use cohort::{
-    describe_output, iceoryx2_leftovers, orchestrator_command, processes_mentioning, scratch_dir, summary,
+    describe_output, heavy, iceoryx2_leftovers, orchestrator_command, processes_mentioning, scratch_dir, summary,
     telemetry_bits,
 };
-
-static HEAVY: Mutex<()> = Mutex::new(());
 
 /// The analysis metrics every spacecraft of a Neural-Rendezvous run must have (see `analysis`).
 const PER_CRAFT: [&str; 6] =
@@ -44,7 +41,7 @@ fn metric_bits(run: &Path) -> Vec<(String, u64)> {
 /// Launch `file` multi-process (with plots) and `--reference`; compare them bit for bit; check the
 /// analysis of each of `n` spacecraft and that the processes and iceoryx2 resources are gone.
 fn mp_equals_reference(file: &str, n: u32) {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("nr-process");
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
     launch(file, &mp, &[]);
@@ -91,7 +88,6 @@ fn mp_equals_reference(file: &str, n: u32) {
         let left = processes_mentioning(&run.display().to_string());
         assert!(left.is_empty(), "{file}: processes left running: {left:?}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -109,7 +105,7 @@ fn killing_one_spacecraft_leaves_the_others_bit_identical() {
     // The fleet's spacecraft read no neighbour and the plant draws each one's navigation from its
     // own stream, so losing spacecraft 2 at t = 10 h (a planned fault: the run goes on without it)
     // must not change a single value of the other three.
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let file = "topologies/nr-iso-fleet.toml";
     let dir = scratch_dir("nr-fleet-kill");
     let (clean, killed) = (dir.join("clean"), dir.join("killed"));
@@ -139,5 +135,4 @@ fn killing_one_spacecraft_leaves_the_others_bit_identical() {
     let miss = k["metrics"]["a2_delivery_error_m"].as_f64().expect("a2_delivery_error_m");
     assert!(miss > 1_000.0, "spacecraft 2 coasted for 14 h and still delivered within {miss} m");
     assert_eq!(k["metrics"]["within_bound"].as_f64(), Some(3.0));
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -8,14 +8,11 @@
 //! of its run in /dev/shm. Build the binaries first (`scripts/test` does).
 
 use std::path::Path;
-use std::sync::Mutex;
 
 use cohort::{
-    describe_output, iceoryx2_leftovers, orchestrator_command, processes_mentioning, scratch_dir, summary,
+    describe_output, heavy, iceoryx2_leftovers, orchestrator_command, processes_mentioning, scratch_dir, summary,
     telemetry_bits,
 };
-
-static HEAVY: Mutex<()> = Mutex::new(());
 
 fn launch(file: &str, out: &Path, extra: &[&str]) {
     let o = orchestrator_command().args(["launch", file, "--out"]).arg(out).args(extra).output().expect("orchestrator");
@@ -37,7 +34,7 @@ fn assert_clean(file: &str, run: &Path) {
 
 #[test]
 fn eight_vehicles_multi_process_are_bit_identical_to_the_reference() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let file = "topologies/swarm-8.toml";
     let dir = scratch_dir("nr-swarm-8");
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
@@ -71,12 +68,11 @@ fn eight_vehicles_multi_process_are_bit_identical_to_the_reference() {
     }
     assert_clean(file, &mp);
     assert_clean(file, &rf);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn twenty_vehicles_run_as_twenty_one_processes_and_leave_nothing_behind() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let file = "topologies/swarm-20.toml";
     let dir = scratch_dir("nr-swarm-20");
     let run = dir.join("run");
@@ -91,5 +87,4 @@ fn twenty_vehicles_run_as_twenty_one_processes_and_leave_nothing_behind() {
     }
     assert_eq!(s["status"], "ok");
     assert_clean(file, &run);
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -64,7 +64,6 @@ fn a_short_ablation_runs_every_variant_and_tabulates_the_runs() {
         "{oracle2}"
     );
     assert!(md.contains("| tsnr-case1 | `forecast-oracle-2` |") && md.contains("AEMC ≤ DMPC in fuel"), "{md}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -94,5 +93,4 @@ fn bad_arguments_and_scenarios_exit_2_naming_the_fault() {
     let o = ablation(&[case1.to_str().unwrap(), "--duration", "1"], &full);
     assert_eq!(o.status.code(), Some(2), "{}", describe_output(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("not empty"));
-    let _ = std::fs::remove_dir_all(&dir);
 }

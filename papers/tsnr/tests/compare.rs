@@ -6,18 +6,11 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Output;
-use std::sync::Mutex;
 
 use cohort::{
-    describe_output, orchestrator_command, read_json, repo_root, scenario_text_with_absolute_paths, scratch_dir,
+    describe_output, heavy_scratch, orchestrator_command, read_json, repo_root, scenario_text_with_absolute_paths,
     telemetry_table,
 };
-
-static HEAVY: Mutex<()> = Mutex::new(());
-
-fn heavy() -> std::sync::MutexGuard<'static, ()> {
-    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
-}
 
 fn compare(file: &Path, algorithms: &str, out: &Path, extra: &[&str]) -> Output {
     orchestrator_command()
@@ -46,8 +39,7 @@ fn read_csv(path: &Path) -> (Vec<String>, BTreeMap<String, Vec<String>>) {
 
 #[test]
 fn compare_runs_each_method_multi_process_and_tabulates_their_summaries() {
-    let _g = heavy();
-    let dir = scratch_dir("tsnr-compare");
+    let (_g, dir) = heavy_scratch("tsnr-compare");
     let out = dir.join("cmp");
     let methods = ["aemc", "dmpc", "smc"];
     let o = compare(&repo_root().join("topologies/tsnr-case1.toml"), "aemc,dmpc,smc", &out, &[]);
@@ -143,13 +135,11 @@ fn compare_runs_each_method_multi_process_and_tabulates_their_summaries() {
     let o = compare(&repo_root().join("topologies/tsnr-case1.toml"), "smc", &out, &["--no-plots"]);
     assert_eq!(o.status.code(), Some(2), "{}", describe_output(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("not empty"), "{}", describe_output(&o));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn another_scenario_has_no_published_column() {
-    let _g = heavy();
-    let dir = scratch_dir("tsnr-compare-other");
+    let (_g, dir) = heavy_scratch("tsnr-compare-other");
     let text = scenario_text_with_absolute_paths("tsnr-case1.toml");
     assert_eq!(text.matches("name = \"tsnr-case1\"").count(), 1);
     let text = text.replace("name = \"tsnr-case1\"", "name = \"tsnr-case1-copy\"");
@@ -165,13 +155,11 @@ fn another_scenario_has_no_published_column() {
     assert!(md.contains("no published column"), "{md}");
     assert!(md.contains("AEMC was not run"), "{md}");
     assert!(!out.join("smc/plots").exists(), "--no-plots drew plots");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn bad_method_lists_and_scenarios_exit_2_naming_the_fault() {
-    let _g = heavy();
-    let dir = scratch_dir("tsnr-compare-bad");
+    let (_g, dir) = heavy_scratch("tsnr-compare-bad");
     let case1 = repo_root().join("topologies/tsnr-case1.toml");
     for (file, list, want) in [
         (case1.clone(), "aemc,foo", "\"foo\" is not a method"),
@@ -186,5 +174,4 @@ fn bad_method_lists_and_scenarios_exit_2_naming_the_fault() {
         assert!(err.contains(want), "{list}: no {want:?} in {err}");
         assert!(!out.exists(), "{list}: an output directory was created before the input was checked");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -4,18 +4,11 @@
 //! binaries first (`scripts/test` does).
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
 use cohort::{
-    describe_output, launch_scenario, orchestrator_command, read_json, repo_root, scenario_text_with_absolute_paths,
-    scratch_dir, telemetry_table,
+    describe_output, heavy_scratch, launch_scenario, orchestrator_command, read_json, repo_root,
+    scenario_text_with_absolute_paths, telemetry_table,
 };
-
-static HEAVY: Mutex<()> = Mutex::new(());
-
-fn heavy() -> std::sync::MutexGuard<'static, ()> {
-    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
-}
 
 /// `topologies/tsnr-case{case}.toml` with `method` selected, written into `dir`.
 fn scenario(case: u32, method: &str, dir: &Path) -> PathBuf {
@@ -29,8 +22,7 @@ fn scenario(case: u32, method: &str, dir: &Path) -> PathBuf {
 
 #[test]
 fn every_method_closes_the_net_within_the_thrust_bound_in_both_cases() {
-    let _g = heavy();
-    let dir = scratch_dir("tsnr-formation");
+    let (_g, dir) = heavy_scratch("tsnr-formation");
     for case in [1, 2] {
         for method in ["aemc", "dmpc", "smc"] {
             let what = format!("case {case}, {method}");
@@ -69,13 +61,11 @@ fn every_method_closes_the_net_within_the_thrust_bound_in_both_cases() {
             }
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn aemc_multi_process_run_is_bit_identical_to_the_reference() {
-    let _g = heavy();
-    let dir = scratch_dir("tsnr-aemc-mp");
+    let (_g, dir) = heavy_scratch("tsnr-aemc-mp");
     let file = repo_root().join("topologies/tsnr-case2.toml");
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
     let o = launch_scenario(&file, &mp, &[]);
@@ -88,15 +78,13 @@ fn aemc_multi_process_run_is_bit_identical_to_the_reference() {
         let b = std::fs::read(rf.join("telemetry").join(f)).unwrap();
         assert!(a == b, "telemetry/{f} differs between the multi-process run and the reference");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A launch with plots (the default) draws the seed-001 figures: Figs. 8/9's tension panels and
 /// the 3-D net at the snapshot times.
 #[test]
 fn launch_draws_the_tension_and_net_figures() {
-    let _g = heavy();
-    let dir = scratch_dir("tsnr-figures");
+    let (_g, dir) = heavy_scratch("tsnr-figures");
     let out = dir.join("run");
     // Not `launch_scenario`: it passes --no-plots.
     let o =
@@ -109,7 +97,6 @@ fn launch_draws_the_tension_and_net_figures() {
         // A blank canvas compresses to a few kB; these figures are a few hundred kB.
         assert!(bytes.len() > 20_000, "{}: only {} bytes", path.display(), bytes.len());
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// 5 s of a shipped scenario (with `edit` applied), multi-process and reference: the telemetry
@@ -137,8 +124,7 @@ fn mp_equals_reference(name: &str, edit: &dyn Fn(String) -> String, dir: &Path) 
 /// as deterministic as the default.
 #[test]
 fn clarabel_and_oracle_runs_are_bit_identical_multi_process_and_reference() {
-    let _g = heavy();
-    let dir = scratch_dir("tsnr-variants-mp");
+    let (_g, dir) = heavy_scratch("tsnr-variants-mp");
     let first = mp_equals_reference("tsnr-case1-clarabel.toml", &|t| t, &dir);
     let plant = first.join("telemetry/plant.parquet");
     let oracle = move |t: String| {
@@ -149,5 +135,4 @@ fn clarabel_and_oracle_runs_are_bit_identical_multi_process_and_reference() {
     let rf = mp_equals_reference("tsnr-case1.toml", &oracle, &dir);
     let scenario = std::fs::read_to_string(rf.join("scenario.toml")).unwrap();
     assert!(scenario.contains("tension_forecast = \"oracle\""), "{scenario}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -9,9 +9,8 @@
 
 use std::path::Path;
 use std::process::Output;
-use std::sync::Mutex;
 
-use cohort::{describe_output, orchestrator_command, scratch_dir, summary, telemetry_bits, telemetry_table};
+use cohort::{describe_output, heavy, orchestrator_command, scratch_dir, summary, telemetry_bits, telemetry_table};
 use cohort_paper_vtxo::automaton::table::{S1, S2, S3};
 use cohort_paper_vtxo::flight::attitude_control::{AttitudeLaw, torque};
 use cohort_paper_vtxo::learn::science::dnn::ScienceDnn;
@@ -21,8 +20,6 @@ use cohort_paper_vtxo::learn::transient::gains::u2_ticks;
 use cohort_paper_vtxo::model::quaternion::{Quat, V3};
 use cohort_report::Table;
 use nalgebra::Matrix3;
-
-static HEAVY: Mutex<()> = Mutex::new(());
 
 const FILE: &str = "topologies/vtxo-handoff.toml";
 /// The scenario's u1 = 30 s at dt = 10 ms, the transient's w, the u2 clamp and the science DNN's w.
@@ -99,7 +96,7 @@ fn entry(a: &Table, s: usize) -> usize {
 
 #[test]
 fn handoff_multi_process_is_bit_identical_to_the_reference_and_switches_laws_at_the_transitions() {
-    let _g = HEAVY.lock().unwrap_or_else(|p| p.into_inner());
+    let _g = heavy();
     let dir = scratch_dir("vtxo-handoff");
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
     let o = orchestrator(&["launch", FILE, "--no-plots"], &mp);
@@ -197,7 +194,6 @@ fn handoff_multi_process_is_bit_identical_to_the_reference_and_switches_laws_at_
             assert!((0.01..=0.5).contains(&g), "{role} {k} = {g}");
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A missing and a malformed transient weights file, and a missing, a malformed and another
@@ -281,5 +277,4 @@ fn the_trainers_run_a_tiny_case_through_the_orchestrator_byte_identically() {
     for (i, f) in files.iter().enumerate() {
         assert!(bytes[0][i] == bytes[1][i], "{f} differs between two runs of the same command");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -74,7 +74,6 @@ fn the_mission_reaches_s6_through_every_id_with_the_science_windows_the_timers_i
     for f in ["derived/vtxo_mission_timeline.csv", "telemetry/agent-2.csv", "telemetry/agent-1.csv"] {
         assert_eq!(std::fs::read(run.join(f)).unwrap(), std::fs::read(again.join(f)).unwrap(), "{f}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -90,5 +89,4 @@ fn a_shortened_mission_stops_at_its_horizon() {
     let rows = timeline(&dir);
     assert_eq!(rows[1], ("s4".to_string(), 1, 5_184_000.0, 9_001.0));
     assert!(rows.last().unwrap().1 >= 2);
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -7,16 +7,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
-use std::sync::Mutex;
 
-use cohort::{describe_output, orchestrator_command, scratch_dir, summary};
-
-/// The runs are short, but each spawns three processes: one at a time.
-static HEAVY: Mutex<()> = Mutex::new(());
-
-fn heavy() -> std::sync::MutexGuard<'static, ()> {
-    HEAVY.lock().unwrap_or_else(|p| p.into_inner())
-}
+use cohort::{describe_output, heavy_scratch, orchestrator_command, summary};
 
 fn orchestrator(args: &[&str], out: &Path) -> Output {
     orchestrator_command().args(args).arg("--out").arg(out).output().expect("running the orchestrator")
@@ -51,8 +43,7 @@ fn both(file: &str, extra: &[&str], dir: &Path) -> (PathBuf, PathBuf) {
 
 #[test]
 fn sec7_multi_process_is_bit_identical_to_the_reference() {
-    let _g = heavy();
-    let dir = scratch_dir("vtxo-sec7");
+    let (_g, dir) = heavy_scratch("vtxo-sec7");
     let (mp, rf) = both("topologies/vtxo-sec7.toml", &["--duration", "20"], &dir);
     same_telemetry(&mp, &rf, "vtxo-sec7");
     let (a, b) = (summary(&mp), summary(&rf));
@@ -65,13 +56,11 @@ fn sec7_multi_process_is_bit_identical_to_the_reference() {
     assert_eq!(metric(&a, "telemetry_rows"), 201.0);
     // The SMC is in its reaching phase: 20 s of 9 001.
     assert_eq!(metric(&a, "formation_reached"), 0.0);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn science_phase_multi_process_is_bit_identical_to_the_reference_over_0_2_h() {
-    let _g = heavy();
-    let dir = scratch_dir("vtxo-science");
+    let (_g, dir) = heavy_scratch("vtxo-science");
     let (mp, rf) = both("topologies/vtxo-science.toml", &[], &dir);
     same_telemetry(&mp, &rf, "vtxo-science");
     let s = summary(&mp);
@@ -89,7 +78,6 @@ fn science_phase_multi_process_is_bit_identical_to_the_reference_over_0_2_h() {
             assert!(f >= 0.97, "{role} {ax}: {f}");
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The PD case reaches the formation within seconds (its ≈ 94 kN first command) and settles by
@@ -97,8 +85,7 @@ fn science_phase_multi_process_is_bit_identical_to_the_reference_over_0_2_h() {
 /// size the models give.
 #[test]
 fn a_run_has_every_summary_metric_of_the_issue_and_its_figures() {
-    let _g = heavy();
-    let dir = scratch_dir("vtxo-pd");
+    let (_g, dir) = heavy_scratch("vtxo-pd");
     let out = dir.join("run");
     let o = orchestrator(&["launch", "topologies/vtxo-sec7-pd.toml", "--duration", "60"], &out);
     assert!(o.status.success(), "{}", describe_output(&o));
@@ -142,13 +129,11 @@ fn a_run_has_every_summary_metric_of_the_issue_and_its_figures() {
         let len = std::fs::metadata(&p).map(|m| m.len()).unwrap_or(0);
         assert!(len > 5_000, "{} missing or empty ({len} bytes)", p.display());
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn every_shipped_vtxo_scenario_launches_as_three_processes() {
-    let _g = heavy();
-    let dir = scratch_dir("vtxo-all");
+    let (_g, dir) = heavy_scratch("vtxo-all");
     let mut n = 0;
     for entry in std::fs::read_dir(cohort::repo_root().join("topologies")).unwrap() {
         let name = entry.unwrap().file_name().to_string_lossy().into_owned();
@@ -167,15 +152,13 @@ fn every_shipped_vtxo_scenario_launches_as_three_processes() {
         n += 1;
     }
     assert!(n >= 5, "only {n} vtxo scenarios");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `orchestrator sweep` over the science scenario draws each seed's initial attitude and rate
 /// (84) from the seed: different seeds, different runs; the same seed, the same run.
 #[test]
 fn the_science_sweep_draws_the_initial_attitude_from_the_seed() {
-    let _g = heavy();
-    let dir = scratch_dir("vtxo-sweep");
+    let (_g, dir) = heavy_scratch("vtxo-sweep");
     let args = ["sweep", "topologies/vtxo-science.toml", "--seeds", "3", "--duration", "5"];
     let o = orchestrator(&args, &dir.join("a"));
     assert!(o.status.success(), "{}", describe_output(&o));
@@ -190,7 +173,6 @@ fn the_science_sweep_draws_the_initial_attitude_from_the_seed() {
     assert!(e[0] != e[1] && e[1] != e[2] && e[0] != e[2], "the draws do not depend on the seed: {e:?}");
     // θ₀ ~ N(0, 0.0289°) per axis: the initial error is a few hundredths of a degree.
     assert!(e.iter().all(|x| *x > 1e-4 && *x < 1.0), "{e:?}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `orchestrator vtxo sec7` on shortened copies of the three Sec. 7 scenarios: every case at each
@@ -198,8 +180,7 @@ fn the_science_sweep_draws_the_initial_attitude_from_the_seed() {
 /// in-process, in one table with the sign law's predicted band.
 #[test]
 fn the_sec7_campaign_runs_every_case_and_tabulates_it() {
-    let _g = heavy();
-    let dir = scratch_dir("vtxo-sec7-campaign");
+    let (_g, dir) = heavy_scratch("vtxo-sec7-campaign");
     let topo = dir.join("topologies");
     std::fs::create_dir_all(&topo).unwrap();
     for f in ["vtxo-sec7.toml", "vtxo-sec7-sat.toml", "vtxo-sec7-pd.toml"] {
@@ -240,5 +221,4 @@ fn the_sec7_campaign_runs_every_case_and_tabulates_it() {
         md.contains("| SMC-sign | 10 | on | multi-process |") && md.contains("| PD | 5 | off | reference |"),
         "{md}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
