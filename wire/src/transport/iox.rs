@@ -520,8 +520,12 @@ impl IoxServices {
         let node = run.node("orchestrator")?;
         run.secure_management_segment()?;
         let n = topo.n_agents() as usize;
-        // Every process of the run may hold a port: size node limits generously from N.
-        let max_nodes = n + 3 + 2 * spare;
+        // A service's node limit: the processes that open it (the orchestrator among them), room
+        // for the relaunched ones (a killed process's node stays registered) and two to spare.
+        // Sized per service, not from N: every process that opens a service maps state sized by
+        // its node limit, so a limit of N on each of the plant's 3 N services grew the plant's
+        // memory as N².
+        let nodes = |processes: usize| processes + 2 + 2 * spare;
         let mut meas = Vec::with_capacity(n);
         let mut share = Vec::with_capacity(n);
         let mut wake = Vec::with_capacity(n + 1);
@@ -531,7 +535,8 @@ impl IoxServices {
                     .publish_subscribe::<Measurement>()
                     .max_publishers(1)
                     .max_subscribers(1 + spare)
-                    .max_nodes(max_nodes)
+                    // The orchestrator, the plant, agent i.
+                    .max_nodes(nodes(3))
                     .subscriber_max_buffer_size(MEAS_BUFFER)
                     .history_size(0)
                     .create()
@@ -542,7 +547,8 @@ impl IoxServices {
                     .publish_subscribe::<Share>()
                     .max_publishers(1 + spare)
                     .max_subscribers(1 + topo.readers_of(i).len() + spare)
-                    .max_nodes(max_nodes)
+                    // The orchestrator, agent i, the plant, i's readers.
+                    .max_nodes(nodes(3 + topo.readers_of(i).len()))
                     .subscriber_max_buffer_size(SHARE_BUFFER)
                     .history_size(0)
                     .create()
@@ -555,7 +561,8 @@ impl IoxServices {
                     .event()
                     .max_notifiers(topo.senders_to(p) + 1 + spare)
                     .max_listeners(1 + spare)
-                    .max_nodes(max_nodes)
+                    // The orchestrator, the listener, its senders.
+                    .max_nodes(nodes(2 + topo.senders_to(p)))
                     .create()
                     .map_err(|e| TransportError::iox(format!("create wake/{}", p.name()), e))?,
             );
@@ -565,7 +572,7 @@ impl IoxServices {
             .publish_subscribe::<RunControl>()
             .max_publishers(1)
             .max_subscribers(n + 1 + spare)
-            .max_nodes(max_nodes)
+            .max_nodes(nodes(n + 2))
             .subscriber_max_buffer_size(16)
             .history_size(1)
             .create()
@@ -575,7 +582,7 @@ impl IoxServices {
             .publish_subscribe::<Status>()
             .max_publishers(n + 1 + spare)
             .max_subscribers(1)
-            .max_nodes(max_nodes)
+            .max_nodes(nodes(n + 2))
             .subscriber_max_buffer_size(STATUS_BUFFER)
             .history_size(0)
             .create()
