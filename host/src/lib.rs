@@ -232,6 +232,22 @@ pub trait Launcher {
     fn interrupted(&self) -> Option<i32>;
 }
 
+/// A command's output directory: `out`, or `runs/<default_name>-<UTC time>/`, created; like a run
+/// directory it must be absent or empty, so an earlier command's files are never mixed in.
+pub fn fresh_out_dir(out: Option<&Path>, default_name: &str) -> Result<PathBuf, CommandError> {
+    let root =
+        out.map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from(format!("runs/{default_name}-{}", utc_stamp())));
+    if std::fs::read_dir(&root).is_ok_and(|mut d| d.next().is_some()) {
+        return Err(CommandError::invalid(format!(
+            "--out {}: directory exists and is not empty (refusing to mix runs)",
+            root.display()
+        )));
+    }
+    std::fs::create_dir_all(&root)
+        .map_err(|e| CommandError::invalid(format!("{}: cannot create: {e}", root.display())))?;
+    Ok(root)
+}
+
 /// `YYYYMMDDTHHMMSS.mmmZ` for the current UTC time (names default output directories).
 pub fn utc_stamp() -> String {
     use std::time::{SystemTime, UNIX_EPOCH};

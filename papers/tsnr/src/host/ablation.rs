@@ -34,7 +34,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use cohort_host::{CommandError, Launcher, Mode, RunOptions, utc_stamp};
+use cohort_host::{CommandError, Launcher, Mode, RunOptions};
 use cohort_report::Table;
 use cohort_report::markdown::MdTable;
 use cohort_runtime::paper::Setup;
@@ -246,16 +246,7 @@ pub fn command(
         }
         plan.push((file.clone(), name, setups));
     }
-    let root =
-        out.map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from(format!("runs/tsnr-ablation-{}", utc_stamp())));
-    if std::fs::read_dir(&root).is_ok_and(|mut d| d.next().is_some()) {
-        return Err(CommandError::invalid(format!(
-            "--out {}: directory exists and is not empty (refusing to mix runs)",
-            root.display()
-        )));
-    }
-    std::fs::create_dir_all(&root)
-        .map_err(|e| CommandError::invalid(format!("{}: cannot create: {e}", root.display())))?;
+    let root = cohort_host::fresh_out_dir(out, "tsnr-ablation")?;
     let mode = if multi_process { Mode::MultiProcess } else { Mode::Reference };
     let mut rows: Vec<Row> = Vec::new();
     let mut dt_s = 0.0;

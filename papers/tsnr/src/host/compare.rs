@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use cohort_host::{CommandError, Launcher, Mode, RunOptions, utc_stamp};
+use cohort_host::{CommandError, Launcher, Mode, RunOptions};
 use cohort_scenario::{Overrides, ScenarioError};
 
 use crate::config::formation::{Method, with_method};
@@ -105,18 +105,7 @@ pub fn command(
     let Some((_, first)) = setups.first() else {
         return Err(CommandError::invalid(format!("--algorithms {algorithms:?}: no method")));
     };
-    let root = out
-        .map(Path::to_path_buf)
-        .unwrap_or_else(|| PathBuf::from(format!("runs/{}-compare-{}", first.scenario.name, utc_stamp())));
-    // Like a run directory: absent or empty, so an earlier comparison is never mixed in.
-    if std::fs::read_dir(&root).is_ok_and(|mut d| d.next().is_some()) {
-        return Err(CommandError::invalid(format!(
-            "--out {}: directory exists and is not empty (refusing to mix runs)",
-            root.display()
-        )));
-    }
-    std::fs::create_dir_all(&root)
-        .map_err(|e| CommandError::invalid(format!("{}: cannot create: {e}", root.display())))?;
+    let root = cohort_host::fresh_out_dir(out, &format!("{}-compare", first.scenario.name))?;
     tracing::info!("comparing {} over {} (multi-process) → {}", file.display(), methods.join(", "), root.display());
     let mut runs = Vec::new();
     for (method, s) in &setups {
