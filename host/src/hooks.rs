@@ -7,9 +7,9 @@
 //! sub-systems a run belongs to; each [`RunHooks`] reads the typed configuration it was declared
 //! for.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use cohort_report::{FigureSource, ReportError};
+use cohort_report::FigureSource;
 use cohort_runtime::paper::Setup;
 use cohort_runtime::record::{RunDirs, TimelineEvent};
 
@@ -22,23 +22,15 @@ pub struct RunView<'a> {
     pub dirs: &'a RunDirs,
 }
 
-/// Why a run's analysis could not be made from its telemetry.
+/// Why a run's analysis could not be made from its telemetry (a file, column or row missing, steps
+/// that do not line up): the paper's reason, which the summary carries as a warning.
 #[derive(Debug, thiserror::Error)]
-pub enum AnalysisError {
-    /// A telemetry or derived table cannot be read (missing file, column or row).
-    #[error(transparent)]
-    Table(#[from] ReportError),
-    /// A file of the run cannot be read or written.
-    #[error("{}: {source}", path.display())]
-    File { path: PathBuf, source: std::io::Error },
-    /// What was read does not fit together (steps that do not line up, a value out of range).
-    #[error("{0}")]
-    Inconsistent(String),
-}
+#[error("{0}")]
+pub struct AnalysisError(pub String);
 
 impl From<String> for AnalysisError {
     fn from(reason: String) -> Self {
-        Self::Inconsistent(reason)
+        Self(reason)
     }
 }
 

@@ -11,7 +11,7 @@
 //! - **Workers**: `W` defaults to [`std::thread::available_parallelism`]; it is clamped to `1..=N`
 //!   (0 counts as 1). With `W = 1` the cases run one after another on the caller's thread; with more,
 //!   `W` scoped threads take the next index from a shared counter (so cases start in index order).
-//!   The `…_with` forms give every worker its own scratch state (a solver log, an integrator's
+//!   [`Campaign::map_with`] gives every worker its own scratch state (a solver log, an integrator's
 //!   work space) made by an `init` closure on that worker's thread; rows must not depend on it.
 //! - **Errors**: infallible cases go through [`Campaign::map`]. With [`Campaign::run`] a failing
 //!   case stops the hand-out of further cases, the cases under way finish, and the error returned
@@ -119,16 +119,7 @@ impl<'a> Campaign<'a> {
 
     /// Every case's row in index order, or the failure of the lowest failing index.
     pub fn run<R: Send, E: Send>(&self, case: impl Fn(usize) -> Result<R, E> + Sync) -> Result<Vec<R>, CaseFailed<E>> {
-        self.run_with(|| (), |(), i| case(i))
-    }
-
-    /// [`Self::run`] with a scratch state per worker, made by `init` on the worker's thread.
-    pub fn run_with<S, R: Send, E: Send>(
-        &self,
-        init: impl Fn() -> S + Sync,
-        case: impl Fn(&mut S, usize) -> Result<R, E> + Sync,
-    ) -> Result<Vec<R>, CaseFailed<E>> {
-        rows(self.drive(None, init, case)).map_err(|e| match e {
+        rows(self.drive(None, || (), |(), i| case(i))).map_err(|e| match e {
             CampaignError::Case(f) => f,
             CampaignError::Stopped { .. } => unreachable!("a campaign without a stop callback runs every case"),
         })
@@ -246,16 +237,7 @@ impl Stoppable<'_> {
         &self,
         case: impl Fn(usize) -> Result<R, E> + Sync,
     ) -> Result<Vec<R>, CampaignError<E>> {
-        self.run_with(|| (), |(), i| case(i))
-    }
-
-    /// [`Self::run`] with a scratch state per worker, made by `init` on the worker's thread.
-    pub fn run_with<S, R: Send, E: Send>(
-        &self,
-        init: impl Fn() -> S + Sync,
-        case: impl Fn(&mut S, usize) -> Result<R, E> + Sync,
-    ) -> Result<Vec<R>, CampaignError<E>> {
-        rows(self.campaign.drive(Some(self.stop), init, case))
+        rows(self.campaign.drive(Some(self.stop), || (), |(), i| case(i)))
     }
 }
 

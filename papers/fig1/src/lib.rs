@@ -10,7 +10,6 @@
 #![allow(clippy::needless_range_loop)]
 // The flight build (`agent`, `plant`: no `host` feature) leaves out the host side, so items only
 // the host side reads are unused there.
-#![cfg_attr(not(feature = "host"), allow(dead_code, unused_imports))]
 
 pub mod config;
 #[cfg(feature = "host")]

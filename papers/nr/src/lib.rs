@@ -28,7 +28,6 @@
 #![allow(clippy::needless_range_loop)]
 // The flight build (`agent`, `plant`: no `host` feature) leaves out the host side, so items only
 // the host side reads are unused there.
-#![cfg_attr(not(feature = "host"), allow(dead_code, unused_imports))]
 
 #[cfg(feature = "host")]
 mod host;

@@ -36,7 +36,7 @@ use cohort_runtime::weights;
 
 use crate::nn::sn_dnn::{SnDnn, WeightsError, open, push_tensors, read_net, serialise};
 use crate::swarm::control::obs::{Neighbour, SwarmObservation, SwarmPolicy};
-use crate::swarm::train::problem::A_MAX_MPS2;
+use crate::swarm::dynamics::setup::A_MAX_MPS2;
 
 /// The model name of its weights errors.
 pub const MODEL: &str = "swarm deep-set policy";
@@ -168,7 +168,7 @@ impl SwarmPolicy for DeepSetPolicy {
 pub(crate) mod tests {
     use super::*;
     use crate::nn::sn_dnn::tests::random_net_scaled;
-    use crate::swarm::train::problem::R_COMM_M;
+    use crate::swarm::dynamics::setup::R_COMM_M;
     use candle_core::{Device, Tensor};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;

@@ -144,6 +144,7 @@ impl SwarmPlant {
         }
     }
 
+    #[cfg(feature = "host")]
     pub fn positions(&self) -> &[V3] {
         &self.p
     }
@@ -151,13 +152,16 @@ impl SwarmPlant {
     pub fn velocities(&self) -> &[V3] {
         &self.v
     }
+    #[cfg(feature = "host")]
     pub fn goals(&self) -> &[V3] {
         &self.goal
     }
+    #[cfg(feature = "host")]
     pub fn collisions(&self) -> &Collisions {
         &self.coll
     }
     /// ∫‖uᵢ‖dt of each vehicle so far, m/s.
+    #[cfg(feature = "host")]
     pub fn effort_mps(&self) -> &[f64] {
         &self.effort
     }

@@ -32,6 +32,7 @@ pub const A_MAX_MPS2: f64 = 2.0;
 /// Reconfiguration time T, s.
 pub const T_RECONFIG_S: f64 = 8.0;
 /// Control interval, s.
+#[cfg(feature = "host")]
 pub const DT_S: f64 = 0.1;
 /// Communication radius R_comm, m.
 pub const R_COMM_M: f64 = 1.0;

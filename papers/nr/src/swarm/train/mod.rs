@@ -15,6 +15,7 @@ pub(crate) mod data;
 pub mod eval;
 #[cfg(feature = "host")]
 pub(crate) mod imitation;
+#[cfg(feature = "host")]
 pub(crate) mod problem;
 #[cfg(feature = "host")]
 pub(crate) mod scp;

@@ -31,14 +31,17 @@
 //! - The quaternion is integrated by RK4 on (13) and renormalised after each step.
 
 use crate::model::attitude::Inertia;
+#[cfg(feature = "host")]
 use crate::model::quaternion::{self, Quat, V3, sign_nonzero};
 
 /// J̄ and δJ amplitudes of (E.1)–(E.2), kg·m².
 pub const INERTIA: Inertia =
     Inertia { nominal_kg_m2: [0.1383, 0.1577, 0.1039], error_amplitude_kg_m2: [0.0038, 0.005, 0.0011] };
 /// Integrator step, s (a divisor of D, T_MIN and T_MAX; see the README's convergence check).
+#[cfg(feature = "host")]
 pub const DT_S: f64 = 0.05;
 /// The error window D of (73), s.
+#[cfg(feature = "host")]
 pub const WINDOW_S: f64 = 4.0;
 /// Bounds of T (80), s.
 pub const T_MIN_S: f64 = 7.2;
@@ -48,6 +51,7 @@ pub const K_MIN: f64 = 0.01;
 pub const K_MAX: f64 = 0.5;
 
 /// The initial state of a transient, relative to the target.
+#[cfg(feature = "host")]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Start {
     /// q₀, scalar last, unit.
@@ -57,12 +61,14 @@ pub struct Start {
 }
 
 /// The Lyapunov torque (57) on the truth, target identity.
+#[cfg(feature = "host")]
 fn torque(q: &Quat, w: &V3, k1: f64, k2: f64) -> V3 {
     let dv = V3::new(q[0], q[1], q[2]);
     -k1 * sign_nonzero(q[3]) * dv - k2 * (1.0 - dv.norm_squared()) * w
 }
 
 /// (q̇, ω̇, Ė) at time t.
+#[cfg(feature = "host")]
 fn derivative(q: &Quat, w: &V3, t_s: f64, k1: f64, k2: f64) -> (Quat, V3, f64) {
     let tau = torque(q, w, k1, k2);
     let j = INERTIA.at(t_s).diagonal();
@@ -72,6 +78,7 @@ fn derivative(q: &Quat, w: &V3, t_s: f64, k1: f64, k2: f64) -> (Quat, V3, f64) {
 }
 
 /// A flown transient: E and the principal angle at every step, for every T ≤ the flight's length.
+#[cfg(feature = "host")]
 #[derive(Debug, Clone)]
 pub struct Flight {
     pub dt_s: f64,
@@ -84,6 +91,7 @@ pub struct Flight {
 }
 
 /// Fly the Lyapunov law (57) with gains (k₁, k₂) for `t_s` seconds at step `dt_s`.
+#[cfg(feature = "host")]
 pub fn fly(start: &Start, k1: f64, k2: f64, t_s: f64, dt_s: f64) -> Flight {
     let n = (t_s / dt_s).round() as usize;
     let (mut q, mut w, mut e) = (start.q, start.omega_rad_s, 0.0);
@@ -108,6 +116,7 @@ pub fn fly(start: &Start, k1: f64, k2: f64, t_s: f64, dt_s: f64) -> Flight {
 }
 
 /// The objectives of one duration.
+#[cfg(feature = "host")]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Outcome {
     pub energy_j: f64,
@@ -117,6 +126,7 @@ pub struct Outcome {
     pub chi: f64,
 }
 
+#[cfg(feature = "host")]
 impl Flight {
     fn steps(&self, t_s: f64) -> usize {
         (t_s / self.dt_s).round() as usize
