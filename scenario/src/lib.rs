@@ -4,6 +4,7 @@
 //! the runtime hands each to the paper that registered its kind.
 
 pub mod checker;
+pub mod dispersion;
 pub mod error;
 pub mod faults;
 pub mod hosts;

@@ -245,12 +245,14 @@ fn apply_overrides(table: &mut toml::Table, o: &Overrides) {
     }
 }
 
-const TOP_KEYS: &[&str] = &["scenario", "run", "plant", "algorithm", "agents", "faults", "hosts"];
+const TOP_KEYS: &[&str] = &["scenario", "run", "plant", "algorithm", "agents", "faults", "hosts", "dispersions"];
 
 /// The typed scenario, if its meta, paper sections and agents parsed (a bad `[run]` or
 /// `[[faults]]` falls back to the defaults), with every problem found.
 fn parse_table(mut table: toml::Table, base_dir: std::path::PathBuf) -> (Option<Scenario>, Vec<Problem>) {
     let mut problems = Vec::new();
+    // `[[dispersions]]` are a campaign's (`crate::dispersion`): a run flies the nominal values.
+    crate::dispersion::split(&mut table);
     for k in table.keys() {
         if !TOP_KEYS.contains(&k.as_str()) {
             problems.push(Problem::new(
