@@ -24,6 +24,7 @@ macro_rules! errln {
 }
 
 mod bench;
+mod campaign;
 mod launcher;
 mod live;
 mod progress;
@@ -143,6 +144,15 @@ enum Cmd {
         file: PathBuf,
         #[command(flatten)]
         args: SweepArgs,
+    },
+    /// A Monte Carlo campaign: run the scenario's [[dispersions]] (or --dispersions FILE's) over
+    /// N drawn cases on worker threads, and write campaign.parquet (a row per case: the drawn
+    /// values, the metrics, the verdict), campaign.md and plots (docs/monte-carlo.md).
+    Campaign {
+        /// Scenario file (TOML).
+        file: PathBuf,
+        #[command(flatten)]
+        args: campaign::CampaignArgs,
     },
     /// Measure what the multi-process runtime costs (see bench/results.md); run from the
     /// repository root.
@@ -505,6 +515,7 @@ fn generic(command: Cmd) -> ExitCode {
         Cmd::Check { files } => check(&files),
         Cmd::Launch(a) => launch_command(*a),
         Cmd::Sweep { file, args } => sweep(&file, &args),
+        Cmd::Campaign { file, args } => campaign::command(&file, &args),
         Cmd::Soak { file, wall, realtime, rate, faults, out, seed, live } => {
             if let Err(code) = live.start() {
                 return code;
@@ -756,12 +767,8 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
 /// that are not reachable, named as the scenario says and of this build (a signal while asking
 /// them ends it too).
 fn refused(s: &Setup, file: &Path, reference: bool) -> Option<ExitCode> {
-    if reference && let Some(f) = s.faults.iter().find(|f| f.is_process_fault()) {
-        return Some(fail(CommandError::invalid(format!(
-            "--reference runs every process as a thread of this one, so it cannot {} agent {} \
-             (process faults signal processes); drop --reference, or keep only delay, drop and corrupt faults",
-            f.kind, f.agent
-        ))));
+    if reference && let Some(why) = reference_refusal(s, "drop --reference") {
+        return Some(fail(CommandError::invalid(why)));
     }
     if !reference && !s.hosts.is_empty() {
         // Every daemon reachable, named as the scenario says, of this build: before anything starts.
@@ -774,6 +781,17 @@ fn refused(s: &Setup, file: &Path, reference: bool) -> Option<ExitCode> {
         }
     }
     None
+}
+
+/// Why an in-process reference run cannot fly `s`, if it cannot: a process fault (kill, freeze,
+/// restart) signals a process, and the reference's agents are threads. `remedy` says what to do.
+pub(crate) fn reference_refusal(s: &Setup, remedy: &str) -> Option<String> {
+    let f = s.faults.iter().find(|f| f.is_process_fault())?;
+    Some(format!(
+        "an in-process reference run has every process as a thread of this one, so it cannot {} agent {} \
+         (process faults signal processes); {remedy}, or keep only delay, drop and corrupt faults",
+        f.kind, f.agent
+    ))
 }
 
 /// The launch's first lines: the mode, the scenario's notes, what --reference and run.record do
@@ -945,6 +963,11 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
         Ok(s) => s,
         Err(code) => return code,
     };
+    if !args.multi_process
+        && let Some(why) = reference_refusal(&first, "add --multi-process")
+    {
+        return fail(CommandError::invalid(format!("{}: {why}", file.display())));
+    }
     let name = first.scenario.name.clone();
     let root =
         args.out.clone().unwrap_or_else(|| PathBuf::from(format!("runs/{name}-sweep-{}", cohort_host::utc_stamp())));

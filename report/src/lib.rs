@@ -44,6 +44,8 @@ mod figures;
 mod generic;
 pub mod markdown;
 mod parquet_in;
+#[cfg(feature = "figures")]
+pub mod samples;
 pub mod stats;
 pub mod table;
 

@@ -422,7 +422,29 @@ pub fn configure(scenario: Scenario, papers: &[&'static dyn Paper]) -> Result<Se
 
 /// Read, parse, validate and configure a scenario file.
 pub fn load(file: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -> Result<Setup, ScenarioError> {
-    let (scenario, mut problems) = cohort_scenario::load_all(file, overrides)?;
+    let (scenario, problems) = cohort_scenario::load_all(file, overrides)?;
+    finish_load(file, scenario, problems, overrides, papers)
+}
+
+/// [`load`] of scenario text standing for `file` (a campaign's drawn case: its relative paths
+/// resolve beside `file`, its problems name it).
+pub fn load_text(
+    text: &str,
+    file: &Path,
+    overrides: &Overrides,
+    papers: &[&'static dyn Paper],
+) -> Result<Setup, ScenarioError> {
+    let (scenario, problems) = cohort_scenario::parse_all(text, file, overrides)?;
+    finish_load(file, scenario, problems, overrides, papers)
+}
+
+fn finish_load(
+    file: &Path,
+    scenario: Scenario,
+    mut problems: Vec<cohort_scenario::Problem>,
+    overrides: &Overrides,
+    papers: &[&'static dyn Paper],
+) -> Result<Setup, ScenarioError> {
     let source = scenario.source.clone();
     match configure(scenario, papers) {
         Ok(setup) if problems.is_empty() => Ok(setup),

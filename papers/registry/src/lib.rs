@@ -37,6 +37,11 @@ pub fn load(file: &Path, overrides: &Overrides) -> Result<Setup, ScenarioError> 
     cohort_runtime::paper::load(file, overrides, PAPERS)
 }
 
+/// [`load`] of scenario text standing for `file` (see [`cohort_runtime::paper::load_text`]).
+pub fn load_text(text: &str, file: &Path, overrides: &Overrides) -> Result<Setup, ScenarioError> {
+    cohort_runtime::paper::load_text(text, file, overrides, PAPERS)
+}
+
 #[cfg(feature = "host")]
 /// The run hooks that serve a run of `setup`, each with its paper's name: those the plant's paper
 /// declares for the run's kinds first, then the algorithm's paper's ([`cohort_host::KindHooks::serves`]).

@@ -127,10 +127,7 @@ pub fn check(k: usize, raw: &RawDispersion, nominal: &toml::Table) -> Result<Dis
     if !problems.is_empty() {
         return Err(problems);
     }
-    let laws = match laws(raw, &shape, &at) {
-        Ok(l) => l,
-        Err(p) => return Err(p),
-    };
+    let laws = laws(raw, &shape, &at)?;
     Ok(Dispersion {
         key,
         laws,
@@ -260,9 +257,9 @@ fn laws(raw: &RawDispersion, shape: &Shape, at: &dyn Fn(&str) -> String) -> Resu
         return Err(problems);
     }
     let mut out = Vec::with_capacity(n);
-    for i in 0..n {
-        let m = mean.get(i).copied().unwrap_or(nominal[i]);
-        let s = sigma.get(i).copied().or_else(|| sigma_rel.get(i).map(|r| r * nominal[i].abs()));
+    for (i, nom) in nominal.iter().enumerate() {
+        let m = mean.get(i).copied().unwrap_or(*nom);
+        let s = sigma.get(i).copied().or_else(|| sigma_rel.get(i).map(|r| r * nom.abs()));
         let (lo, hi) = (low.get(i).copied(), high.get(i).copied());
         let comp = if n > 1 { format!(" (component {i})") } else { String::new() };
         match component(dist, m, s, lo, hi) {

@@ -1,0 +1,104 @@
+//! One finished case: its index, seed, drawn values, status, summary metrics and verdict lines —
+//! kept as `cases/case-NNNNNN/row.json` the moment the case ends, so an interrupted campaign
+//! resumes from the rows on disk. Floats are stored as their bits: a resumed campaign's table is
+//! the uninterrupted one's, bit for bit.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+/// A drawn value.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Cell {
+    /// `f64::to_bits`.
+    Float(u64),
+    Int(i64),
+    Text(String),
+    Bool(bool),
+}
+
+impl Cell {
+    pub fn of(v: &toml::Value) -> Self {
+        match v {
+            toml::Value::Float(x) => Cell::Float(x.to_bits()),
+            toml::Value::Integer(i) => Cell::Int(*i),
+            toml::Value::Boolean(b) => Cell::Bool(*b),
+            toml::Value::String(s) => Cell::Text(s.clone()),
+            other => Cell::Text(other.to_string()),
+        }
+    }
+
+    /// The value as a number, when it is one (plots, statistics).
+    pub fn as_f64(&self) -> Option<f64> {
+        match self {
+            Cell::Float(b) => Some(f64::from_bits(*b)),
+            Cell::Int(i) => Some(*i as f64),
+            _ => None,
+        }
+    }
+}
+
+/// One verdict line of a case.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VerdictCell {
+    pub name: String,
+    /// "pass", "fail" or "n/a".
+    pub verdict: String,
+    /// Ours, `f64::to_bits`.
+    pub ours: Option<u64>,
+    pub unit: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CaseRow {
+    pub case: u64,
+    pub seed: u64,
+    pub values: Vec<Cell>,
+    /// The run's status ("ok", "degraded", "diverged", "failed").
+    pub status: String,
+    pub error: Option<String>,
+    /// Summary metrics, `f64::to_bits`.
+    pub metrics: BTreeMap<String, u64>,
+    pub verdict: Vec<VerdictCell>,
+    pub verdict_overall: String,
+    /// Wall time of the case's run, s (progress only; not in the table).
+    pub wall_s: f64,
+}
+
+impl CaseRow {
+    pub fn metric(&self, name: &str) -> Option<f64> {
+        self.metrics.get(name).map(|b| f64::from_bits(*b))
+    }
+}
+
+/// Case `i`'s directory under the campaign's root.
+pub fn case_dir(root: &Path, i: u64) -> PathBuf {
+    root.join("cases").join(format!("case-{i:06}"))
+}
+
+const ROW: &str = "row.json";
+
+/// Keep a finished case's row (written whole, then renamed into place).
+pub fn save(root: &Path, row: &CaseRow) -> std::io::Result<()> {
+    let text = serde_json::to_vec_pretty(row).map_err(std::io::Error::other)?;
+    cohort_runtime::record::write_atomic(&case_dir(root, row.case).join(ROW), &text)
+}
+
+/// Case `i`'s row if it finished in an earlier invocation; an unreadable row is an error naming
+/// the file (it is never silently run again nor skipped).
+pub fn load(root: &Path, i: u64) -> Result<Option<CaseRow>, String> {
+    let path = case_dir(root, i).join(ROW);
+    match std::fs::read(&path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(format!("{}: {e}", path.display())),
+        Ok(bytes) => match serde_json::from_slice::<CaseRow>(&bytes) {
+            Ok(r) if r.case == i => Ok(Some(r)),
+            Ok(r) => Err(format!("{}: holds case {}, not {i}", path.display(), r.case)),
+            Err(e) => {
+                Err(format!("{}: not a case row ({e}); remove the case's directory to run it again", path.display()))
+            }
+        },
+    }
+}
