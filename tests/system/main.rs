@@ -7,6 +7,7 @@
 //! `cargo test --release --test system faults::` runs one module.
 
 mod build_id;
+mod campaign;
 mod check;
 mod cli;
 mod every_scenario;

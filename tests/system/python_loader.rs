@@ -1,4 +1,4 @@
-//! The Python loader (`python/`): its tests launch a short run of the runtime's smoke scenario
+//! The Python loader (`python/`): its tests launch a short run of the runtime's smoke scenario (and a three-case campaign, read with `cohort.load_campaign`)
 //! and read it with `cohort.load`, in Parquet and in CSV; fig1's example (`papers/fig1/python/`) redraws Fig. 4 from a short fig1 run with it. Skipped,
 //! with the reason printed, when python3 or pyarrow is missing (scripts/test installs them when
 //! it can).
@@ -39,7 +39,7 @@ fn unittest(dir: &str, tests: usize) -> Option<String> {
 
 #[test]
 fn the_python_loader_reads_a_run_in_either_format() {
-    unittest("python/tests", 2);
+    unittest("python/tests", 3);
 }
 
 #[test]

@@ -354,6 +354,7 @@ fn finish(plan: &Plan, a: &CampaignArgs, root: &Path, mode: &str, finished: Vec<
         ("cohort.campaign.scenario", plan.file.display().to_string()),
         ("cohort.campaign.seed", plan.seed.to_string()),
         ("cohort.campaign.dispersions", plan.spec_text.clone()),
+        ("cohort.campaign.drawn", serde_json::to_string(&columns).unwrap_or_default()),
     ];
     if let Err(e) = table::write(root, &rows, &columns, &meta) {
         return crate::fail(CommandError::failed(e));

@@ -149,7 +149,10 @@ impl Plan {
                         .filter(|(c, _)| c.starts_with(&key))
                         .map(|(c, v)| format!("{c} = {v}"))
                         .collect();
-                    out.push_str(&format!("\n  dispersions[{k}] drew {}: {p}", drawn.join(", ")));
+                    // The problem is the drawn key's own: its value is in `drawn` already.
+                    let own = columns.iter().zip(values).any(|(c, _)| *c == p.path);
+                    let what = if own { p.reason.clone() } else { p.to_string() };
+                    out.push_str(&format!("\n  dispersions[{k}] drew {}: {what}", drawn.join(", ")));
                 }
                 None => out.push_str(&format!("\n  {p}")),
             }

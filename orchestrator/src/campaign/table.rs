@@ -113,11 +113,18 @@ pub fn batch(rows: &[CaseRow], columns: &[String]) -> Result<RecordBatch, String
 }
 
 /// Write the table to `root/campaign.parquet` (whole, then renamed into place), `meta` in the
-/// file's key-value metadata.
+/// file's key-value metadata and in its Arrow schema's.
 pub fn write(root: &Path, rows: &[CaseRow], columns: &[String], meta: &[(&str, String)]) -> Result<(), String> {
     let path = root.join(FILE);
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let batch = batch(rows, columns).map_err(|e| err(&e))?;
+    // In the Arrow schema too, where Arrow readers (pyarrow's `schema.metadata`) look.
+    let schema = batch
+        .schema()
+        .as_ref()
+        .clone()
+        .with_metadata(meta.iter().map(|(k, v)| (k.to_string(), v.clone())).collect::<HashMap<_, _>>());
+    let batch = batch.with_schema(Arc::new(schema)).map_err(|e| err(&e))?;
     let kv = meta.iter().map(|(k, v)| parquet::file::metadata::KeyValue::new(k.to_string(), v.clone())).collect();
     let props = WriterProperties::builder()
         .set_compression(Compression::ZSTD(ZstdLevel::try_new(3).expect("zstd level 3 exists")))
