@@ -57,6 +57,35 @@ fn coupled(s: &Setup, dirs: &RunDirs, progress: &progress::Progress) -> Option<(
 /// Analysis warnings of a failed run are kept in the summary's `warnings` for the caller to print
 /// after the run's error (the root cause first); a successful run's are printed here.
 pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool) -> (LaunchOutcome, summary::Summary) {
+    let how = if reference { How::Reference(reference::Threads::PerProcess) } else { How::Processes };
+    run_once_as(s, dirs, how, show_progress)
+}
+
+/// How a run flies: as processes, or in-process (the reference run, its drivers on threads or on
+/// one thread).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum How {
+    Processes,
+    Reference(reference::Threads),
+}
+
+impl How {
+    /// In-process: on one thread when asked, except for Python kinds, whose interpreter keeps its
+    /// own per-thread stack bounds (a coroutine's stack is not the thread's): their drivers get a
+    /// thread each.
+    pub fn in_process(s: &Setup, one_thread: bool) -> Self {
+        let python = [&s.parsed.plant.kind, &s.parsed.algorithm.kind].iter().any(|k| k.as_str() == "python");
+        if one_thread && python {
+            tracing::info!("kind \"python\": the reference run's drivers get a thread each, not one thread");
+        }
+        let threads = if one_thread && !python { reference::Threads::One } else { reference::Threads::PerProcess };
+        How::Reference(threads)
+    }
+}
+
+/// [`run_once`], choosing how the reference run places its drivers.
+pub fn run_once_as(s: &Setup, dirs: &RunDirs, how: How, show_progress: bool) -> (LaunchOutcome, summary::Summary) {
+    let reference = how != How::Processes;
     let run_id = new_run_id();
     // The children's log times count from here.
     cohort_runtime::logging::start_run();
@@ -93,11 +122,13 @@ pub fn run_once(s: &Setup, dirs: &RunDirs, reference: bool, show_progress: bool)
     let live = crate::live::LiveRun::start(s, dirs);
     let (mut outcome, mode) = match coupled(s, dirs, &progress) {
         Some(o) => o,
-        None if reference => (reference::launch(s, dirs, run_id, key, &progress), "reference"),
-        None => (
-            supervise::launch(s, dirs, &IoxRun::new(run_id).with_key(key), &|step| progress.set(step)),
-            "multi-process",
-        ),
+        None => match how {
+            How::Reference(threads) => (reference::launch(s, dirs, run_id, key, &progress, threads), "reference"),
+            How::Processes => (
+                supervise::launch(s, dirs, &IoxRun::new(run_id).with_key(key), &|step| progress.set(step)),
+                "multi-process",
+            ),
+        },
     };
     progress.finish();
     if let Some(live) = live {

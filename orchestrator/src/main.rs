@@ -282,6 +282,10 @@ struct LaunchArgs {
     /// transport (the bit-identical reference of the multi-process run).
     #[arg(long)]
     reference: bool,
+    /// With --reference: the plant and every agent as coroutines of one thread instead of a
+    /// thread each (the same telemetry, one core; what `campaign` runs its cases as).
+    #[arg(long, requires = "reference")]
+    one_thread: bool,
     #[command(flatten)]
     security: security_args::SecurityArgs,
     /// Do not draw the plots after a successful run.
@@ -709,7 +713,7 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
         record: a.record.then_some(true),
         telemetry: a.telemetry,
     };
-    launch(&a.file, a.out.as_deref(), &o, a.reference, !a.no_plots, a.json)
+    launch(&a.file, a.out.as_deref(), &o, (a.reference, a.one_thread), !a.no_plots, a.json)
 }
 
 /// A signal that came while the scenario was read or the hosts were asked (the handlers are
@@ -733,10 +737,16 @@ macro_rules! humanln {
     }};
 }
 
-fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots: bool, json: bool) -> ExitCode {
+/// `mode`: (--reference, --one-thread).
+fn launch(file: &Path, out: Option<&Path>, o: &Overrides, mode: (bool, bool), plots: bool, json: bool) -> ExitCode {
     let s = match load_or_exit(file, o) {
         Ok(s) => s,
         Err(code) => return code,
+    };
+    let reference = mode.0;
+    let how = match mode {
+        (false, _) => launcher::How::Processes,
+        (true, one_thread) => launcher::How::in_process(&s, one_thread),
     };
     if let Some(code) = interrupted_before_the_run() {
         return code;
@@ -749,7 +759,7 @@ fn launch(file: &Path, out: Option<&Path>, o: &Overrides, reference: bool, plots
         Err(e) => return e.to_exit(),
     };
     announce(&s, file, reference, &dirs);
-    let (outcome, summary) = run_once(&s, &dirs, reference, !QUIET.load(std::sync::atomic::Ordering::Relaxed));
+    let (outcome, summary) = launcher::run_once_as(&s, &dirs, how, !QUIET.load(std::sync::atomic::Ordering::Relaxed));
     if let Some(code) = failed(&s, &outcome, &summary, &dirs, json) {
         return code;
     }

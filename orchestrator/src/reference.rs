@@ -1,6 +1,7 @@
 //! The reference run (`launch --reference`): the plant and every agent as threads of this process
 //! over the in-memory transport, through the same drivers as the multi-process run. Its
-//! telemetry must equal the multi-process run's byte for byte.
+//! telemetry must equal the multi-process run's byte for byte. Its drivers run as a thread each
+//! (`launch --reference`) or as coroutines of one thread ([`Threads::One`]: a campaign's cases).
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -73,12 +74,23 @@ fn run_one(s: &Setup, bus: &Arc<MemoryBus>, p: Proc, params: &DriveParams) -> Pr
     report
 }
 
+/// How the reference run places its drivers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Threads {
+    /// A thread per process, as the processes have a core each when the machine has them.
+    PerProcess,
+    /// Every driver a coroutine of the calling thread (`cohort_runtime::coop`): one core per
+    /// run, for campaigns that run many at once.
+    One,
+}
+
 pub fn launch(
     s: &Setup,
     dirs: &RunDirs,
     run_id: u64,
     key: Option<cohort_wire::auth::MacKey>,
     progress: &Progress,
+    threads: Threads,
 ) -> LaunchOutcome {
     let started = Instant::now();
     let bus = MemoryBus::new(s.topology());
@@ -88,33 +100,59 @@ pub fn launch(
     params.key = key;
     let procs: Vec<Proc> = std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)).collect();
     let mut signal = 0usize;
-    let reports: Vec<ProcessReport> = std::thread::scope(|sc| {
-        let handles: Vec<_> = procs
-            .iter()
-            .map(|&p| {
-                let (bus, params) = (&bus, &params);
-                std::thread::Builder::new()
-                    .name(p.name())
-                    .spawn_scoped(sc, move || run_one(s, bus, p, params))
-                    .expect("spawning a thread")
-            })
-            .collect();
-        while !handles.iter().all(|h| h.is_finished()) {
-            for st in bus.take_status() {
-                if st.sender == PLANT_ID && st.kind == STATUS_PROGRESS {
-                    progress.set(st.step);
+    // Progress and signals, between the drivers' turns (one thread) or every 10 ms (threads).
+    let mut watch = || {
+        for st in bus.take_status() {
+            if st.sender == PLANT_ID && st.kind == STATUS_PROGRESS {
+                progress.set(st.step);
+            }
+        }
+        let sig = SIGNALLED.load(Ordering::SeqCst);
+        if sig != 0 && signal == 0 {
+            signal = sig;
+            terminate.store(true, Ordering::SeqCst);
+            bus.request_stop();
+        }
+    };
+    let (bus_ref, params_ref) = (&bus, &params);
+    let reports: Vec<ProcessReport> = match threads {
+        Threads::PerProcess => std::thread::scope(|sc| {
+            let handles: Vec<_> = procs
+                .iter()
+                .map(|&p| {
+                    std::thread::Builder::new()
+                        .name(p.name())
+                        .spawn_scoped(sc, move || run_one(s, bus_ref, p, params_ref))
+                        .expect("spawning a thread")
+                })
+                .collect();
+            while !handles.iter().all(|h| h.is_finished()) {
+                watch();
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            handles.into_iter().map(|h| h.join().expect("a reference thread panicked")).collect()
+        }),
+        Threads::One => {
+            let tasks = procs
+                .iter()
+                .map(|&p| Box::new(move || run_one(s, bus_ref, p, params_ref)) as Box<dyn FnOnce() -> ProcessReport>)
+                .collect();
+            match cohort_runtime::coop::run(tasks, &mut watch) {
+                Ok(r) => r,
+                Err(e) => {
+                    let error = Some(format!("cannot map the drivers' stacks: {e}"));
+                    let wall_s = started.elapsed().as_secs_f64();
+                    return LaunchOutcome {
+                        status: RunStatus::Failed,
+                        error,
+                        wall_s,
+                        startup_s: None,
+                        timeline: Vec::new(),
+                    };
                 }
             }
-            let sig = SIGNALLED.load(Ordering::SeqCst);
-            if sig != 0 && signal == 0 {
-                signal = sig;
-                terminate.store(true, Ordering::SeqCst);
-                bus.request_stop();
-            }
-            std::thread::sleep(Duration::from_millis(10));
         }
-        handles.into_iter().map(|h| h.join().expect("a reference thread panicked")).collect()
-    });
+    };
     let wall_s = started.elapsed().as_secs_f64();
     if signal != 0 {
         return LaunchOutcome {

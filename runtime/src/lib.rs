@@ -9,6 +9,7 @@
 //! live view's, on this machine and through a host daemon).
 
 pub mod checkpoint;
+pub mod coop;
 pub mod drive;
 pub mod exit;
 pub mod lockstep;

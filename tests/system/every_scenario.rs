@@ -1,7 +1,9 @@
 //! Every runnable scenario in `topologies/` runs to completion: each `topologies/*.toml` (the
 //! folder holds no test fixture: `check.rs`) is launched for at most 10 s of simulated time, or ten steps when its step is
 //! longer than a second (`--duration` when the file is longer; a shorter file runs whole), in-process (`--reference`, the fastest mode; each
-//! paper's own tests compare it with the multi-process run bit for bit). A run must exit 0 with the
+//! paper's own tests compare it with the multi-process run bit for bit), then again with its drivers
+//! on one thread (`--one-thread`, how a campaign runs its cases), whose telemetry must be the
+//! same bit for bit. A run must exit 0 with the
 //! status `ok` — or, for a divergence study (`scenario.expect = "diverge"`), with `diverged`, the
 //! time and the metrics up to it.
 //!
@@ -9,7 +11,7 @@
 
 use std::path::Path;
 
-use cohort::{describe_output, heavy, launch_scenario, repo_root, scratch_dir, summary, tomls_in};
+use cohort::{describe_output, heavy, launch_scenario, repo_root, scratch_dir, summary, telemetry_bits, tomls_in};
 use cohort_scenario::{Expect, Overrides};
 
 /// The longest stretch of simulated time a scenario is run for here, s (or this many steps).
@@ -44,6 +46,22 @@ fn launch_one(name: &str, out: &Path) -> Option<String> {
     }
     if s.scenario.expect == Expect::Diverge && sum["metrics"]["diverged_at_s"].as_f64().is_none() {
         return Some(format!("{extra:?}: diverged, but the summary has no diverged_at_s"));
+    }
+    // The same drivers as coroutines of one thread (a campaign's cases): the same telemetry.
+    let one = out.with_extension("one-thread");
+    extra.push("--one-thread");
+    let o = launch_scenario(&file, &one, &extra);
+    if !o.status.success() {
+        return Some(format!("{extra:?}: not exit 0\n{}", describe_output(&o)));
+    }
+    let (a, b) = (telemetry_bits(out), telemetry_bits(&one));
+    if a != b {
+        let first = a.iter().zip(&b).find(|(x, y)| x != y);
+        return Some(format!(
+            "{extra:?}: telemetry differs from the threads' ({} against {} values; first: {first:?})",
+            b.len(),
+            a.len()
+        ));
     }
     None
 }

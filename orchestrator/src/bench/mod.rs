@@ -17,7 +17,8 @@
 //! reported as steps/s × round trip (1.0: one round trip per step). The lab's links are veth pairs
 //! delayed by the kernel's netem where the kernel has it, else TAP pairs with the user-space pump
 //! of [`cohort_supervisor::linkemu`] (the rows say which); with the pump, the bench also measures
-//! the round trip across a veth lab, so the pump's own latency can be read off.
+//! the round trip across a veth lab, so the pump's own latency can be read off. And `orchestrator
+//! campaign`'s cases per second on fig1 with 1 and 2 workers, in-process and as processes.
 //!
 //! The module's parts: `types` (a case, a sample, an aggregate), `ring` (the consensus ring
 //! as scenario text), `cases` (every case), one module per kind of row that needs more than a
@@ -25,6 +26,7 @@
 //! `run` (the campaign: choose, run interleaved, aggregate, write) and `report` (the
 //! Markdown of the rows every bench has).
 
+mod campaign;
 mod cases;
 mod live;
 mod loaded;

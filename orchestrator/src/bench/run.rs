@@ -11,11 +11,11 @@ use cohort_supervisor::netlab::{Lab, Links};
 use super::cases::cases;
 use super::loaded::{Hogs, loaded_markdown};
 use super::mac::{mac_markdown, mac_ns};
-use super::python;
 use super::report::{machine, markdown};
 use super::sample::sample;
 use super::types::{Aggregate, Case, Sample, median};
 use super::zenoh::{Rtt, lab_rtts, measure_rtt, start_lab, zenoh_markdown};
+use super::{campaign, python};
 
 /// A directory removed with everything in it when dropped.
 struct RemoveOnDrop(PathBuf);
@@ -66,6 +66,15 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     // The cases are listed as if the lab were there, so that `--only` decides whether it is
     // built at all (it takes root, namespaces and seconds): only when a chosen case crosses it.
     let lab_dir = scratch.join("lab");
+    let campaign_rows = match only {
+        Some(p) if !campaign::may_choose(p) => Vec::new(),
+        _ => campaign::measure(quick, reps, only, &scratch)?,
+    };
+    if campaign::only_these(only) {
+        let md = format!("# Cohort bench (--only {})\n{}", only.unwrap_or(""), campaign::markdown(&campaign_rows));
+        write_results(out_dir, &serde_json::json!({ "machine": machine(), "campaign": campaign_rows }), &md)?;
+        return Ok(md);
+    }
     let cases = choose(cases(quick, &repo, Some(lab_dir.as_path()), &scratch, only)?, only)?;
     let (cases, lab, rtts) = lab_and_rtts(cases, only)?;
     let started = Instant::now();
@@ -79,7 +88,10 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     md.push_str(&zenoh_markdown(&aggregates, &rtts, links));
     md.push_str(&python::markdown(&aggregates));
     md.push_str(&super::live::markdown(&aggregates));
-    write_results(out_dir, &results_json(quick, reps, &aggregates, &rtts, links, &mac), &md)?;
+    md.push_str(&campaign::markdown(&campaign_rows));
+    let mut json = results_json(quick, reps, &aggregates, &rtts, links, &mac);
+    json["campaign"] = serde_json::json!(campaign_rows);
+    write_results(out_dir, &json, &md)?;
     Ok(md)
 }
 
@@ -90,6 +102,7 @@ fn choose(mut cases: Vec<Case>, only: Option<&str>) -> Result<Vec<Case>, BenchEr
         if !python::may_choose(prefix) {
             all.push(format!("{}…", python::KEY_PREFIX));
         }
+        all.push(format!("{}…", campaign::KEY_PREFIX));
         cases.retain(|c| c.key.starts_with(prefix));
         if cases.is_empty() {
             return Err(BenchError::Invalid(format!(

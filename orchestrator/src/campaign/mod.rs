@@ -185,6 +185,12 @@ fn manifest(root: &Path, plan: &Plan, a: &CampaignArgs) -> Result<(), CommandErr
     }
 }
 
+/// How a case flies: as processes with `--multi-process`; else in-process with every driver on
+/// the worker's own thread, so W workers use W cores (Python kinds excepted, see `How`).
+fn how(s: &cohort_runtime::paper::Setup, a: &CampaignArgs) -> crate::launcher::How {
+    if a.multi_process { crate::launcher::How::Processes } else { crate::launcher::How::in_process(s, true) }
+}
+
 /// Case `i` run to its row (kept on disk before it is returned).
 fn run_case(plan: &Plan, root: &Path, i: u64, a: &CampaignArgs) -> Result<CaseRow, CaseError> {
     let (values, setup) = plan.case(i).map_err(CaseError::Invalid)?;
@@ -194,7 +200,7 @@ fn run_case(plan: &Plan, root: &Path, i: u64, a: &CampaignArgs) -> Result<CaseRo
         std::fs::remove_dir_all(&dir).map_err(|e| CaseError::Io(format!("{}: {e}", dir.display())))?;
     }
     let dirs = crate::prepare(&setup, Some(&dir)).map_err(|e| CaseError::Io(e.to_string()))?;
-    let (outcome, summary) = crate::run_once(&setup, &dirs, !a.multi_process, false);
+    let (outcome, summary) = crate::launcher::run_once_as(&setup, &dirs, how(&setup, a), false);
     if outcome.status.is_interrupted() {
         return Err(CaseError::Interrupted);
     }
@@ -242,14 +248,6 @@ fn chosen_metric(a: &CampaignArgs, first: Option<&CaseRow>) -> Option<String> {
     })
 }
 
-/// The metric's value in a row: a summary metric, or `ours: <verdict line>`.
-fn value_of(r: &CaseRow, metric: &str) -> Option<f64> {
-    r.metric(metric).or_else(|| {
-        let line = metric.strip_prefix("ours: ")?;
-        r.verdict.iter().find(|v| v.name == line)?.ours.map(f64::from_bits)
-    })
-}
-
 /// The names a metric may be, for an error naming a wrong one.
 fn metric_choices(r: &CaseRow) -> String {
     let mut names: Vec<String> = r.metrics.keys().cloned().collect();
@@ -265,8 +263,7 @@ fn run(plan: &Plan, a: &CampaignArgs, root: &Path, workers: usize, done: Vec<Opt
     let until_met = || -> Option<usize> {
         let u = a.until.as_ref()?;
         let rows = rows.lock().expect("no case panics holding the rows");
-        let values: Vec<Option<Option<f64>>> =
-            rows.iter().map(|r| r.as_ref().map(|r| value_of(r, &u.metric))).collect();
+        let values: Vec<Option<Option<f64>>> = rows.iter().map(|r| r.as_ref().map(|r| r.value(&u.metric))).collect();
         until::met_at(&values, a.min_cases as usize, u.half_width)
     };
     let progress = |finished: usize, total: usize| {
@@ -276,14 +273,14 @@ fn run(plan: &Plan, a: &CampaignArgs, root: &Path, workers: usize, done: Vec<Opt
             info!("[{finished}/{total}]");
             return;
         };
-        if first.is_some_and(|r| value_of(r, &metric).is_none()) && !bad_metric.swap(true, Ordering::SeqCst) {
+        if first.is_some_and(|r| r.value(&metric).is_none()) && !bad_metric.swap(true, Ordering::SeqCst) {
             error!(
                 "no metric {metric:?} in the runs' summaries; they have: {}",
                 first.map(metric_choices).unwrap_or_default()
             );
         }
         let mut est = until::Running::default();
-        rows.iter().flatten().filter_map(|r| value_of(r, &metric)).for_each(|x| est.push(x));
+        rows.iter().flatten().filter_map(|r| r.value(&metric)).for_each(|x| est.push(x));
         info!("[{finished}/{total}] {metric}: {:.6} ± {:.6} (95 %, n = {})", est.mean(), est.half_width(), est.n);
     };
     let stop = || SIGNALLED.load(Ordering::SeqCst) != 0 || bad_metric.load(Ordering::SeqCst) || until_met().is_some();
@@ -321,8 +318,7 @@ fn run(plan: &Plan, a: &CampaignArgs, root: &Path, workers: usize, done: Vec<Opt
 fn cut(a: &CampaignArgs, finished: Vec<Option<CaseRow>>) -> (Vec<CaseRow>, Option<String>) {
     let total = finished.len();
     let Some(u) = &a.until else { return (finished.into_iter().flatten().collect(), None) };
-    let values: Vec<Option<Option<f64>>> =
-        finished.iter().map(|r| r.as_ref().map(|r| value_of(r, &u.metric))).collect();
+    let values: Vec<Option<Option<f64>>> = finished.iter().map(|r| r.as_ref().map(|r| r.value(&u.metric))).collect();
     let (take, why) = match until::met_at(&values, a.min_cases as usize, u.half_width) {
         Some(k) => (
             k,

@@ -147,7 +147,7 @@ pub fn plots(root: &Path, metric: &str, columns: &[String], rows: &[CaseRow]) ->
     }
     let safe =
         |s: &str| s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '-' }).collect::<String>();
-    let ys: Vec<Option<f64>> = rows.iter().map(|r| r.metric(metric)).collect();
+    let ys: Vec<Option<f64>> = rows.iter().map(|r| r.value(metric)).collect();
     let mut out = Vec::new();
     let hist = dir.join(format!("{}-histogram.png", safe(metric)));
     let values: Vec<f64> = ys.iter().flatten().copied().collect();

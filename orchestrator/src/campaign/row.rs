@@ -71,6 +71,14 @@ impl CaseRow {
     pub fn metric(&self, name: &str) -> Option<f64> {
         self.metrics.get(name).map(|b| f64::from_bits(*b))
     }
+
+    /// A summary metric, or `ours: <verdict line>`: what `--metric` and `--until` may name.
+    pub fn value(&self, name: &str) -> Option<f64> {
+        self.metric(name).or_else(|| {
+            let line = name.strip_prefix("ours: ")?;
+            self.verdict.iter().find(|v| v.name == line)?.ours.map(f64::from_bits)
+        })
+    }
 }
 
 /// Case `i`'s directory under the campaign's root.

@@ -277,7 +277,9 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
                     self.t.report(&s);
                 }
             }
-            if spinning {
+            if crate::coop::pause() {
+                // A task of a cooperative run: the peers run now, on this thread.
+            } else if spinning {
                 let y0 = Instant::now();
                 std::thread::yield_now();
                 if learning && y0.elapsed() >= YIELD_STALL {
