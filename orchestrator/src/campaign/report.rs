@@ -56,7 +56,7 @@ pub fn markdown(h: &Header, rows: &[CaseRow], plots: &[PathBuf]) -> String {
         } else {
             let mut counts: BTreeMap<String, usize> = BTreeMap::new();
             for r in rows {
-                *counts.entry(format!("{:?}", r.values[k])).or_default() += 1;
+                *counts.entry(r.values[k].to_string()).or_default() += 1;
             }
             let text: Vec<String> = counts.iter().map(|(v, n)| format!("{v}: {n}")).collect();
             t.row([

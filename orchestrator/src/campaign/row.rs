@@ -40,6 +40,18 @@ impl Cell {
     }
 }
 
+impl std::fmt::Display for Cell {
+    /// As TOML writes the value (`"dmpc"`, `3`, `true`, `0.25`).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Cell::Float(b) => write!(f, "{:?}", f64::from_bits(*b)),
+            Cell::Int(i) => write!(f, "{i}"),
+            Cell::Text(s) => write!(f, "{s:?}"),
+            Cell::Bool(b) => write!(f, "{b}"),
+        }
+    }
+}
+
 /// One verdict line of a case.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct VerdictCell {
