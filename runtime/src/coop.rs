@@ -50,9 +50,11 @@ pub fn pause() -> bool {
 /// ends, and after every round `between` runs (the caller's watch: progress, signals). The
 /// results in the tasks' order; a task's panic is resumed here (the other tasks are unwound).
 pub fn run<'a, R>(tasks: Vec<Box<dyn FnOnce() -> R + 'a>>, mut between: impl FnMut()) -> std::io::Result<Vec<R>> {
-    // No task's yielder stays current once this returns or unwinds (dropped after the coroutines).
-    let _reset = NotCurrent;
     let mut coroutines = Vec::with_capacity(tasks.len());
+    // Declared after the coroutines, so dropped before them: once this returns or unwinds (a task's
+    // panic), no finished task's yielder is current while the others are unwound; the caller's own
+    // (a task running this) is current again.
+    let _reset = Restore(CURRENT.with(|c| c.replace(std::ptr::null())));
     for task in tasks {
         let stack = DefaultStack::new(STACK_BYTES)?;
         let body = move |y: &Yielder<(), ()>, ()| {
@@ -72,6 +74,7 @@ pub fn run<'a, R>(tasks: Vec<Box<dyn FnOnce() -> R + 'a>>, mut between: impl FnM
         for (co, slot) in coroutines.iter_mut().zip(out.iter_mut()).filter(|(_, s)| s.is_none()) {
             let r = co.resume(());
             CURRENT.with(|c| c.set(std::ptr::null()));
+            // (`_reset` covers a resume that unwinds.)
             if let CoroutineResult::Return(r) = r {
                 *slot = Some(r);
                 left -= 1;
@@ -82,12 +85,12 @@ pub fn run<'a, R>(tasks: Vec<Box<dyn FnOnce() -> R + 'a>>, mut between: impl FnM
     Ok(out.into_iter().flatten().collect())
 }
 
-/// Clears the current task when dropped.
-struct NotCurrent;
+/// Makes the yielder it holds current again when dropped (null outside any task).
+struct Restore(*const Yielder<(), ()>);
 
-impl Drop for NotCurrent {
+impl Drop for Restore {
     fn drop(&mut self) {
-        CURRENT.with(|c| c.set(std::ptr::null()));
+        CURRENT.with(|c| c.set(self.0));
     }
 }
 

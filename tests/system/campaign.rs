@@ -190,6 +190,11 @@ fn a_bad_dispersion_is_refused_by_name_before_any_case_runs() {
             "dispersions[0].sigma: 2 values for a key of 3 component(s)",
         ),
         ("key = \"agents[0].id\"\ndist = \"normal\"\nsigma = 1.0", "dispersions[0].dist: the key holds a whole number"),
+        // --duration (given below) sets it for every case: a draw would never fly.
+        (
+            "key = \"scenario.duration_s\"\ndist = \"uniform\"\nlow = 2.0\nhigh = 3.0",
+            "dispersions[0].key = \"scenario.duration_s\": --duration sets it for every case",
+        ),
     ];
     for (k, (body, expect)) in cases.iter().enumerate() {
         let spec = dir.join(format!("bad-{k}.toml"));

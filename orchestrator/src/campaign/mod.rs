@@ -111,10 +111,18 @@ pub fn command(file: &Path, a: &CampaignArgs) -> ExitCode {
     // included: a dispersion may draw one).
     let check = |i: usize| {
         let (_, s) = plan.case(i as u64)?;
-        match crate::reference_refusal(&s, "add --multi-process").filter(|_| !a.multi_process) {
-            Some(why) => Err(format!("{}: case {i}: {why}", file.display())),
-            None => Ok(()),
+        if let Some(why) = crate::reference_refusal(&s, "add --multi-process").filter(|_| !a.multi_process) {
+            return Err(format!("{}: case {i}: {why}", file.display()));
         }
+        // Paced by the wall clock, a case's deadlines (and so its rows) would depend on the load.
+        if let Some(rate) = s.run.realtime_rate {
+            return Err(format!(
+                "{}: case {i}: run.realtime_rate = {rate}: a campaign's cases run as fast as they can \
+                 (paced, their deadline misses would depend on the machine's load); remove it",
+                file.display()
+            ));
+        }
+        Ok(())
     };
     if let Err(e) = Campaign::new(a.cases as usize).workers(workers).run(check) {
         return crate::fail(CommandError::invalid(e.source));
@@ -129,7 +137,7 @@ pub fn command(file: &Path, a: &CampaignArgs) -> ExitCode {
     }
     let mut done = Vec::with_capacity(a.cases as usize);
     for i in 0..a.cases {
-        match row::load(&root, i) {
+        match row::load(&root, i, plan.dispersions.columns().len()) {
             Ok(r) => done.push(r),
             Err(e) => return crate::fail(CommandError::invalid(e)),
         }
@@ -255,7 +263,7 @@ fn metric_choices(r: &CaseRow) -> String {
     names.join(", ")
 }
 
-/// A chosen metric none of the first this many finished cases produced is refused.
+/// A chosen metric none of the first this many cases (by index, those that ran ok) produced is refused.
 const METRIC_CHECK_CASES: usize = 5;
 
 /// Run the cases not done yet, then write the table and the report.
@@ -276,11 +284,13 @@ fn run(plan: &Plan, a: &CampaignArgs, root: &Path, workers: usize, done: Vec<Opt
             info!("[{finished}/{total}]");
             return;
         };
-        // A metric some cases lack (a method without a QP) is fine; one the first few cases all
-        // lack is a wrong name.
-        let seen = rows.iter().flatten().count();
-        let none_has = rows.iter().flatten().all(|r| r.value(&metric).is_none());
-        if seen >= total.min(METRIC_CHECK_CASES) && none_has && !bad_metric.swap(true, Ordering::SeqCst) {
+        // A metric some cases lack (a method without a QP) is fine; one that none of the first
+        // cases by index that ran ok has is a wrong name. Judged once those cases have all
+        // finished, whatever order they finished in, so the verdict does not depend on the workers.
+        let head = &rows[..total.min(METRIC_CHECK_CASES)];
+        let ok: Vec<&CaseRow> = head.iter().flatten().filter(|r| r.status == "ok").collect();
+        let judged = head.iter().all(Option::is_some) && !ok.is_empty();
+        if judged && ok.iter().all(|r| r.value(&metric).is_none()) && !bad_metric.swap(true, Ordering::SeqCst) {
             error!(
                 "no metric {metric:?} in the runs' summaries; they have: {}",
                 first.map(metric_choices).unwrap_or_default()

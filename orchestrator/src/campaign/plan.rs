@@ -94,7 +94,17 @@ impl Plan {
             meta.insert("duration_s".into(), toml::Value::Float(d));
         }
         let dispersions = Dispersions::parse(raw, &nominal_table)
-            .map_err(|problems| ScenarioError { file: spec_file, problems }.located(&spec_source))?;
+            .map_err(|problems| ScenarioError { file: spec_file.clone(), problems }.located(&spec_source))?;
+        // The command line's overrides are applied over every drawn case: a dispersion of one of
+        // their keys would be drawn, tabled and never flown.
+        for (path, flag) in overrides.flags() {
+            if let Some(k) = dispersions.items.iter().position(|d| d.key.to_string() == path) {
+                return Err(PlanError::Invalid(format!(
+                    "{}: dispersions[{k}].key = {path:?}: {flag} sets it for every case; drop one of the two",
+                    spec_file.display()
+                )));
+            }
+        }
         let seed = a.seed.unwrap_or(nominal.scenario.seed);
         Ok(Self {
             file: a.file.to_path_buf(),
@@ -146,7 +156,7 @@ impl Plan {
                     let drawn: Vec<String> = columns
                         .iter()
                         .zip(values)
-                        .filter(|(c, _)| c.starts_with(&key))
+                        .filter(|(c, _)| *c == &key || c.strip_prefix(&key).is_some_and(|r| r.starts_with('[')))
                         .map(|(c, v)| format!("{c} = {v}"))
                         .collect();
                     // The problem is the drawn key's own: its value is in `drawn` already.

@@ -108,13 +108,18 @@ pub fn save(root: &Path, row: &CaseRow) -> std::io::Result<()> {
 
 /// Case `i`'s row if it finished in an earlier invocation; an unreadable row is an error naming
 /// the file (it is never silently run again nor skipped).
-pub fn load(root: &Path, i: u64) -> Result<Option<CaseRow>, String> {
+pub fn load(root: &Path, i: u64, columns: usize) -> Result<Option<CaseRow>, String> {
     let path = case_dir(root, i).join(ROW);
     match std::fs::read(&path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(e) => Err(format!("{}: {e}", path.display())),
         Ok(bytes) => match serde_json::from_slice::<CaseRow>(&bytes) {
-            Ok(r) if r.case == i => Ok(Some(r)),
+            Ok(r) if r.case == i && r.values.len() == columns => Ok(Some(r)),
+            Ok(r) if r.case == i => Err(format!(
+                "{}: {} drawn values where the campaign draws {columns}; remove the case's directory to run it again",
+                path.display(),
+                r.values.len()
+            )),
             Ok(r) => Err(format!("{}: holds case {}, not {i}", path.display(), r.case)),
             Err(e) => {
                 Err(format!("{}: not a case row ({e}); remove the case's directory to run it again", path.display()))

@@ -56,22 +56,27 @@ impl Dispersions {
         let Some(entries) = crate::parse::section::<Vec<RawDispersion>>(raw, SECTION, &mut problems) else {
             return Err(problems);
         };
-        let mut items = Vec::new();
+        // Each checked entry with its index in the file (problems name that).
+        let mut checked: Vec<(usize, Dispersion)> = Vec::new();
         for (k, r) in entries.iter().enumerate() {
             match spec::check(k, r, nominal) {
-                Ok(d) => items.push(d),
+                Ok(d) => checked.push((k, d)),
                 Err(p) => problems.extend(p),
             }
         }
-        for (k, d) in items.iter().enumerate() {
-            if let Some(j) = items[..k].iter().position(|e| overlaps(&e.key, &d.key)) {
+        for (n, (k, d)) in checked.iter().enumerate() {
+            if let Some((j, e)) = checked[..n].iter().find(|(_, e)| overlaps(&e.key, &d.key)) {
                 problems.push(Problem::new(
                     format!("{SECTION}[{k}].key"),
                     Some(format!("{:?}", d.key.to_string())),
-                    format!("overlaps {SECTION}[{j}] ({}): a value is drawn once", items[j].key),
+                    format!("overlaps {SECTION}[{j}] ({}): a value is drawn once", e.key),
                 ));
             }
         }
+        if entries.is_empty() {
+            problems.push(Problem::new(SECTION, None, "empty: a campaign needs at least one dispersion"));
+        }
+        let items = checked.into_iter().map(|(_, d)| d).collect();
         if problems.is_empty() { Ok(Self { items }) } else { Err(problems) }
     }
 

@@ -264,7 +264,14 @@ fn laws(raw: &RawDispersion, shape: &Shape, at: &dyn Fn(&str) -> String) -> Resu
         let comp = if n > 1 { format!(" (component {i})") } else { String::new() };
         match component(dist, m, s, lo, hi) {
             Ok(l) => out.push(l),
-            Err((field, why)) => problems.push(Problem::new(at(field), None, format!("{why}{comp}"))),
+            Err((field, why)) => {
+                // σ from sigma_rel: blame the key the user wrote.
+                let (field, why) = match (field, &raw.sigma_rel) {
+                    ("sigma", Some(_)) => ("sigma_rel", format!("{why} (sigma_rel × |nominal {nom}|)")),
+                    _ => (field, why),
+                };
+                problems.push(Problem::new(at(field), None, format!("{why}{comp}")))
+            }
         }
     }
     if problems.is_empty() { Ok(out) } else { Err(problems) }

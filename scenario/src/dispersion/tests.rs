@@ -170,6 +170,18 @@ fn bad_specs_are_refused_by_key_path_never_skipped() {
     assert!(e.contains("a log-uniform needs low > 0"), "{e}");
     let e = problems("[[dispersions]]\nkey = \"plant.mass_kg\"\ndist = \"normal\"\nsigma = 1.0\ncorrelation = 0.5\n");
     assert!(e.contains("dispersions[0].correlation = 0.5: a correlation needs a group"), "{e}");
+    // The entries are named by their place in the file, also past a refused one.
+    let e = problems(
+        "[[dispersions]]\nkey = \"plant.x\"\ndist = \"normal\"\nsigma = 1.0\n\
+         [[dispersions]]\nkey = \"plant.mass_kg\"\ndist = \"normal\"\nsigma = 1.0\n\
+         [[dispersions]]\nkey = \"plant.mass_kg\"\ndist = \"normal\"\nsigma = 2.0\n",
+    );
+    assert!(e.contains("dispersions[2].key = \"plant.mass_kg\": overlaps dispersions[1]"), "{e}");
+    // A σ from sigma_rel is blamed on sigma_rel.
+    let e = problems("[[dispersions]]\nkey = \"plant.mass_kg\"\ndist = \"normal\"\nsigma_rel = -0.1\n");
+    assert!(e.contains("dispersions[0].sigma_rel: σ = -10"), "{e}");
+    let e = problems("dispersions = []\n");
+    assert!(e.contains("dispersions: empty"), "{e}");
     // Every entry's problems at once.
     let e = spec(
         "[[dispersions]]\nkey = \"plant.x\"\ndist = \"normal\"\nsigma = 1.0\n\
