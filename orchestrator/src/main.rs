@@ -1014,9 +1014,7 @@ fn sweep(file: &Path, args: &SweepArgs) -> ExitCode {
         info!("seed {seed}: {} steps in {:.2} s", summary.steps_completed, outcome.wall_s);
         if !args.keep_telemetry {
             // Ten headline runs would otherwise leave ~1.5 GB; summaries stay.
-            for d in ["telemetry", "timing", "derived"] {
-                let _ = std::fs::remove_dir_all(dirs.root.join(d));
-            }
+            dirs.remove_bulk();
         }
         rows.push((seed, summary.metrics));
     }

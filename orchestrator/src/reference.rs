@@ -98,7 +98,6 @@ pub fn launch(
     // Threads of one process: spinning is as good (or bad) as between processes.
     let mut params = DriveParams::from_setup(s, run_id, dirs.clone(), Arc::clone(&terminate), started);
     params.key = key;
-    let procs: Vec<Proc> = std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)).collect();
     let mut signal = 0usize;
     // Progress and signals, between the drivers' turns (one thread) or every 10 ms (threads).
     let mut watch = || {
@@ -114,15 +113,49 @@ pub fn launch(
             bus.request_stop();
         }
     };
-    let (bus_ref, params_ref) = (&bus, &params);
-    let reports: Vec<ProcessReport> = match threads {
-        Threads::PerProcess => std::thread::scope(|sc| {
+    let reports = drive(s, &bus, &params, threads, &mut watch);
+    let wall_s = started.elapsed().as_secs_f64();
+    if signal != 0 {
+        return ended(RunStatus::Interrupted(signal as i32), Some(format!("interrupted by signal {signal}")), wall_s);
+    }
+    let reports = match reports {
+        Ok(r) => r,
+        Err(e) => return ended(RunStatus::Failed, Some(format!("cannot map the drivers' stacks: {e}")), wall_s),
+    };
+    // The first genuine failure (others merely stopped because of it).
+    let failure = reports
+        .iter()
+        .filter_map(|r| r.error.as_ref().map(|e| (r, e)))
+        .find(|(_, e)| !e.is_stop())
+        .or_else(|| reports.iter().filter_map(|r| r.error.as_ref().map(|e| (r, e))).next());
+    match failure {
+        Some((r, e)) => ended(RunStatus::Failed, Some(format!("{}: {e}", r.process)), wall_s),
+        None => {
+            progress.set(s.n_steps());
+            ended(RunStatus::Ok, None, wall_s)
+        }
+    }
+}
+
+/// The plant and every agent run to their ends, placed as `threads` says, `watch` called while
+/// they run; their reports in process order (an error only when one thread's stacks cannot be
+/// mapped).
+fn drive(
+    s: &Setup,
+    bus: &Arc<MemoryBus>,
+    params: &DriveParams,
+    threads: Threads,
+    watch: &mut dyn FnMut(),
+) -> std::io::Result<Vec<ProcessReport>> {
+    let procs: Vec<Proc> = std::iter::once(Proc::Plant).chain((1..=s.n_agents()).map(Proc::Agent)).collect();
+    match threads {
+        Threads::PerProcess => Ok(std::thread::scope(|sc| {
             let handles: Vec<_> = procs
                 .iter()
                 .map(|&p| {
                     std::thread::Builder::new()
                         .name(p.name())
-                        .spawn_scoped(sc, move || run_one(s, bus_ref, p, params_ref))
+                        .spawn_scoped(sc, move || run_one(s, bus, p, params))
                         .expect("spawning a thread")
                 })
                 .collect();
@@ -131,55 +164,18 @@ pub fn launch(
                 std::thread::sleep(Duration::from_millis(10));
             }
             handles.into_iter().map(|h| h.join().expect("a reference thread panicked")).collect()
-        }),
+        })),
         Threads::One => {
             let tasks = procs
                 .iter()
-                .map(|&p| Box::new(move || run_one(s, bus_ref, p, params_ref)) as Box<dyn FnOnce() -> ProcessReport>)
+                .map(|&p| Box::new(move || run_one(s, bus, p, params)) as Box<dyn FnOnce() -> ProcessReport>)
                 .collect();
-            match cohort_runtime::coop::run(tasks, &mut watch) {
-                Ok(r) => r,
-                Err(e) => {
-                    let error = Some(format!("cannot map the drivers' stacks: {e}"));
-                    let wall_s = started.elapsed().as_secs_f64();
-                    return LaunchOutcome {
-                        status: RunStatus::Failed,
-                        error,
-                        wall_s,
-                        startup_s: None,
-                        timeline: Vec::new(),
-                    };
-                }
-            }
-        }
-    };
-    let wall_s = started.elapsed().as_secs_f64();
-    if signal != 0 {
-        return LaunchOutcome {
-            status: RunStatus::Interrupted(signal as i32),
-            error: Some(format!("interrupted by signal {signal}")),
-            wall_s,
-            startup_s: None,
-            timeline: Vec::new(),
-        };
-    }
-    // The first genuine failure (others merely stopped because of it).
-    let failure = reports
-        .iter()
-        .filter_map(|r| r.error.as_ref().map(|e| (r, e)))
-        .find(|(_, e)| !e.is_stop())
-        .or_else(|| reports.iter().filter_map(|r| r.error.as_ref().map(|e| (r, e))).next());
-    match failure {
-        Some((r, e)) => LaunchOutcome {
-            status: RunStatus::Failed,
-            error: Some(format!("{}: {e}", r.process)),
-            wall_s,
-            startup_s: None,
-            timeline: Vec::new(),
-        },
-        None => {
-            progress.set(s.n_steps());
-            LaunchOutcome { status: RunStatus::Ok, error: None, wall_s, startup_s: None, timeline: Vec::new() }
+            cohort_runtime::coop::run(tasks, watch)
         }
     }
+}
+
+/// A reference run's outcome (no start-up time, no fault timeline: neither exists in-process).
+fn ended(status: RunStatus, error: Option<String>, wall_s: f64) -> LaunchOutcome {
+    LaunchOutcome { status, error, wall_s, startup_s: None, timeline: Vec::new() }
 }

@@ -402,9 +402,8 @@ impl Soak {
             self.problems.push(format!("run {index}: message lost without being counted: {u}"));
         }
         // Telemetry of a soak is large and not its point; summaries stay.
-        for d in ["telemetry", "timing", "derived", "checkpoints"] {
-            let _ = std::fs::remove_dir_all(dirs.root.join(d));
-        }
+        dirs.remove_bulk();
+        let _ = std::fs::remove_dir_all(dirs.root.join("checkpoints"));
         self.runs.push(record);
         self.index += 1;
         Ok(true)

@@ -38,6 +38,13 @@ impl RunDirs {
     pub fn snapshots(&self) -> PathBuf {
         self.root.join("snapshots")
     }
+    /// Remove a finished run's per-step outputs (telemetry, timing, derived), keeping its
+    /// scenario, summary, status and logs: what a sweep or campaign of many runs keeps of each.
+    pub fn remove_bulk(&self) {
+        for d in [self.telemetry(), self.timing(), self.root.join("derived")] {
+            let _ = std::fs::remove_dir_all(d);
+        }
+    }
     pub fn create_all(&self) -> std::io::Result<()> {
         for d in [self.telemetry(), self.timing(), self.status(), self.logs()] {
             std::fs::create_dir_all(d)?;

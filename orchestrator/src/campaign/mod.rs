@@ -156,10 +156,8 @@ pub fn command(file: &Path, a: &CampaignArgs) -> ExitCode {
 
 /// `campaign.json`: what the campaign is; a directory holding another campaign is refused.
 fn manifest(root: &Path, plan: &Plan, a: &CampaignArgs) -> Result<(), CommandError> {
-    let scenario = std::fs::read_to_string(&plan.file)
-        .map_err(|e| CommandError::invalid(format!("{}: {e}", plan.file.display())))?;
     let m = serde_json::json!({
-        "scenario_text": scenario,
+        "scenario_text": plan.text,
         "dispersions": plan.spec_text,
         "seed": plan.seed,
         "fixed_seed": plan.fixed_seed,
@@ -213,9 +211,7 @@ fn run_case(plan: &Plan, root: &Path, i: u64, a: &CampaignArgs) -> Result<CaseRo
         return Err(CaseError::Interrupted);
     }
     if !a.keep_telemetry {
-        for d in ["telemetry", "timing", "derived"] {
-            let _ = std::fs::remove_dir_all(dirs.root.join(d));
-        }
+        dirs.remove_bulk();
     }
     let verdict = summary
         .verdict

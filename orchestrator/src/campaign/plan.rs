@@ -26,6 +26,8 @@ impl cohort_runtime::exit::ToExitCode for PlanError {
 /// What the campaign draws and runs.
 pub struct Plan {
     pub file: PathBuf,
+    /// The scenario file's text (the manifest compares it on a resume).
+    pub text: String,
     pub name: String,
     /// The scenario's table without its dispersions.
     base: toml::Table,
@@ -78,7 +80,7 @@ impl Plan {
                 }
                 (f.to_path_buf(), t, dispersion::split(&mut table))
             }
-            None => (a.file.to_path_buf(), text, own),
+            None => (a.file.to_path_buf(), text.clone(), own),
         };
         let Some(raw) = raw else {
             return Err(PlanError::Invalid(format!(
@@ -108,6 +110,7 @@ impl Plan {
         let seed = a.seed.unwrap_or(nominal.scenario.seed);
         Ok(Self {
             file: a.file.to_path_buf(),
+            text,
             name: nominal.scenario.name.clone(),
             base,
             dispersions,
