@@ -21,7 +21,7 @@ pub fn load(file: &Path, o: &Overrides) -> Result<Setup, ScenarioError> {
 }
 
 /// A fresh run id: random, so concurrent runs never share iceoryx2 resources.
-fn new_run_id() -> u64 {
+pub(crate) fn new_run_id() -> u64 {
     let mut b = [0u8; 8];
     if std::fs::File::open("/dev/urandom").and_then(|mut f| std::io::Read::read_exact(&mut f, &mut b)).is_ok() {
         return u64::from_le_bytes(b);

@@ -199,6 +199,10 @@ enum Cmd {
         /// The name scenarios give this machine in [[hosts]] (default: the host name).
         #[arg(long)]
         name: Option<String>,
+        /// How many campaign cases (`orchestrator campaign --hosts`) it runs at once (default:
+        /// the machine's cores).
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
+        workers: Option<u64>,
         #[command(flatten)]
         security: security_args::SecurityArgs,
     },
@@ -542,8 +546,12 @@ fn generic(command: Cmd) -> ExitCode {
             }
             Err(e) => fail(CommandError::failed(e)),
         },
-        Cmd::Host { listen, name, security } => {
-            match security.install().map_err(daemon::DaemonError::from).and_then(|()| daemon::run(&listen, name)) {
+        Cmd::Host { listen, name, workers, security } => {
+            let workers =
+                workers.map_or_else(|| std::thread::available_parallelism().map_or(1, usize::from), |w| w as usize);
+            let cases = daemon::Cases { workers, runner: campaign::serve::runner() };
+            match security.install().map_err(daemon::DaemonError::from).and_then(|()| daemon::run(&listen, name, cases))
+            {
                 Ok(()) => ExitCode::SUCCESS,
                 Err(e) => fail(e),
             }

@@ -6,7 +6,8 @@
 //!   ([`RunRequest`] → the run's files in [`chunk`]s), `rows` ([`RowsRequest`] → one
 //!   [`ProcRows`] reply per process: the newest decimated telemetry rows since the last request,
 //!   for `launch --live`), `end` ([`RunRequest`]: kill whatever of the run is left, remove its
-//!   directory).
+//!   directory), `case` ([`CaseRequest`] → [`CaseReply`]: one case of a campaign, run in the
+//!   daemon's own process on its worker pool; the reply comes when the case has ended).
 //! - `cohort/host/<name>`: the daemon's liveliness token (the orchestrator watches it: a daemon
 //!   that disappears takes its processes with it).
 //! - `cohort/<run id>/host/<name>/exit`: [`ExitReport`]s, one per child that ended, as `waitpid`
@@ -49,6 +50,44 @@ pub struct Info {
     pub name: String,
     pub build_id: String,
     pub pid: u32,
+    /// How many campaign cases it runs at once (`orchestrator host --workers`).
+    #[serde(default = "one")]
+    pub workers: u32,
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// `case`: run one case of a campaign to its outcome. The daemon knows nothing of campaigns: it
+/// hands the request to the runner it was started with (the orchestrator's) in a scratch
+/// directory of its own, and sends back what the runner says.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CaseRequest {
+    /// The orchestrator's build id: a daemon of another build refuses.
+    pub build_id: String,
+    /// The campaign (a random id of the orchestrator's invocation: scratch names only).
+    pub campaign_id: u64,
+    pub case: u64,
+    /// The scenario file's path on the orchestrator's machine (its relative paths resolve
+    /// against its directory, as in a multi-host run: the same checkout at the same path).
+    pub file: String,
+    /// The drawn case's scenario, as TOML.
+    pub scenario_text: String,
+    /// `--duration`, when the command line set it.
+    pub duration_s: Option<f64>,
+}
+
+/// A daemon's answer to a [`CaseRequest`].
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CaseReply {
+    /// The case ran (to whatever status): the runner's outcome.
+    Done(serde_json::Value),
+    /// The daemon is stopping (or its case was interrupted): give the case to another host.
+    Stopping,
+    /// The case could not run here (the reason names the host's problem).
+    Failed(String),
 }
 
 /// Start one plant or agent process of a run on this host.

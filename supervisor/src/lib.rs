@@ -11,6 +11,8 @@
 //!   answers to its name and has this build's id.
 //! - [`daemon`]: the host daemon (`orchestrator host`) that starts one machine's processes for an
 //!   orchestrator elsewhere, relays its signals and sends the run's files back.
+//! - [`farm`]: a campaign's cases sent to the host daemons' worker pools (`orchestrator
+//!   campaign --hosts`), a lost host's unanswered cases sent again to the others.
 //! - [`netlab`] and [`zping`]: three network namespaces with host daemons and a delay on their
 //!   links, and a zenoh ping-pong, both for `orchestrator bench`.
 //! - [`observe`]: each timeline event as it happens, for the live view (`launch --live`).
@@ -26,6 +28,7 @@
 //! errors it returns to exit codes.
 
 pub mod daemon;
+pub mod farm;
 mod hostproto;
 pub use hostproto::ProcRows;
 pub mod linkemu;

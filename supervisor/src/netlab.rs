@@ -22,6 +22,8 @@ use crate::linkemu;
 
 pub const NAMES: [&str; 3] = ["a", "b", "c"];
 const BRIDGE_ADDR: &str = "198.18.77.254";
+/// How many campaign cases each daemon of the lab runs at once (`orchestrator host --workers`).
+pub const CASE_WORKERS: u32 = 2;
 
 /// Why the lab (or a change to it) could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -118,7 +120,7 @@ impl Lab {
         for (k, x) in NAMES.iter().enumerate() {
             let child = lab
                 .command(x, &me)
-                .args(["host", "--listen", &Self::endpoint(k), "--name", x])
+                .args(["host", "--listen", &Self::endpoint(k), "--name", x, "--workers", &CASE_WORKERS.to_string()])
                 .stdin(Stdio::null())
                 .stdout(Stdio::null())
                 .stderr(Stdio::null())
@@ -208,6 +210,19 @@ impl Lab {
                 Ok(())
             }
         }
+    }
+
+    /// A hosts file of the three daemons, placing nothing (for `campaign --hosts`).
+    pub fn bare_hosts_file(dir: &std::path::Path) -> Result<PathBuf, LabError> {
+        let text: String = NAMES
+            .iter()
+            .enumerate()
+            .map(|(k, x)| format!("[[hosts]]\nname = \"{x}\"\nendpoint = \"{}\"\n\n", Self::endpoint(k)))
+            .collect();
+        std::fs::create_dir_all(dir).map_err(|source| LabError::File { path: dir.into(), source })?;
+        let path = dir.join("hosts-campaign.toml");
+        std::fs::write(&path, text).map_err(|source| LabError::File { path: path.clone(), source })?;
+        Ok(path)
     }
 
     /// A hosts file: the plant on a, agents alternately on b and c.

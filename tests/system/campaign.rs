@@ -1,14 +1,18 @@
 //! `orchestrator campaign`: a dispersed fig1 gives one table (compared value by value, doubles by
 //! `f64::to_bits`) whatever the workers, in-process or as processes, interrupted and resumed or
 //! not, and cut by `--until` exactly where the interval rule says; a bad dispersion is refused
-//! by name before any case runs. Fixtures: `campaign/` beside this file.
+//! by name before any case runs; spread over three host daemons (network namespaces, or loopback
+//! ports where `ip netns` is refused) the table is the local one, also when a host is killed
+//! mid-campaign. Fixtures: `campaign/` beside this file.
 
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 use arrow_array::{Array, Float64Array, RecordBatch, StringArray, UInt64Array};
-use cohort::{OutputWithin, describe_output, heavy_scratch, orchestrator_command, repo_root};
+use cohort::{OutputWithin, bin_path, describe_output, heavy_scratch, orchestrator_command, repo_root};
+
+use crate::multihost::{Daemons, NAMES, Net};
 
 fn fixture(name: &str) -> PathBuf {
     repo_root().join("tests/system/campaign").join(name)
@@ -231,4 +235,108 @@ fn a_bad_dispersion_is_refused_by_name_before_any_case_runs() {
         "{}",
         describe_output(&o)
     );
+}
+
+/// The same campaign in-process here and over three host daemons (2 workers each), twice: once
+/// as is, once with host b's daemon killed (SIGKILL) as soon as a case is sent to it. Every
+/// table is the local one, bit for bit; the killed host's case went to another host.
+#[test]
+fn a_campaign_over_three_hosts_is_the_local_table_also_when_a_host_is_lost() {
+    let (_g, dir) = heavy_scratch("campaign-hosts");
+    let net = Net::make();
+    let mut daemons = Daemons::start(&net);
+    let hosts = dir.join("hosts.toml");
+    let text: String = NAMES
+        .iter()
+        .enumerate()
+        .map(|(k, x)| format!("[[hosts]]\nname = \"{x}\"\nendpoint = \"{}\"\n\n", net.endpoint(k)))
+        .collect();
+    std::fs::write(&hosts, text).unwrap();
+    // 30 s cases: long enough that a case sent to b is still running when b is killed.
+    let args = |out: &str, extra: &[&str]| fig1_args(&dir.join(out), 9, "30", extra);
+    campaign(&args("local", &["--workers", "2"]), "local");
+    let local = table(&dir.join("local"));
+    let on_hosts = |out: &str| {
+        let mut c = net.command("a", &bin_path("orchestrator"));
+        c.args(args(out, &["--hosts", &hosts.display().to_string()])).current_dir(repo_root());
+        c.env("RUST_LOG", "info,cohort_supervisor::farm=debug").stdout(Stdio::piped()).stderr(Stdio::piped());
+        c
+    };
+    let o = on_hosts("three").output_within(cohort::RUN_LIMIT, "campaign on three hosts");
+    assert!(o.status.success(), "{}", describe_output(&o));
+    assert_same_table(&local, &table(&dir.join("three")), "campaign on three hosts");
+    let ran_on = |out: &str| -> Vec<String> {
+        (0..9)
+            .map(|i| {
+                let row = std::fs::read_to_string(dir.join(out).join(format!("cases/case-{i:06}/row.json"))).unwrap();
+                let v: serde_json::Value = serde_json::from_str(&row).unwrap();
+                v["host"].as_str().unwrap_or("(none)").to_string()
+            })
+            .collect()
+    };
+    let hosts_used = ran_on("three");
+    assert!(NAMES.iter().all(|x| hosts_used.iter().any(|h| h == x)), "every host ran cases: {hosts_used:?}");
+    // A local case's directory keeps its scenario and summary; so does a remote one's.
+    assert!(dir.join("three/cases/case-000004/scenario.toml").is_file());
+    assert!(dir.join("three/cases/case-000004/summary.json").is_file());
+
+    let mut child = on_hosts("lost").spawn().unwrap();
+    let mut err = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut log = String::new();
+    let sent_to_b = loop {
+        let mut line = String::new();
+        let n = std::io::BufRead::read_line(&mut err, &mut line).unwrap();
+        assert!(n > 0, "the campaign ended before a case went to b:\n{log}");
+        log.push_str(&line);
+        if let Some(case) = line.split("case ").nth(1).and_then(|r| r.strip_suffix(" sent to host b\n")) {
+            break case.to_string();
+        }
+    };
+    daemons.kill(1);
+    let rest = std::thread::spawn(move || {
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut err, &mut s).unwrap();
+        s
+    });
+    let o = cohort::finish_within(child, cohort::RUN_LIMIT, "campaign losing host b");
+    log.push_str(&rest.join().unwrap());
+    assert!(o.status.success(), "{}\n{log}", describe_output(&o));
+    assert!(log.contains(&format!("case {sent_to_b} was on host b: it goes to another host")), "{log}");
+    assert_same_table(&local, &table(&dir.join("lost")), "campaign that lost host b");
+    let hosts_used = ran_on("lost");
+    assert_ne!(hosts_used[sent_to_b.parse::<usize>().unwrap()], "b", "{hosts_used:?}");
+    // The killed daemon could not remove its scratch; the test does.
+    let base = cohort_wire::transport::iox::ensure_user_files_base().unwrap();
+    let _ = std::fs::remove_dir_all(base.join("b"));
+}
+
+/// A hosts file a campaign cannot use is exit 2 naming it, before any case runs: a placement of
+/// processes, a daemon that is not there, `--hosts` with `--multi-process`.
+#[test]
+fn hosts_a_campaign_cannot_use_are_refused_before_any_case_runs() {
+    let dir = cohort::scratch_dir("campaign-bad-hosts");
+    let cases: &[(&str, &[&str], &str)] = &[
+        (
+            "[[hosts]]\nname = \"a\"\nendpoint = \"tcp/127.0.0.1:9\"\nplant = true\n",
+            &[],
+            "hosts[0]: a campaign sends whole cases to each host",
+        ),
+        (
+            "[[hosts]]\nname = \"a\"\nendpoint = \"tcp/127.0.0.1:9\"\n",
+            &[],
+            "hosts[0] (a at tcp/127.0.0.1:9): unreachable",
+        ),
+        ("[[hosts]]\nname = \"a\"\nendpoint = \"tcp/127.0.0.1:9\"\n", &["--multi-process"], "cannot be used with"),
+    ];
+    for (k, (text, extra, expect)) in cases.iter().enumerate() {
+        let hosts = dir.join(format!("hosts-{k}.toml"));
+        std::fs::write(&hosts, text).unwrap();
+        let out = dir.join(format!("out-{k}"));
+        let mut a = fig1_args(&out, 2, "1", &["--hosts", &hosts.display().to_string()]);
+        a.extend(extra.iter().map(|s| s.to_string()));
+        let o = orchestrator_command().args(&a).current_dir(repo_root()).output_within(cohort::QUICK_LIMIT, expect);
+        assert_eq!(o.status.code(), Some(2), "{k}: {}", describe_output(&o));
+        assert!(String::from_utf8_lossy(&o.stderr).contains(expect), "{k}: {}", describe_output(&o));
+        assert!(!out.exists(), "{k}: nothing made");
+    }
 }

@@ -32,10 +32,10 @@ use cohort_supervisor::linkemu;
 
 /// fig1, shortened: 1.5 s of simulated time, 150 lockstep steps.
 const DURATION: &str = "1.5";
-const NAMES: [&str; 3] = ["a", "b", "c"];
+pub(crate) const NAMES: [&str; 3] = ["a", "b", "c"];
 
 /// Three namespaces on a bridge, or nothing (the loopback fallback).
-struct Net {
+pub(crate) struct Net {
     tag: String,
     namespaces: bool,
     /// Host c's link when it is a TAP pair with the pump between its ends.
@@ -63,11 +63,11 @@ impl Net {
         // Namespaces have ports of their own; on loopback each daemon needs its own.
         if self.namespaces { 7447 } else { 20_000 + (std::process::id() % 20_000) as u16 + k as u16 }
     }
-    fn endpoint(&self, k: usize) -> String {
+    pub(crate) fn endpoint(&self, k: usize) -> String {
         format!("tcp/{}:{}", self.addr(k), self.port(k))
     }
 
-    fn make() -> Self {
+    pub(crate) fn make() -> Self {
         let tag = format!("{:05}", std::process::id() % 100_000);
         let mut net = Net { tag, namespaces: true, pumped: None };
         if let Err(e) = net.try_namespaces() {
@@ -120,7 +120,7 @@ impl Net {
     }
 
     /// A command run on host `x` (in its namespace).
-    fn command(&self, x: &str, program: &Path) -> Command {
+    pub(crate) fn command(&self, x: &str, program: &Path) -> Command {
         if self.namespaces {
             let mut c = Command::new("ip");
             c.args(["netns", "exec", &self.ns(x)]).arg(program);
@@ -169,13 +169,13 @@ impl Drop for Net {
 }
 
 /// The three host daemons.
-struct Daemons<'a> {
+pub(crate) struct Daemons<'a> {
     net: &'a Net,
     kids: Vec<Option<Child>>,
 }
 
 impl<'a> Daemons<'a> {
-    fn start(net: &'a Net) -> Self {
+    pub(crate) fn start(net: &'a Net) -> Self {
         let mut d = Daemons { net, kids: vec![None, None, None] };
         for k in 0..3 {
             d.start_one(k);
@@ -195,7 +195,7 @@ impl<'a> Daemons<'a> {
         std::thread::spawn(move || std::io::copy(&mut err, &mut std::io::sink()));
         self.kids[k] = Some(child);
     }
-    fn kill(&mut self, k: usize) {
+    pub(crate) fn kill(&mut self, k: usize) {
         if let Some(mut c) = self.kids[k].take() {
             // The daemon runs under `ip netns exec`, which execs it: the pid is the daemon's.
             // SAFETY: kill(2) on a child of this test.

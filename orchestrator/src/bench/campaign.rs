@@ -1,15 +1,24 @@
 //! The campaign rows: cases per second of `orchestrator campaign` on the headline fig1 scenario
 //! (its own `[[dispersions]]`, whole 360 s cases; `--quick`: 20 s), in-process and as processes, on 1 and 2 workers,
-//! interleaved repetitions; the 2-worker / 1-worker ratio of each (goal ≥ 1.8 on 2 cores). Each
-//! run is this binary's own `campaign` command in a child process, as a user runs it.
+//! interleaved repetitions; the 2-worker / 1-worker ratio of each (goal ≥ 1.8 on 2 cores); and
+//! spread over the three host daemons of the network lab (`--hosts`, each daemon 2 workers: three
+//! namespaces of this one machine, so the row measures what the farm costs against the local
+//! 2 workers, not more cores). Each run is this binary's own `campaign` command in a child
+//! process, as a user runs it.
 
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
+use cohort_supervisor::netlab::{CASE_WORKERS, Lab, NAMES};
+
 use super::types::median;
 
 pub(super) const KEY_PREFIX: &str = "campaign/";
+/// The mode of the rows spread over the lab's daemons.
+const HOSTS: &str = "3-namespaces";
+/// Their workers: the lab's three daemons' together.
+const LAB_WORKERS: u32 = NAMES.len() as u32 * CASE_WORKERS;
 const SCENARIO: &str = "topologies/fig1.toml";
 
 /// Whether `--only prefix` may choose a campaign row.
@@ -38,14 +47,28 @@ pub(super) struct Row {
 pub(super) fn measure(quick: bool, reps: u32, only: Option<&str>, scratch: &Path) -> Result<Vec<Row>, String> {
     let (cases, duration_s) = if quick { (4, Some(20.0)) } else { (4, None) };
     let mut rows: Vec<Row> = Vec::new();
-    for mode in ["reference", "multi-process"] {
-        for workers in [1, 2] {
+    for mode in ["reference", "multi-process", HOSTS] {
+        for workers in if mode == HOSTS { [LAB_WORKERS].as_slice() } else { [1, 2].as_slice() } {
             let key = format!("{KEY_PREFIX}fig1/{mode}/W={workers}");
             if only.is_none_or(|p| key.starts_with(p)) {
-                rows.push(Row { key, mode, workers, cases, duration_s, cases_per_s: Vec::new() });
+                let cases = if mode == HOSTS { 2 * cases } else { cases };
+                rows.push(Row { key, mode, workers: *workers, cases, duration_s, cases_per_s: Vec::new() });
             }
         }
     }
+    // The lab needs root (network namespaces): without it the row is left out, saying why.
+    let lab = if rows.iter().any(|r| r.mode == HOSTS) {
+        match Lab::start().and_then(|lab| Lab::bare_hosts_file(scratch).map(|f| (lab, f))) {
+            Ok(l) => Some(l),
+            Err(e) => {
+                tracing::warn!("campaign over three namespaces left out: the network lab: {e}");
+                rows.retain(|r| r.mode != HOSTS);
+                None
+            }
+        }
+    } else {
+        None
+    };
     let exe = std::env::current_exe().map_err(|e| format!("the orchestrator's own path: {e}"))?;
     for rep in 0..reps {
         for r in &mut rows {
@@ -55,7 +78,11 @@ pub(super) fn measure(quick: bool, reps: u32, only: Option<&str>, scratch: &Path
             if let Some(d) = r.duration_s {
                 cmd.args(["--duration", &d.to_string()]);
             }
-            cmd.args(["--workers", &r.workers.to_string(), "--out"]).arg(&out);
+            match (&lab, r.mode) {
+                (Some((_, hosts)), HOSTS) => cmd.arg("--hosts").arg(hosts),
+                _ => cmd.args(["--workers", &r.workers.to_string()]),
+            };
+            cmd.arg("--out").arg(&out);
             if r.mode == "multi-process" {
                 cmd.arg("--multi-process");
             }
@@ -82,8 +109,7 @@ pub(super) fn measure(quick: bool, reps: u32, only: Option<&str>, scratch: &Path
 pub(super) fn markdown(rows: &[Row]) -> String {
     let Some(first) = rows.first() else { return String::new() };
     let mut md = format!(
-        "\n## Monte Carlo campaign: fig1, {} cases of {}, cases per second\n\n| mode | workers | cases/s (median) | min – max |\n|---|---|---|---|\n",
-        first.cases,
+        "\n## Monte Carlo campaign: fig1, cases of {}, cases per second\n\n| mode | workers | cases | cases/s (median) | min – max |\n|---|---|---|---|---|\n",
         first.duration_s.map_or("360 s (the scenario's)".to_string(), |d| format!("{d} s"))
     );
     for r in rows {
@@ -91,9 +117,10 @@ pub(super) fn markdown(rows: &[Row]) -> String {
         let hi = r.cases_per_s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let _ = writeln!(
             md,
-            "| {} | {} | {:.3} | {lo:.3} – {hi:.3} |",
+            "| {} | {} | {} | {:.3} | {lo:.3} – {hi:.3} |",
             r.mode,
             r.workers,
+            r.cases,
             median(&mut r.cases_per_s.clone())
         );
     }
@@ -109,6 +136,19 @@ pub(super) fn markdown(rows: &[Row]) -> String {
                 if m >= 1.8 { "met" } else { "not met" }
             );
         }
+    }
+    let local = rows.iter().find(|r| r.mode == "reference" && r.workers == 2);
+    if let (Some(local), Some(lab)) = (local, rows.iter().find(|r| r.mode == HOSTS)) {
+        let ratios: Vec<f64> = lab.cases_per_s.iter().zip(&local.cases_per_s).map(|(b, a)| b / a).collect();
+        let _ = writeln!(
+            md,
+            "\n{HOSTS} ({} daemons of {} workers on this machine's cores) / reference on 2 workers: median {:.2} \
+             (per repetition: {}); the cost of sending cases to daemons, not a speed-up (one machine).",
+            NAMES.len(),
+            CASE_WORKERS,
+            median(&mut ratios.clone()),
+            ratios.iter().map(|r| format!("{r:.2}")).collect::<Vec<_>>().join(", ")
+        );
     }
     md
 }

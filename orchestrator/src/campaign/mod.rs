@@ -9,9 +9,12 @@
 //! `--cases` extends a finished one). At the end: `campaign.parquet` (a row per case),
 //! `campaign.md` and `plots/`.
 
+mod fly;
 mod plan;
+mod remote;
 mod report;
 mod row;
+pub mod serve;
 mod table;
 mod until;
 
@@ -21,8 +24,8 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Args;
+use cohort_host::CommandError;
 use cohort_host::campaign::{Campaign, CampaignError};
-use cohort_host::{CommandError, RunStatus};
 use cohort_supervisor::supervise::SIGNALLED;
 use tracing::{error, info, warn};
 
@@ -73,9 +76,18 @@ pub struct CampaignArgs {
     /// Keep each case's telemetry (by default only its summary and row stay).
     #[arg(long)]
     keep_telemetry: bool,
+    /// Send the cases to the host daemons of this file (`[[hosts]]` with name and endpoint;
+    /// `orchestrator host` on each machine, whose --workers says how many cases it runs at once).
+    /// The rows are the one-machine campaign's; a host lost mid-campaign leaves its cases to the
+    /// others.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["multi_process", "workers", "keep_telemetry"])]
+    hosts: Option<PathBuf>,
     /// No plots.
     #[arg(long)]
     no_plots: bool,
+    /// The links to the hosts' daemons: as `launch --hosts` (docs/multihost.md, "Security").
+    #[command(flatten)]
+    security: crate::security_args::SecurityArgs,
 }
 
 /// Why a case did not give a row.
@@ -106,12 +118,14 @@ pub fn command(file: &Path, a: &CampaignArgs) -> ExitCode {
             plan.seed, a.cases
         )));
     }
-    let workers = a.workers.map_or_else(|| std::thread::available_parallelism().map_or(1, usize::from), |w| w as usize);
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let workers = a.workers.map_or(cores, |w| w as usize);
     // Every case drawn and validated before one runs (an in-process case with a process fault
     // included: a dispersion may draw one).
     let check = |i: usize| {
         let (_, s) = plan.case(i as u64)?;
-        if let Some(why) = crate::reference_refusal(&s, "add --multi-process").filter(|_| !a.multi_process) {
+        let remedy = if a.hosts.is_some() { "cases on hosts run in-process" } else { "add --multi-process" };
+        if let Some(why) = crate::reference_refusal(&s, remedy).filter(|_| !a.multi_process) {
             return Err(format!("{}: case {i}: {why}", file.display()));
         }
         // Paced by the wall clock, a case's deadlines (and so its rows) would depend on the load.
@@ -128,6 +142,11 @@ pub fn command(file: &Path, a: &CampaignArgs) -> ExitCode {
         return crate::fail(CommandError::invalid(e.source));
     }
     info!("{} cases drawn from {} dispersion(s), every one valid", a.cases, plan.dispersions.items.len());
+    let hosts = match a.hosts.as_deref().map(|f| remote::Hosts::open(f, &plan, &a.security)).transpose() {
+        Ok(h) => h,
+        Err(e) => return crate::fail(e),
+    };
+    let workers = hosts.as_ref().map_or(workers, |h| h.farm.slots());
     let root = a
         .out
         .clone()
@@ -143,7 +162,11 @@ pub fn command(file: &Path, a: &CampaignArgs) -> ExitCode {
         }
     }
     let resumed = done.iter().flatten().count();
-    let mode = if a.multi_process { "multi-process" } else { "reference" };
+    let mode = match &hosts {
+        Some(h) => format!("reference, on the hosts {}", h.farm.describe()),
+        None if a.multi_process => "multi-process".into(),
+        None => "reference".into(),
+    };
     info!(
         "campaign of {} → {} ({} cases, {mode}, {workers} worker(s){})",
         file.display(),
@@ -151,7 +174,7 @@ pub fn command(file: &Path, a: &CampaignArgs) -> ExitCode {
         a.cases,
         if resumed > 0 { format!(", {resumed} done before") } else { String::new() }
     );
-    run(&plan, a, &root, workers, done, mode)
+    run(&Job { plan: &plan, a, root: &root, hosts: hosts.as_ref() }, workers, done, &mode)
 }
 
 /// `campaign.json`: what the campaign is; a directory holding another campaign is refused.
@@ -197,48 +220,22 @@ fn how(s: &cohort_runtime::paper::Setup, a: &CampaignArgs) -> crate::launcher::H
     if a.multi_process { crate::launcher::How::Processes } else { crate::launcher::How::in_process(s, true) }
 }
 
-/// Case `i` run to its row (kept on disk before it is returned).
-fn run_case(plan: &Plan, root: &Path, i: u64, a: &CampaignArgs) -> Result<CaseRow, CaseError> {
-    let (values, setup) = plan.case(i).map_err(CaseError::Invalid)?;
-    let dir = row::case_dir(root, i);
-    // A case cut short by an earlier interruption starts again from nothing.
-    if dir.exists() {
-        std::fs::remove_dir_all(&dir).map_err(|e| CaseError::Io(format!("{}: {e}", dir.display())))?;
-    }
-    let dirs = crate::prepare(&setup, Some(&dir)).map_err(|e| CaseError::Io(e.to_string()))?;
-    let (outcome, summary) = crate::launcher::run_once_as(&setup, &dirs, how(&setup, a), false);
-    if outcome.status.is_interrupted() {
-        return Err(CaseError::Interrupted);
-    }
-    if !a.keep_telemetry {
-        dirs.remove_bulk();
-    }
-    let verdict = summary
-        .verdict
-        .iter()
-        .map(|v| row::VerdictCell {
-            name: v.name.clone(),
-            verdict: serde_json::to_value(v.verdict)
-                .ok()
-                .and_then(|j| j.as_str().map(String::from))
-                .unwrap_or_default(),
-            ours: v.ours.map(f64::to_bits),
-            unit: v.unit.clone(),
-        })
-        .collect();
-    let r = CaseRow {
-        case: i,
-        seed: plan.case_seed(i),
-        values: values.iter().map(row::Cell::of).collect(),
-        status: summary.status.as_str().to_string(),
-        error: outcome.error.clone(),
-        metrics: summary.metrics.iter().map(|(k, v)| (k.clone(), v.to_bits())).collect(),
-        verdict,
-        verdict_overall: summary.verdict_overall.unwrap_or("n/a").to_string(),
-        wall_s: outcome.wall_s,
+/// Case `i` run to its row (kept on disk before it is returned): here, or on a host of `farm`.
+fn run_case(job: &Job, i: u64) -> Result<CaseRow, CaseError> {
+    let (plan, a, root) = (job.plan, job.a, job.root);
+    let (values, outcome, host) = match job.hosts {
+        None => {
+            let (values, setup) = plan.case(i).map_err(CaseError::Invalid)?;
+            (values, fly::fly(&setup, &row::case_dir(root, i), how(&setup, a), a.keep_telemetry)?, None)
+        }
+        Some(hosts) => {
+            let (values, outcome, host) = remote::run_case(hosts, plan, i, &row::case_dir(root, i))?;
+            (values, outcome, Some(host))
+        }
     };
+    let r = CaseRow::new(i, plan.case_seed(i), &values, outcome, host);
     row::save(root, &r).map_err(|e| CaseError::Io(format!("{}: {e}", row::case_dir(root, i).display())))?;
-    if !matches!(summary.status, RunStatus::Ok) {
+    if r.status != "ok" {
         warn!("case {i}: {}{}", r.status, r.error.as_deref().map(|e| format!(": {e}")).unwrap_or_default());
     }
     Ok(r)
@@ -263,7 +260,17 @@ fn metric_choices(r: &CaseRow) -> String {
 const METRIC_CHECK_CASES: usize = 5;
 
 /// Run the cases not done yet, then write the table and the report.
-fn run(plan: &Plan, a: &CampaignArgs, root: &Path, workers: usize, done: Vec<Option<CaseRow>>, mode: &str) -> ExitCode {
+/// What a campaign's cases are run from.
+struct Job<'a> {
+    plan: &'a Plan,
+    a: &'a CampaignArgs,
+    root: &'a Path,
+    /// `--hosts`: the cases go there.
+    hosts: Option<&'a remote::Hosts>,
+}
+
+fn run(job: &Job, workers: usize, done: Vec<Option<CaseRow>>, mode: &str) -> ExitCode {
+    let (plan, a, root) = (job.plan, job.a, job.root);
     let n = done.len();
     let rows = Mutex::new(done);
     let bad_metric = AtomicBool::new(false);
@@ -301,7 +308,7 @@ fn run(plan: &Plan, a: &CampaignArgs, root: &Path, workers: usize, done: Vec<Opt
         if let Some(r) = rows.lock().expect("no case panics holding the rows")[i].clone() {
             return Ok(r);
         }
-        let r = run_case(plan, root, i as u64, a)?;
+        let r = run_case(job, i as u64)?;
         rows.lock().expect("no case panics holding the rows")[i] = Some(r.clone());
         Ok::<_, CaseError>(r)
     });

@@ -63,6 +63,21 @@ pub struct VerdictCell {
     pub unit: String,
 }
 
+/// What running a case gave: everything of its row but the campaign's own columns (index, seed,
+/// drawn values). A host daemon sends it back as JSON (`campaign --hosts`), floats as bits.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Outcome {
+    /// The run's status ("ok", "degraded", "diverged", "failed").
+    pub status: String,
+    pub error: Option<String>,
+    /// Summary metrics, `f64::to_bits`.
+    pub metrics: BTreeMap<String, u64>,
+    pub verdict: Vec<VerdictCell>,
+    pub verdict_overall: String,
+    /// Wall time of the case's run, s (progress only; not in the table).
+    pub wall_s: f64,
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CaseRow {
     pub case: u64,
@@ -77,9 +92,29 @@ pub struct CaseRow {
     pub verdict_overall: String,
     /// Wall time of the case's run, s (progress only; not in the table).
     pub wall_s: f64,
+    /// The host daemon that ran it (`campaign --hosts`; not in the table, which does not depend
+    /// on where a case ran).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub host: Option<String>,
 }
 
 impl CaseRow {
+    pub fn new(case: u64, seed: u64, values: &[toml::Value], o: Outcome, host: Option<String>) -> Self {
+        let Outcome { status, error, metrics, verdict, verdict_overall, wall_s } = o;
+        Self {
+            case,
+            seed,
+            values: values.iter().map(Cell::of).collect(),
+            status,
+            error,
+            metrics,
+            verdict,
+            verdict_overall,
+            wall_s,
+            host,
+        }
+    }
+
     pub fn metric(&self, name: &str) -> Option<f64> {
         self.metrics.get(name).map(|b| f64::from_bits(*b))
     }
@@ -103,6 +138,8 @@ const ROW: &str = "row.json";
 /// Keep a finished case's row (written whole, then renamed into place).
 pub fn save(root: &Path, row: &CaseRow) -> std::io::Result<()> {
     let text = serde_json::to_vec_pretty(row).map_err(std::io::Error::other)?;
+    // A case run on a host has no directory here until its row comes.
+    std::fs::create_dir_all(case_dir(root, row.case))?;
     cohort_runtime::record::write_atomic(&case_dir(root, row.case).join(ROW), &text)
 }
 

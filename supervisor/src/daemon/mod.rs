@@ -4,7 +4,9 @@
 //! beside its own executable, refusing a request from an orchestrator of another build; it
 //! reports each child's end as `waitpid` saw it, relays signals (the fault plan's kill, freeze
 //! and thaw, the shutdown ladder's SIGTERM), streams each child's output line by line, and at the
-//! end sends the run's telemetry, timing, status and checkpoint files back.
+//! end sends the run's telemetry, timing, status and checkpoint files back. It also runs whole
+//! campaign cases in its own process on a worker pool (`orchestrator campaign --hosts`, see
+//! [`cases`]).
 //!
 //! Nothing outlives its run: the daemon watches the orchestrator's liveliness token of every run
 //! it serves and kills that run's children when the token goes (the orchestrator ended, was
@@ -39,9 +41,12 @@ use zenoh::query::{Query, Queryable};
 use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
 
+mod cases;
+pub use cases::{CaseRunner, Cases};
+
 use crate::hostproto::{
-    self, COLLECTED, ExitReport, Info, ProcRows, RowsRequest, RunRequest, SignalRequest, SpawnRequest, Spawned, chunk,
-    request_key,
+    self, COLLECTED, CaseRequest, ExitReport, Info, ProcRows, RowsRequest, RunRequest, SignalRequest, SpawnRequest,
+    Spawned, chunk, request_key,
 };
 use crate::supervise::{KEY_FD, SIGNALLED, sibling_binary};
 
@@ -68,6 +73,9 @@ struct Daemon {
     session: Session,
     base: PathBuf,
     runs: HashMap<u64, RunState>,
+    /// Campaign cases (`case` requests).
+    pool: cases::Pool,
+    workers: usize,
 }
 
 /// This machine's host name, as a daemon name (letters, digits, '-' and '_').
@@ -129,8 +137,8 @@ impl cohort_runtime::exit::ToExitCode for DaemonError {
 
 /// Run the daemon until SIGINT/SIGTERM/SIGHUP (the handlers of
 /// [`crate::supervise::install_signal_handlers`]). An argument it refuses, or an endpoint it
-/// cannot listen on, is a [`DaemonError`] naming it.
-pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
+/// cannot listen on, is a [`DaemonError`] naming it. `cases`: how campaign cases run here.
+pub fn run(listen: &str, name: Option<String>, cases: Cases) -> Result<(), DaemonError> {
     let name = name.unwrap_or_else(default_name);
     if name.is_empty() || name.len() > 64 || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
         return Err(DaemonError::Name(name));
@@ -159,11 +167,18 @@ pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
         .wait()
         .map_err(|e| DaemonError::Declare { what: "liveliness token", reason: e.to_string() })?;
     tracing::info!(
-        "host {name}: listening on {listen} (build {}), runs under {}",
+        "host {name}: listening on {listen} (build {}), runs under {}, {} campaign worker(s)",
         cohort_wire::build_id(),
-        base.display()
+        base.display(),
+        cases.workers
     );
-    let mut d = Daemon { name, session, base, runs: HashMap::new() };
+    // Cases a killed instance of this daemon left (a daemon's name is its machine's own).
+    let left = base.join("cases");
+    if std::fs::read_dir(&left).is_ok_and(|mut d| d.next().is_some()) && std::fs::remove_dir_all(&left).is_ok() {
+        tracing::info!("host {name}: removed the campaign cases an earlier instance left");
+    }
+    let pool = cases::Pool::start(&name, &base, &cases);
+    let mut d = Daemon { name, session, base, runs: HashMap::new(), pool, workers: cases.workers };
     loop {
         let sig = SIGNALLED.load(Ordering::SeqCst);
         if sig != 0 {
@@ -172,6 +187,9 @@ pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
             for id in ids {
                 d.end_run(id);
             }
+            // Its cases see the signal: those running end interrupted, the queued ones unrun.
+            d.pool.stop();
+            let _ = std::fs::remove_dir(d.base.join("cases"));
             // Its per-host directory (and the per-user base, when no other daemon uses it) goes
             // with it: `remove_dir` removes only an empty directory, never another's files.
             let _ = std::fs::remove_dir(&d.base);
@@ -181,7 +199,7 @@ pub fn run(listen: &str, name: Option<String>) -> Result<(), DaemonError> {
             return Ok(());
         }
         if let Ok(Some(q)) = queryable.recv_timeout(Duration::from_millis(50)) {
-            d.answer(&q);
+            d.answer(q);
         }
         let orphaned: Vec<u64> =
             d.runs.iter().filter(|(_, r)| r.orphaned.load(Ordering::SeqCst)).map(|(id, _)| *id).collect();
@@ -198,13 +216,15 @@ fn parse<T: serde::de::DeserializeOwned>(q: &Query) -> Result<T, String> {
 }
 
 impl Daemon {
-    fn answer(&mut self, q: &Query) {
+    fn answer(&mut self, q: Query) {
+        let q = &q;
         let verb = q.key_expr().as_str().rsplit('/').next().unwrap_or("").to_string();
         let result: Result<Vec<u8>, String> = match verb.as_str() {
             "info" => serde_json::to_vec(&Info {
                 name: self.name.clone(),
                 build_id: cohort_wire::build_id().into(),
                 pid: std::process::id(),
+                workers: self.workers as u32,
             })
             .map_err(|e| e.to_string()),
             "spawn" => parse::<SpawnRequest>(q).and_then(|r| self.spawn(&r)),
@@ -219,6 +239,13 @@ impl Daemon {
             "rows" => match parse::<RowsRequest>(q) {
                 Ok(r) => {
                     self.rows(q, &r);
+                    return;
+                }
+                Err(e) => Err(e),
+            },
+            "case" => match parse::<CaseRequest>(q) {
+                Ok(r) => {
+                    self.pool.submit(q.clone(), r);
                     return;
                 }
                 Err(e) => Err(e),
