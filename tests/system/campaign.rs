@@ -216,13 +216,22 @@ fn a_bad_dispersion_is_refused_by_name_before_any_case_runs() {
         assert!(err.contains(expect), "{expect}\n{}", describe_output(&o));
         assert!(!out.exists(), "{body}: the campaign created its directory");
     }
-    // A scenario without dispersions, and a directory holding another campaign.
-    let o = orchestrator_command()
-        .args(["campaign", "topologies/fig1-fixed.toml", "--cases", "3"])
-        .current_dir(repo_root())
-        .output_within(cohort::QUICK_LIMIT, "no dispersions");
-    assert_eq!(o.status.code(), Some(2), "{}", describe_output(&o));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("no [[dispersions]]"), "{}", describe_output(&o));
+    // No dispersions with every case on one seed; a dispersions file without any; a directory
+    // holding another campaign.
+    let empty = dir.join("empty.toml");
+    std::fs::write(&empty, "").unwrap();
+    for (extra, expect) in [
+        (vec!["--fixed-seed"], "no [[dispersions]] and --fixed-seed: every case would be the same run"),
+        (vec!["--dispersions", empty.to_str().unwrap()], "empty.toml: no [[dispersions]] in it"),
+    ] {
+        let o = orchestrator_command()
+            .args(["campaign", "topologies/fig1-fixed.toml", "--cases", "3"])
+            .args(&extra)
+            .current_dir(repo_root())
+            .output_within(cohort::QUICK_LIMIT, "no dispersions");
+        assert_eq!(o.status.code(), Some(2), "{}", describe_output(&o));
+        assert!(String::from_utf8_lossy(&o.stderr).contains(expect), "{expect}: {}", describe_output(&o));
+    }
     let first = dir.join("first");
     campaign(&fig1_args(&first, 2, "1", &[]), "a short campaign");
     let o = orchestrator_command()
@@ -308,6 +317,36 @@ fn a_campaign_over_three_hosts_is_the_local_table_also_when_a_host_is_lost() {
     // The killed daemon could not remove its scratch; the test does.
     let base = cohort_wire::transport::iox::ensure_user_files_base().unwrap();
     let _ = std::fs::remove_dir_all(base.join("b"));
+}
+
+/// A scenario without `[[dispersions]]` is a seed sweep with the campaign's table: case i flies
+/// seed + i, and its metrics are those `launch --reference --seed` gives, bit for bit.
+#[test]
+fn without_dispersions_a_campaign_sweeps_the_seed() {
+    let (_g, dir) = heavy_scratch("campaign-seeds");
+    let out = dir.join("seeds");
+    let args = ["campaign", "topologies/fig1-fixed.toml", "--cases", "3", "--seed", "40", "--duration", "12"];
+    let o = orchestrator_command()
+        .args(args)
+        .args(["--no-plots", "--out", out.to_str().unwrap()])
+        .current_dir(repo_root())
+        .output_within(cohort::RUN_LIMIT, "seed campaign");
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let t = table(&out);
+    let seeds = t.column_by_name("seed").unwrap().as_any().downcast_ref::<UInt64Array>().unwrap().values().to_vec();
+    assert_eq!(seeds, [40, 41, 42]);
+    let metric = "servicer_1.e_norm_last10s_mean_m";
+    let ours = column_f64(&t, metric);
+    let run = dir.join("run-41");
+    let o = cohort::launch_scenario(
+        Path::new("topologies/fig1-fixed.toml"),
+        &run,
+        &["--reference", "--seed", "41", "--duration", "12"],
+    );
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let theirs = cohort::summary(&run)["metrics"][metric].as_f64().unwrap();
+    assert_eq!(ours[1].to_bits(), theirs.to_bits(), "case 1 against launch --seed 41");
+    assert_ne!(ours[0].to_bits(), ours[1].to_bits(), "the seeds differ, so do the runs");
 }
 
 /// A hosts file a campaign cannot use is exit 2 naming it, before any case runs: a placement of

@@ -141,7 +141,10 @@ pub fn command(file: &Path, a: &CampaignArgs) -> ExitCode {
     if let Err(e) = Campaign::new(a.cases as usize).workers(workers).run(check) {
         return crate::fail(CommandError::invalid(e.source));
     }
-    info!("{} cases drawn from {} dispersion(s), every one valid", a.cases, plan.dispersions.items.len());
+    match plan.dispersions.items.len() {
+        0 => info!("{} cases, differing by their seeds only (no [[dispersions]]), every one valid", a.cases),
+        n => info!("{} cases drawn from {n} dispersion(s), every one valid", a.cases),
+    }
     let hosts = match a.hosts.as_deref().map(|f| remote::Hosts::open(f, &plan, &a.security)).transpose() {
         Ok(h) => h,
         Err(e) => return crate::fail(e),

@@ -82,21 +82,36 @@ impl Plan {
             }
             None => (a.file.to_path_buf(), text.clone(), own),
         };
-        let Some(raw) = raw else {
-            return Err(PlanError::Invalid(format!(
-                "{}: no [[dispersions]]: a campaign needs at least one (docs/monte-carlo.md)",
-                spec_file.display()
-            )));
-        };
-        let spec_text = toml::to_string(&toml::Table::from_iter([(dispersion::SECTION.to_string(), raw.clone())]))
-            .map_err(|e| PlanError::Invalid(format!("{}: {e}", spec_file.display())))?;
         // Checked against the table the cases are drawn into (the command line's overrides in).
         let mut nominal_table = base.clone();
         if let (Some(d), Some(toml::Value::Table(meta))) = (a.duration_s, nominal_table.get_mut("scenario")) {
             meta.insert("duration_s".into(), toml::Value::Float(d));
         }
-        let dispersions = Dispersions::parse(raw, &nominal_table)
-            .map_err(|problems| ScenarioError { file: spec_file.clone(), problems }.located(&spec_source))?;
+        let (dispersions, spec_text) = match raw {
+            // No dispersions: the cases differ by their seeds only (a seed sweep with a table).
+            None if a.fixed_seed => {
+                return Err(PlanError::Invalid(format!(
+                    "{}: no [[dispersions]] and --fixed-seed: every case would be the same run \
+                     (docs/monte-carlo.md)",
+                    spec_file.display()
+                )));
+            }
+            None if a.dispersions_file.is_some() => {
+                return Err(PlanError::Invalid(format!(
+                    "{}: no [[dispersions]] in it (docs/monte-carlo.md)",
+                    spec_file.display()
+                )));
+            }
+            None => (Dispersions::default(), String::new()),
+            Some(raw) => {
+                let text =
+                    toml::to_string(&toml::Table::from_iter([(dispersion::SECTION.to_string(), raw.clone())]))
+                        .map_err(|e| PlanError::Invalid(format!("{}: {e}", spec_file.display())))?;
+                let d = Dispersions::parse(raw, &nominal_table)
+                    .map_err(|problems| ScenarioError { file: spec_file.clone(), problems }.located(&spec_source))?;
+                (d, text)
+            }
+        };
         // The command line's overrides are applied over every drawn case: a dispersion of one of
         // their keys would be drawn, tabled and never flown.
         for (path, flag) in overrides.flags() {

@@ -47,30 +47,12 @@ pub fn markdown(h: &Header, rows: &[CaseRow], plots: &[PathBuf]) -> String {
     if let Some(s) = &h.stopped {
         let _ = writeln!(md, "{s}\n");
     }
-    let _ = writeln!(md, "## Dispersions\n\n```toml\n{}```\n", h.spec_text);
-    let mut t = MdTable::new(["drawn", "min", "P1", "median", "P99", "max", "mean ± 95 %"]);
-    for (k, c) in h.columns.iter().enumerate() {
-        let xs: Vec<f64> = rows.iter().filter_map(|r| r.values[k].as_f64()).collect();
-        if xs.len() == rows.len() && !xs.is_empty() {
-            t.row(distribution(c, &xs));
-        } else {
-            let mut counts: BTreeMap<String, usize> = BTreeMap::new();
-            for r in rows {
-                *counts.entry(r.values[k].to_string()).or_default() += 1;
-            }
-            let text: Vec<String> = counts.iter().map(|(v, n)| format!("{v}: {n}")).collect();
-            t.row([
-                c.clone(),
-                text.join(", "),
-                String::new(),
-                String::new(),
-                String::new(),
-                String::new(),
-                String::new(),
-            ]);
-        }
+    if h.columns.is_empty() {
+        let _ = writeln!(md, "## Dispersions\n\nNone: case i flies the nominal scenario with seed {} + i.\n", h.seed);
+    } else {
+        let _ = writeln!(md, "## Dispersions\n\n```toml\n{}```\n", h.spec_text);
+        drawn(&mut md, h, rows);
     }
-    let _ = writeln!(md, "{t}");
     let mut status: BTreeMap<&str, usize> = BTreeMap::new();
     rows.iter().for_each(|r| *status.entry(r.status.as_str()).or_default() += 1);
     let status: Vec<String> = status.iter().map(|(s, n)| format!("{s} {n}")).collect();
@@ -174,4 +156,31 @@ pub fn plots(root: &Path, metric: &str, columns: &[String], rows: &[CaseRow]) ->
         }
     }
     out
+}
+
+/// The distribution of each drawn column (numbers) or its counts (choices).
+fn drawn(md: &mut String, h: &Header, rows: &[CaseRow]) {
+    let mut t = MdTable::new(["drawn", "min", "P1", "median", "P99", "max", "mean ± 95 %"]);
+    for (k, c) in h.columns.iter().enumerate() {
+        let xs: Vec<f64> = rows.iter().filter_map(|r| r.values[k].as_f64()).collect();
+        if xs.len() == rows.len() && !xs.is_empty() {
+            t.row(distribution(c, &xs));
+        } else {
+            let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+            for r in rows {
+                *counts.entry(r.values[k].to_string()).or_default() += 1;
+            }
+            let text: Vec<String> = counts.iter().map(|(v, n)| format!("{v}: {n}")).collect();
+            t.row([
+                c.clone(),
+                text.join(", "),
+                String::new(),
+                String::new(),
+                String::new(),
+                String::new(),
+                String::new(),
+            ]);
+        }
+    }
+    let _ = writeln!(md, "{t}");
 }
