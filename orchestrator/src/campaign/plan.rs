@@ -104,9 +104,8 @@ impl Plan {
             }
             None => (Dispersions::default(), String::new()),
             Some(raw) => {
-                let text =
-                    toml::to_string(&toml::Table::from_iter([(dispersion::SECTION.to_string(), raw.clone())]))
-                        .map_err(|e| PlanError::Invalid(format!("{}: {e}", spec_file.display())))?;
+                let text = toml::to_string(&toml::Table::from_iter([(dispersion::SECTION.to_string(), raw.clone())]))
+                    .map_err(|e| PlanError::Invalid(format!("{}: {e}", spec_file.display())))?;
                 let d = Dispersions::parse(raw, &nominal_table)
                     .map_err(|problems| ScenarioError { file: spec_file.clone(), problems }.located(&spec_source))?;
                 (d, text)

@@ -14,6 +14,12 @@ fn weights() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("weights/sn-dnn.safetensors")
 }
 
+/// `x` within a factor 1.9 of the value `measured` when the test was written (the runs are
+/// seeded, so it changes only with the code): a 2× regression either way fails.
+fn near(x: f64, measured: f64, what: &str) {
+    assert!(x < measured * 1.9 && x > measured / 1.9, "{what}: {x}, measured {measured} when this test was written");
+}
+
 /// (delivery error, Δv, b_e(t_f), record) of one run.
 fn fly(method: Method, iso: u32, nav_scale: f64, record: bool) -> (f64, f64, Option<f64>, sim::SimRecord) {
     let plant_cfg = IsoEncounterConfig { iso_index: Some(iso), nav_scale, ..IsoEncounterConfig::default() };
@@ -27,21 +33,25 @@ fn fly(method: Method, iso: u32, nav_scale: f64, record: bool) -> (f64, f64, Opt
 }
 
 #[test]
-fn nmpc_with_perfect_navigation_delivers_within_a_metre() {
-    for iso in [200, 233, 266, 299] {
+fn nmpc_with_perfect_navigation_delivers_within_35_micrometres() {
+    // Measured: 6–17 µm (the solver's tolerance over a day), Δv 0.65–4.1 m/s.
+    for (iso, dv_mps) in [(200, 4.077), (233, 0.646), (266, 1.475), (299, 2.771)] {
         let (e, dv, _, _) = fly(Method::Nmpc, iso, 0.0, false);
-        assert!(e <= 1.0, "ISO {iso}: {e} m");
-        assert!(dv < 20.0, "ISO {iso}: Δv {dv} m/s");
+        assert!(e <= 35e-6, "ISO {iso}: {e} m");
+        near(dv, dv_mps, &format!("ISO {iso}: Δv, m/s"));
     }
 }
 
 #[test]
 fn neural_rendezvous_with_the_committed_weights_delivers_within_its_bound() {
-    for iso in [200, 250] {
+    // Measured: 8.37 m and 19.4 m against bounds of 122 m and 125 m, Δv 4.31 and 4.27 m/s.
+    for (iso, e_m, b_m, dv_mps) in [(200, 8.37, 121.8, 4.313), (250, 19.40, 125.2, 4.270)] {
         let (e, dv, b, _) = fly(Method::NeuralRendezvous, iso, 1.0, false);
         let b = b.expect("NR keeps a bound");
-        assert!(e <= 200.0 && e <= b, "ISO {iso}: error {e} m, bound {b} m");
-        assert!(dv < 20.0, "ISO {iso}: Δv {dv} m/s");
+        assert!(e <= b, "ISO {iso}: error {e} m, bound {b} m");
+        near(e, e_m, &format!("ISO {iso}: delivery error, m"));
+        near(b, b_m, &format!("ISO {iso}: bound, m"));
+        near(dv, dv_mps, &format!("ISO {iso}: Δv, m/s"));
     }
 }
 
@@ -76,9 +86,10 @@ fn four_spacecraft_share_one_plant_and_each_delivers() {
         (0..4).map(|_| NrAgent::new(cfg.clone(), 600.0, Some(net.clone())).unwrap()).collect();
     sim::run(&mut plant, &mut agents, 144, 600.0, 240, false);
     let targets: Vec<_> = (0..4).map(|j| plant.truth(j).1).collect();
-    for j in 0..4 {
+    // Measured: 9.06, 5.77, 15.9 and 9.93 m.
+    for (j, e_m) in [9.06, 5.77, 15.92, 9.93].into_iter().enumerate() {
         let e = plant.delivery_error_m(j).unwrap();
-        assert!(e <= 200.0, "spacecraft {j}: {e} m");
+        near(e, e_m, &format!("spacecraft {j}: delivery error, m"));
         // Each has its own ρ_f (its own draw of the set).
         assert!(targets.iter().filter(|t| **t == targets[j]).count() == 1);
     }

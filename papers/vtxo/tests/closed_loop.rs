@@ -4,6 +4,7 @@
 use cohort_paper_vtxo::flight::config::{LeaderControl, RelativeController, VtxoAlgorithmConfig};
 use cohort_paper_vtxo::flight::layout::{COMMAND_LEN, READINGS_LEN};
 use cohort_paper_vtxo::flight::mekf::MekfVariant;
+use cohort_paper_vtxo::flight::relative_control::Switching;
 use cohort_paper_vtxo::flight::share::{FOLLOWER_SHARE_LEN, LEADER_SHARE_LEN};
 use cohort_paper_vtxo::formation::sim::Sim;
 use cohort_paper_vtxo::model::config::{AttitudeDraw, VtxoPlantConfig};
@@ -25,9 +26,11 @@ fn pd_reaches_the_formation_within_a_minute() {
     a.relative.controller = RelativeController::Pd;
     let mut sim = Sim::new(&VtxoPlantConfig::default(), &a, 0.01, 1).unwrap();
     sim.run(6000);
+    // Measured (seed 1): first inside 1 m at 9.66 s, settled from 19.06 s; a 2× regression fails.
     let t = metric(&sim, "formation_first_within_s");
     let settled = metric(&sim, "formation_settled_s");
-    assert!(t <= 60.0 && settled <= 60.0, "PD first inside 1 m at {t} s, settled at {settled} s");
+    assert!(t > 9.66 / 1.9 && t < 9.66 * 1.9, "PD first inside 1 m at {t} s");
+    assert!(settled > 19.06 / 1.9 && settled < 19.06 * 1.9, "PD settled at {settled} s");
     // The command at t = 0 is what (56) asks for: P·|r_rel(0) − r_f| ≈ 9.3 km/s² → ≈ 94 kN.
     let peak = metric(&sim, "follower_thrust_peak_n");
     assert!(peak > 9.0e4 && peak < 1.0e5, "peak thrust {peak} N");
@@ -64,9 +67,11 @@ fn mekf_fractions(variant: MekfVariant, steps: u64, seed: u64) -> [[f64; 3]; 2] 
 fn mekf_truth_error_stays_inside_three_sigma() {
     for (variant, steps) in [(MekfVariant::ModelReplacement, 60_000), (MekfVariant::Full, 30_000)] {
         let f = mekf_fractions(variant, steps, 7);
+        // A consistent filter misses ±3σ on 0.27 % of the samples; measured (seed 7): the
+        // leader never, the follower on 0.25–0.31 % per axis. Twice that fails.
         for (who, axes) in ["leader", "follower"].iter().zip(f) {
             for (ax, frac) in axes.iter().enumerate() {
-                assert!(*frac >= 0.97, "{variant:?} {who} axis {ax}: {frac} inside ±3σ over {steps} steps");
+                assert!(*frac >= 0.994, "{variant:?} {who} axis {ax}: {frac} inside ±3σ over {steps} steps");
             }
         }
     }
@@ -144,5 +149,78 @@ fn message_sizes_are_within_the_wire_bounds() {
     assert_eq!(shares[1].values.len(), FOLLOWER_SHARE_LEN);
     for s in shares {
         assert_eq!(s.command.len(), COMMAND_LEN);
+    }
+}
+
+/// Every noise, bias and actuator error of the plant off, the follower started `start_mm` (x, y)
+/// off its target, at rest.
+fn ideal_plant(start_mm: [f64; 2]) -> VtxoPlantConfig {
+    let mut p = VtxoPlantConfig::default();
+    p.disturbances.torque_noise_3sigma_n_m = 0.0;
+    p.disturbances.force_3sigma_n = 0.0;
+    let w = &mut p.wheels;
+    (w.scale_3sigma, w.misalignment_3sigma_rad, w.noise_3sigma_n_m, w.bias_3sigma_n_m, w.bias0_3sigma_n_m) =
+        (0.0, 0.0, 0.0, 0.0, 0.0);
+    let t = &mut p.thrusters;
+    (t.scale_3sigma, t.noise_3sigma_n, t.bias_3sigma_n, t.bias0_3sigma_n) = (0.0, 0.0, 0.0, 0.0);
+    let s = &mut p.sensors;
+    (s.gyro.scale_3sigma, s.gyro.misalignment_3sigma_rad, s.gyro.noise_3sigma_rad_s, s.gyro.bias_3sigma_rad_s) =
+        (0.0, 0.0, 0.0, 0.0);
+    for st in [&mut s.star_tracker_leader, &mut s.star_tracker_follower] {
+        (st.noise_3sigma_rad, st.bias_3sigma_rad) = (0.0, 0.0);
+    }
+    (s.accelerometer.noise_3sigma_mps2, s.accelerometer.bias_3sigma_mps2) = (0.0, 0.0);
+    for r in [&mut s.ranging, &mut s.interferometer] {
+        (r.noise_3sigma_m, r.bias_3sigma_m) = (0.0, 0.0);
+    }
+    p.orbit.r_rel0_eci_m = [start_mm[0] * 1e-3, start_mm[1] * 1e-3, 1000.01];
+    p.orbit.v_rel0_eci_mps = [0.0; 3];
+    p
+}
+
+/// The follower's largest |x| and |y| offset from its target over the last `window_s` of a run, m.
+fn ideal_offsets(switching: Switching, dt_s: f64, start_mm: [f64; 2]) -> [f64; 2] {
+    let p = ideal_plant(start_mm);
+    let mut a = VtxoAlgorithmConfig::default();
+    a.relative.switching = switching;
+    let mut sim = Sim::new(&p, &a, dt_s, 1).unwrap();
+    let n = (60.0 / dt_s).round() as u64;
+    let from = n - (p.metrics.transverse_window_s / dt_s).round() as u64;
+    let mut worst = [0.0f64; 2];
+    sim.run_with(n, &mut |k, plant, _| {
+        if k >= from {
+            let e = plant.orbit.r_rel_eci_m - plant.r_target_eci_m;
+            worst = [worst[0].max(e.x.abs()), worst[1].max(e.y.abs())];
+        }
+    });
+    worst
+}
+
+/// The sign law under a zero-order hold cannot stay on s = 0: it ends in a two-step cycle whose
+/// offset per axis lies within ±Z·dt/(2k). Measured in the ideal loop (no noise, bias or actuator
+/// error), 60 s from 10 mm and from (12.3, 17.7) mm off the target, over the last 15 s: the offset
+/// stays inside the band and, from at least one start, fills most of it, at 10 ms and at 1 ms — so
+/// it scales with dt; the saturated law (67) leaves nothing of the kind.
+#[test]
+fn the_sign_law_ends_inside_its_zero_order_hold_band_which_scales_with_dt() {
+    let g = VtxoAlgorithmConfig::default().relative.smc;
+    for dt in [0.01, 0.001] {
+        let band = |ax: usize| g.z_mps2[ax] * dt / (2.0 * g.k);
+        let mut fill = 0.0f64;
+        for start in [[10.0, 10.0], [12.3, 17.7]] {
+            let off = ideal_offsets(Switching::Sign, dt, start);
+            for ax in 0..2 {
+                assert!(
+                    off[ax] <= band(ax) * 1.01,
+                    "dt {dt} s, start {start:?}, axis {ax}: {} m > band {} m",
+                    off[ax],
+                    band(ax)
+                );
+                fill = fill.max(off[ax] / band(ax));
+            }
+            let sat = ideal_offsets(Switching::Sat, dt, start);
+            assert!(sat.iter().all(|o| *o < 1e-3 * band(0)), "sat law, dt {dt} s: {sat:?}");
+        }
+        assert!(fill > 0.6, "dt {dt} s: the offset fills only {fill} of the band");
     }
 }

@@ -18,6 +18,12 @@ fn metric(s: &serde_json::Value, key: &str) -> f64 {
     s["metrics"][key].as_f64().unwrap_or_else(|| panic!("summary.json has no metric {key}: {}", s["metrics"]))
 }
 
+/// `x` within a factor 1.9 of the value `measured` when the test was written (the run is seeded,
+/// so it changes only with the code): a 2× regression either way fails.
+fn near(x: f64, measured: f64, what: &str) {
+    assert!(x < measured * 1.9 && x > measured / 1.9, "{what}: {x}, measured {measured} when this test was written");
+}
+
 fn same_telemetry(a: &Path, b: &Path, what: &str) {
     for f in ["plant.parquet", "agent-1.parquet", "agent-2.parquet"] {
         let x = std::fs::read(a.join("telemetry").join(f)).unwrap();
@@ -67,15 +73,16 @@ fn science_phase_multi_process_is_bit_identical_to_the_reference_over_0_2_h() {
     assert_eq!(s["steps_completed"], 72_000);
     assert_eq!(s["labels"]["attitude_law"], "smc");
     assert_eq!(s["metrics"], summary(&rf)["metrics"]);
-    // The science attitude law holds both bodies within a few degrees (README: e mean 0.6–0.7°,
-    // P99 over seeds ≈ 1.2–1.3°), with no relative control (no thrust commanded).
-    for role in ["leader", "follower"] {
-        let e = metric(&s, &format!("{role}_attitude_error_mean_deg"));
-        assert!(e > 0.0 && e < 3.0, "{role}: e = {e}°");
-        assert!(metric(&s, &format!("{role}_thrust_peak_n")) < 0.01);
+    // The science attitude law holds both bodies (measured, seed 1: e mean 0.295° leader, 0.696°
+    // follower; E 4.3e-5 J each), with no relative control (thrust only the 2 mN noise floor). The
+    // MEKFs miss ±3σ on at most 0.33 % of the samples (a consistent filter: 0.27 %).
+    for (role, e_deg, energy_j) in [("leader", 0.295, 4.30e-5), ("follower", 0.696, 4.33e-5)] {
+        near(metric(&s, &format!("{role}_attitude_error_mean_deg")), e_deg, &format!("{role} e mean, deg"));
+        near(metric(&s, &format!("{role}_energy_j")), energy_j, &format!("{role} E, J"));
+        assert!(metric(&s, &format!("{role}_thrust_peak_n")) < 0.004);
         for ax in ["x", "y", "z"] {
             let f = metric(&s, &format!("{role}_mekf_within_3sigma_{ax}"));
-            assert!(f >= 0.97, "{role} {ax}: {f}");
+            assert!(f >= 0.994, "{role} {ax}: {f}");
         }
     }
 }
@@ -92,16 +99,19 @@ fn a_run_has_every_summary_metric_of_the_issue_and_its_figures() {
     let s = summary(&out);
     assert_eq!(s["labels"]["relative_law"], "pd");
     assert_eq!(metric(&s, "formation_reached"), 1.0);
+    // Measured (seed 1): first inside 1 m at 9.66 s, settled from 19.06 s.
     let first = metric(&s, "formation_first_within_s");
-    assert!((5.0..15.0).contains(&first), "first within 1 m at {first} s");
-    assert!(metric(&s, "formation_settled_s") >= first);
+    near(first, 9.66, "first within 1 m, s");
+    near(metric(&s, "formation_settled_s"), 19.06, "settled, s");
     // The window is the last 15 s at 10 ms, every step (not the thinned rows).
     assert_eq!(metric(&s, "transverse_window_samples"), 1500.0);
     let rms = metric(&s, "transverse_rms_mm");
-    // After 45 s the accelerometer drift is still small: sub-millimetre (README: 42 mm after 9 300 s).
-    assert!(rms > 0.0 && rms <= metric(&s, "transverse_max_mm") && rms < 10.0, "transverse RMS {rms} mm");
-    // The range error is the ranging's (1 m 3σ noise and bias), well inside the 1 m tolerance here.
-    assert!(metric(&s, "range_error_max_m") < 1.0);
+    // After 45 s the accelerometer drift is still small: 0.21 mm RMS, 0.24 mm max measured
+    // (README: 42 mm after 9 300 s).
+    assert!(rms <= metric(&s, "transverse_max_mm"), "transverse RMS {rms} mm");
+    near(rms, 0.211, "transverse RMS, mm");
+    // The range error is the ranging's (1 m 3σ noise and bias): 0.27 m at most, measured.
+    near(metric(&s, "range_error_max_m"), 0.273, "range error max, m");
     // PD's first command: P|r_rel(0) − r_f| + D|v_rel(0)| ≈ 9.3 km/s² on 10.2 kg.
     let peak = metric(&s, "follower_thrust_peak_n");
     assert!((0.9e5..1.0e5).contains(&peak), "peak thrust {peak} N");
@@ -113,16 +123,17 @@ fn a_run_has_every_summary_metric_of_the_issue_and_its_figures() {
             metric(&s, &format!("{role}_attitude_error_p99_deg")),
         );
         assert!(mean > 0.0 && mean <= p99 && p99 <= metric(&s, &format!("{role}_attitude_error_max_deg")) * 1.0012);
+        // Measured: E 3.46e-6 J (leader), 3.33e-6 J (follower) over 60 s.
         let e = metric(&s, &format!("{role}_energy_j"));
-        assert!(e > 0.0 && e < 1.0, "{role}: E = {e} J");
+        near(e, if role == "leader" { 3.46e-6 } else { 3.33e-6 }, &format!("{role} E, J"));
         for ax in ["x", "y", "z"] {
             let f = metric(&s, &format!("{role}_mekf_within_3sigma_{ax}"));
-            assert!((0.97..=1.0).contains(&f), "{role} {ax}: {f}");
+            assert!((0.994..=1.0).contains(&f), "{role} {ax}: {f}");
             assert!(metric(&s, &format!("{role}_mekf_sigma_rms_{ax}_rad")) > 0.0);
         }
     }
-    // The interferometer and ranging: metre-class in z, so r̂_rel errs by well under 1 m RMS.
-    assert!(metric(&s, "follower_r_rel_hat_error_rms_m") < 1.0);
+    // The interferometer and ranging: metre-class in z, so r̂_rel errs by 0.39 m RMS (measured).
+    near(metric(&s, "follower_r_rel_hat_error_rms_m"), 0.393, "r̂_rel error RMS, m");
     assert!(out.join("derived/vtxo.csv").is_file());
     for png in ["vtxo_formation.png", "vtxo_attitude.png", "vtxo_wheel_torque.png", "vtxo_thrust.png"] {
         let p = out.join("plots").join(png);
@@ -171,8 +182,11 @@ fn the_science_sweep_draws_the_initial_attitude_from_the_seed() {
     let e: Vec<f64> = a.lines().skip(1).map(|l| l.split(',').nth(col).unwrap().parse().unwrap()).collect();
     assert_eq!(e.len(), 3);
     assert!(e[0] != e[1] && e[1] != e[2] && e[0] != e[2], "the draws do not depend on the seed: {e:?}");
-    // θ₀ ~ N(0, 0.0289°) per axis: the initial error is a few hundredths of a degree.
-    assert!(e.iter().all(|x| *x > 1e-4 && *x < 1.0), "{e:?}");
+    // θ₀ ~ N(0, 0.0289°) per axis: the largest error over 5 s is a few hundredths of a degree
+    // (measured 0.061°, 0.043°, 0.030° for seeds 1–3).
+    for (x, measured) in e.iter().zip([0.0615, 0.0431, 0.0302]) {
+        near(*x, measured, "leader attitude error max, deg");
+    }
 }
 
 /// `orchestrator vtxo sec7` on shortened copies of the three Sec. 7 scenarios: every case at each
@@ -206,6 +220,7 @@ fn the_sec7_campaign_runs_every_case_and_tabulates_it() {
         let (law, dt, mode) = (r[col("law")], r[col("dt_s")], r[col("mode")]);
         assert_eq!(mode, if dt == "0.01" { "multi-process" } else { "reference" }, "{r:?}");
         let band: f64 = r[col("band_m")].parse().unwrap();
+        // The table's predicted band; that a run ends inside it is measured in closed_loop.rs.
         match law {
             "SMC-sign" => assert_eq!(band, dt.parse::<f64>().unwrap() / 2.0, "Z = k = 1: Z·dt/(2k) = dt/2"),
             _ => assert!(band.is_nan(), "{r:?}"),
