@@ -209,14 +209,10 @@ fn the_sign_law_ends_inside_its_zero_order_hold_band_which_scales_with_dt() {
         let mut fill = 0.0f64;
         for start in [[10.0, 10.0], [12.3, 17.7]] {
             let off = ideal_offsets(Switching::Sign, dt, start);
-            for ax in 0..2 {
-                assert!(
-                    off[ax] <= band(ax) * 1.01,
-                    "dt {dt} s, start {start:?}, axis {ax}: {} m > band {} m",
-                    off[ax],
-                    band(ax)
-                );
-                fill = fill.max(off[ax] / band(ax));
+            for (ax, o) in off.iter().enumerate() {
+                let b = band(ax);
+                assert!(*o <= b * 1.01, "dt {dt} s, start {start:?}, axis {ax}: {o} m > band {b} m");
+                fill = fill.max(o / b);
             }
             let sat = ideal_offsets(Switching::Sat, dt, start);
             assert!(sat.iter().all(|o| *o < 1e-3 * band(0)), "sat law, dt {dt} s: {sat:?}");
