@@ -21,6 +21,10 @@ pub struct Percentiles {
     #[serde(rename = "p99.9")]
     pub p99_9: u64,
     pub max: u64,
+    /// The samples' sum (what a run spent in all, e.g. every agent's compute over every step);
+    /// absent for a histogram's percentiles, which keep no sum.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub total: Option<u64>,
 }
 
 impl Percentiles {
@@ -30,7 +34,15 @@ impl Percentiles {
         }
         xs.sort_unstable();
         let at = |q: f64| xs[((xs.len() - 1) as f64 * q).round() as usize];
-        Some(Self { samples: xs.len(), p50: at(0.5), p99: at(0.99), p99_9: at(0.999), max: *xs.last().unwrap_or(&0) })
+        let total = xs.iter().fold(0u64, |a, x| a.saturating_add(*x));
+        Some(Self {
+            samples: xs.len(),
+            p50: at(0.5),
+            p99: at(0.99),
+            p99_9: at(0.999),
+            max: *xs.last().unwrap_or(&0),
+            total: Some(total),
+        })
     }
     /// A histogram's percentiles (each to the histogram's 3 significant figures).
     pub fn of_hist(h: &LatencyHist) -> Option<Self> {
@@ -40,6 +52,7 @@ impl Percentiles {
             p99: h.quantile(0.99),
             p99_9: h.quantile(0.999),
             max: h.max(),
+            total: None,
         })
     }
 }

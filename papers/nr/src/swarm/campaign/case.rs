@@ -92,6 +92,8 @@ pub struct CaseResult {
     /// Per-vehicle-step compute, s (the SCP: one solve).
     pub compute_p50_s: f64,
     pub compute_p99_s: f64,
+    /// Every vehicle's compute over every step of the run, summed, s (the SCP: its one solve).
+    pub compute_total_s: f64,
     /// One SCP solve of the same case, s.
     pub scp_solve_s: f64,
     /// The reference run's directory (NR, the deep set).
@@ -117,6 +119,7 @@ impl CaseResult {
             effort_ratio: f64::NAN,
             compute_p50_s: f64::NAN,
             compute_p99_s: f64::NAN,
+            compute_total_s: f64::NAN,
             scp_solve_s: f64::NAN,
             run_dir: None,
         }
@@ -125,6 +128,12 @@ impl CaseResult {
     /// Speed-up of the per-vehicle-step compute (p50) over one SCP solve.
     pub fn speedup(&self) -> f64 {
         self.scp_solve_s / self.compute_p50_s
+    }
+
+    /// The same per run: the one SCP solve a run needs (its open-loop plan) against every
+    /// vehicle's compute over every step.
+    pub fn speedup_total(&self) -> f64 {
+        self.scp_solve_s / self.compute_total_s
     }
 }
 
@@ -176,19 +185,19 @@ pub fn fly_reference(
     row.within_0_1_m = r.metric("within_0_1_m");
     row.max_goal_dist_m = r.metric("max_goal_dist_m");
     row.effort_mps = r.metric("total_effort_mps");
-    let (p50, p99) = agent_compute(dir)?;
-    (row.compute_p50_s, row.compute_p99_s) = (p50, p99);
+    let (p50, p99, total) = agent_compute(dir)?;
+    (row.compute_p50_s, row.compute_p99_s, row.compute_total_s) = (p50, p99, total);
     Ok(())
 }
 
-/// The run's `agent_compute` p50 and p99, s (summary.json).
-fn agent_compute(dir: &Path) -> Result<(f64, f64), String> {
+/// The run's `agent_compute` p50, p99 and total over every agent and step, s (summary.json).
+fn agent_compute(dir: &Path) -> Result<(f64, f64, f64), String> {
     let path = dir.join("summary.json");
     let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
     let c = &v["latency_ns"]["agent_compute"];
-    match (c["p50"].as_f64(), c["p99"].as_f64()) {
-        (Some(a), Some(b)) => Ok((a * 1e-9, b * 1e-9)),
+    match (c["p50"].as_f64(), c["p99"].as_f64(), c["total"].as_f64()) {
+        (Some(a), Some(b), Some(t)) => Ok((a * 1e-9, b * 1e-9, t * 1e-9)),
         _ => Err(format!("{}: no latency_ns.agent_compute", path.display())),
     }
 }
@@ -254,7 +263,8 @@ pub fn fly_scp(plant_cfg: &SwarmConfig, n: usize, seed: u64, dt_s: f64, steps: u
     row.max_goal_dist_m = dist.iter().copied().fold(0.0, f64::max);
     row.effort_mps = plant.effort_mps().iter().sum();
     row.effort_ratio = 1.0;
-    (row.compute_p50_s, row.compute_p99_s, row.scp_solve_s) = (plan.solve_s, plan.solve_s, plan.solve_s);
+    (row.compute_p50_s, row.compute_p99_s, row.compute_total_s, row.scp_solve_s) =
+        (plan.solve_s, plan.solve_s, plan.solve_s, plan.solve_s);
 }
 
 /// A case's rows, every method of `methods` (NR and the deep set from `base`).

@@ -19,7 +19,8 @@ pub const SPEEDUP_GOAL: f64 = 100.0;
 
 const HEADER: &str = "group,case,seed,n_vehicles,disturbance_mps2,method,status,collisions_count,collision_pairs_count,\
 min_ellipsoid_distance_unitless,within_0_1_m_at_t_plus_2_s_count,max_goal_dist_at_t_plus_2_s_m,effort_mps,\
-effort_ratio_to_scp,compute_p50_us,compute_p99_us,scp_solve_s,speedup_vs_scp_solve,run_dir";
+effort_ratio_to_scp,compute_p50_us,compute_p99_us,compute_total_s,scp_solve_s,speedup_vs_scp_solve,\
+speedup_total_vs_scp_solve,run_dir";
 
 /// `cases.csv`.
 pub fn csv(rows: &[CaseResult]) -> String {
@@ -28,7 +29,7 @@ pub fn csv(rows: &[CaseResult]) -> String {
         let dir = r.run_dir.as_ref().and_then(|d| d.file_name()).map(|d| d.to_string_lossy().to_string());
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{:?},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{:?},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.group,
             r.case,
             r.seed,
@@ -45,8 +46,10 @@ pub fn csv(rows: &[CaseResult]) -> String {
             r.effort_ratio,
             r.compute_p50_s * 1e6,
             r.compute_p99_s * 1e6,
+            r.compute_total_s,
             r.scp_solve_s,
             r.speedup(),
+            r.speedup_total(),
             dir.map_or(String::new(), |d| format!("runs/{d}"))
         );
     }
@@ -72,13 +75,14 @@ fn ok(rows: &[CaseResult]) -> Vec<&CaseResult> {
 }
 
 /// One row of the per-group table.
-fn table_row(group: &str, m: CampaignMethod, rows: &[CaseResult]) -> [String; 11] {
+fn table_row(group: &str, m: CampaignMethod, rows: &[CaseResult]) -> [String; 12] {
     let good = ok(rows);
     let free = good.iter().filter(|r| r.collisions == 0.0).count();
     let collisions: f64 = good.iter().map(|r| r.collisions).sum();
     let arrived = good.iter().filter(|r| r.within_0_1_m == r.n as f64).count();
     let ratios: Vec<f64> = good.iter().map(|r| r.effort_ratio).collect();
     let speed: Vec<f64> = good.iter().map(|r| r.speedup()).collect();
+    let per_run: Vec<f64> = good.iter().map(|r| r.speedup_total()).collect();
     [
         group.to_string(),
         m.name().to_string(),
@@ -91,6 +95,7 @@ fn table_row(group: &str, m: CampaignMethod, rows: &[CaseResult]) -> [String; 11
         format!("{:.1}", median(good.iter().map(|r| r.compute_p50_s * 1e6).collect())),
         format!("{:.3}", median(good.iter().map(|r| r.scp_solve_s).collect())),
         format!("{:.0} / {:.0}", fold(speed.iter().copied(), f64::min, f64::INFINITY), median(speed)),
+        format!("{:.2} / {:.2}", fold(per_run.iter().copied(), f64::min, f64::INFINITY), median(per_run)),
     ]
 }
 
@@ -151,7 +156,27 @@ fn verdicts(rows: &[CaseResult]) -> String {
         verdict(!speed.is_empty() && speed.len() == nr.len() && slowest >= SPEEDUP_GOAL),
         median(speed.clone())
     );
+    let totals: Vec<f64> = good.iter().map(|r| r.speedup_total()).filter(|x| x.is_finite()).collect();
+    let _ = writeln!(
+        s,
+        "- Per run, like for like (no goal): every vehicle's compute over every step of a run, summed, took {} s \
+         (median over the cases) against the {} s of the one SCP solve the run needs (its open-loop plan): the SCP \
+         solve is {}× (least) to {}× (median) the whole run's compute.",
+        fmt_sig(median(good.iter().map(|r| r.compute_total_s).collect())),
+        fmt_sig(median(good.iter().map(|r| r.scp_solve_s).collect())),
+        fmt_sig(fold(totals.iter().copied(), f64::min, f64::INFINITY)),
+        fmt_sig(median(totals))
+    );
     s
+}
+
+/// Three significant digits.
+fn fmt_sig(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
 }
 
 /// `summary.md`.
@@ -172,6 +197,7 @@ pub fn summary(rows: &[CaseResult], command: &str, wall_s: f64, out: &Path) -> S
         "compute p50 median (µs)",
         "SCP solve median (s)",
         "speed-up least / median",
+        "per run: SCP solve / all vehicles' compute, least / median",
     ]);
     let mut groups: Vec<&str> = rows.iter().map(|r| r.group.as_str()).collect();
     groups.dedup();
@@ -233,6 +259,7 @@ mod tests {
             effort_ratio: ratio,
             compute_p50_s: p50_s,
             compute_p99_s: p50_s,
+            compute_total_s: p50_s * 8.0 * 100.0,
             scp_solve_s: 0.1,
             run_dir: None,
         }
@@ -244,6 +271,8 @@ mod tests {
         let v = verdicts(&good);
         assert!(v.contains("every case: MET") && v.contains("SCP's (NR): MET") && v.contains("solve (NR): MET"), "{v}");
         assert!(v.contains("1 of 1 NR cases collision-free") && v.contains("0 of 1 cases, 1 collisions"), "{v}");
+        // 8 vehicles × 100 steps × 10 µs = 8 ms in all against a 0.1 s solve: 12.5×.
+        assert!(v.contains("took 0.00800 s") && v.contains("12.5× (least)"), "{v}");
         let bad = [row(CampaignMethod::Nr, 2.0, 1.4, 1e-2)];
         let v = verdicts(&bad);
         assert!(v.contains("every case: NOT MET") && v.contains("SCP's (NR): NOT MET"), "{v}");
