@@ -78,12 +78,14 @@ fn a_tiny_campaign_writes_its_tables() {
     ]);
     assert!(o.status.success(), "{}", describe_output(&o));
     let md = std::fs::read_to_string(out.join("campaign.md")).expect("campaign.md");
-    for row in ["| neural-rendezvous | 1 |", "| sn-dnn | 1 |"] {
+    for row in ["| neural-rendezvous | 1 |", "| sn-dnn | 1 |", "| neural-rendezvous, perfect navigation | 1 |"] {
         assert!(md.contains(row), "campaign.md has no row {row:?}:\n{md}");
     }
+    // The bound's tightness, per navigation.
+    assert!(md.contains("## The bound b_e(t_f)") && md.contains("| perfect | 1 |"), "{md}");
     let runs = std::fs::read_to_string(out.join("runs.csv")).expect("runs.csv");
-    // A header and one row per (method, ISO).
-    assert_eq!(runs.lines().count(), 3, "{runs}");
+    // A header and one row per (method, ISO), NR's perfect-navigation run among them.
+    assert_eq!(runs.lines().count(), 4, "{runs}");
     assert!(out.join("dt_sweep.csv").is_file() && out.join("summary.csv").is_file());
 }
 

@@ -226,13 +226,17 @@ pub fn run(a: &CampaignArgs, launcher: &dyn Launcher) -> Result<String, CommandE
     let mut rows: Vec<Row> =
         summarise(&p.base, &runs).into_iter().map(|s| Row { label: s.method.name().to_string(), summary: s }).collect();
     let mut all_runs: Vec<(String, RunResult)> = runs.iter().map(|r| ("noisy".to_string(), r.clone())).collect();
-    if p.base.methods.contains(&Method::Nmpc) {
+    // With perfect navigation: NMPC (the global solution's floor) and NR (where its bound fails).
+    for m in [Method::Nmpc, Method::NeuralRendezvous] {
+        if !p.base.methods.contains(&m) || p.base.plant.nav_scale == 0.0 {
+            continue;
+        }
         stopped(launcher)?;
-        let mut o = CampaignOptions { methods: vec![Method::Nmpc], ..p.base.clone() };
+        let mut o = CampaignOptions { methods: vec![m], ..p.base.clone() };
         o.plant.nav_scale = 0.0;
         let perfect = fly(&o, launcher)?;
         let s = summarise(&o, &perfect).remove(0);
-        rows.push(Row { label: "nmpc, perfect navigation".into(), summary: s });
+        rows.push(Row { label: format!("{}, perfect navigation", m.name()), summary: s });
         all_runs.extend(perfect.into_iter().map(|r| ("perfect".to_string(), r)));
     }
     let dt = dt_sweep(&p, launcher)?;
