@@ -72,20 +72,27 @@ fn a_tiny_campaign_writes_its_tables() {
         "600",
         "--gammas",
         "none",
+        "--realisations",
+        "2",
         "--no-plots",
         "--out",
         &out.display().to_string(),
     ]);
     assert!(o.status.success(), "{}", describe_output(&o));
     let md = std::fs::read_to_string(out.join("campaign.md")).expect("campaign.md");
-    for row in ["| neural-rendezvous | 1 |", "| sn-dnn | 1 |", "| neural-rendezvous, perfect navigation | 1 |"] {
+    assert!(md.contains("## Across the 2 noise realisations") && md.contains("| sn-dnn | 2 |"), "{md}");
+    for row in ["| neural-rendezvous | 2 |", "| sn-dnn | 2 |", "| neural-rendezvous, perfect navigation | 1 |"] {
         assert!(md.contains(row), "campaign.md has no row {row:?}:\n{md}");
     }
     // The bound's tightness, per navigation.
     assert!(md.contains("## The bound b_e(t_f)") && md.contains("| perfect | 1 |"), "{md}");
     let runs = std::fs::read_to_string(out.join("runs.csv")).expect("runs.csv");
-    // A header and one row per (method, ISO), NR's perfect-navigation run among them.
-    assert_eq!(runs.lines().count(), 4, "{runs}");
+    // A header and one row per (method, ISO, realisation), and NR's perfect-navigation run; the
+    // realisations fly their own noise.
+    assert_eq!(runs.lines().count(), 6, "{runs}");
+    let errors: Vec<&str> =
+        runs.lines().filter(|l| l.starts_with("sn-dnn,noisy,200,")).map(|l| l.split(',').nth(4).unwrap()).collect();
+    assert!(errors.len() == 2 && errors[0] != errors[1], "{runs}");
     assert!(out.join("dt_sweep.csv").is_file() && out.join("summary.csv").is_file());
 }
 

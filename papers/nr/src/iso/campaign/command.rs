@@ -57,9 +57,13 @@ pub struct CampaignArgs {
     /// Replaces plant.nav_scale (0: perfect navigation).
     #[arg(long)]
     pub nav_scale: Option<f64>,
-    /// Run seed = seed base + ISO index.
+    /// Run seed = seed base + ISO index (+ realisation × 10⁶).
     #[arg(long, default_value_t = 0)]
     pub seed_base: u64,
+    /// Noise realisations per ISO (each its own seed; the tables give their spread). The Fig. 11
+    /// and Fig. 9 sweeps fly one.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub realisations: u32,
     /// Control intervals of the Fig. 11 sweep, s (each dividing plant.t_f_s), or `none`.
     #[arg(long, default_value = "300,600,1200,2400")]
     pub dts: String,
@@ -125,6 +129,7 @@ fn plan(a: &CampaignArgs, launcher: &dyn Launcher) -> Result<Plan, CommandError>
     base.algorithm = alg.config.clone();
     base.dt_s = setup.scenario.dt_s;
     base.seed_base = a.seed_base;
+    base.realisations = a.realisations;
     base.threads = a.threads;
     base.timing_repeats = a.repeats;
     Ok(Plan { base, scenario_weights: alg.config.weights.clone(), out, dts, gammas })
@@ -164,7 +169,7 @@ fn dt_sweep(p: &Plan, launcher: &dyn Launcher) -> Result<Vec<SweepPoint>, Comman
     let mut out = Vec::new();
     for &dt in &p.dts {
         stopped(launcher)?;
-        let o = CampaignOptions { methods: learned(&p.base.methods), dt_s: dt, ..p.base.clone() };
+        let o = CampaignOptions { methods: learned(&p.base.methods), dt_s: dt, realisations: 1, ..p.base.clone() };
         out.extend(points(&o, &fly(&o, launcher)?, dt, "noisy"));
     }
     Ok(out)
@@ -190,7 +195,12 @@ fn gamma_sweep(
         notes.push(same_as_scenario(&path, p.scenario_weights.as_deref(), gamma));
         let net = Arc::new(SnDnn::load(&path).map_err(|e| CommandError::failed(e.to_string()))?);
         for (nav, scale) in [("noisy", p.base.plant.nav_scale), ("perfect", 0.0)] {
-            let mut c = CampaignOptions { methods: learned(&p.base.methods), net: Some(net.clone()), ..p.base.clone() };
+            let mut c = CampaignOptions {
+                methods: learned(&p.base.methods),
+                net: Some(net.clone()),
+                realisations: 1,
+                ..p.base.clone()
+            };
             c.plant.nav_scale = scale;
             c.algorithm.weights = Some(path.clone());
             out.extend(points(&c, &fly(&c, launcher)?, gamma, nav));
@@ -232,7 +242,8 @@ pub fn run(a: &CampaignArgs, launcher: &dyn Launcher) -> Result<String, CommandE
             continue;
         }
         stopped(launcher)?;
-        let mut o = CampaignOptions { methods: vec![m], ..p.base.clone() };
+        // One realisation: without navigation noise only the initial dispersion would differ.
+        let mut o = CampaignOptions { methods: vec![m], realisations: 1, ..p.base.clone() };
         o.plant.nav_scale = 0.0;
         let perfect = fly(&o, launcher)?;
         let s = summarise(&o, &perfect).remove(0);
@@ -274,6 +285,9 @@ fn command_line(a: &CampaignArgs) -> String {
     }
     if a.seed_base != 0 {
         c += &format!(" --seed-base {}", a.seed_base);
+    }
+    if a.realisations != 1 {
+        c += &format!(" --realisations {}", a.realisations);
     }
     c
 }

@@ -3,7 +3,9 @@
 //! our lockstep loop ([`crate::iso::campaign::sim`]): delivery error (median, p99, max, mean, std), Δv,
 //! per-step compute time (p50, p99 over every step of every run) and, for Neural-Rendezvous,
 //! the delivery error against the bound b_e(t_f). Run `seed` = `seed_base` + ISO index (the
-//! navigation noise of each ISO is its own and the same for every method). Medians, p99s and
+//! navigation noise of each ISO is its own and the same for every method); with `realisations`
+//! K > 1, realisation k of an ISO flies seed `seed_base` + ISO + k·10⁶ (k = 0 is the one-realisation
+//! campaign's run), so the tails can be told from the luck of one noise draw ([`spread`]). Medians, p99s and
 //! means are `cohort_report::stats`'s (the one quantile rule of every Cohort table).
 
 use std::ops::Range;
@@ -31,6 +33,8 @@ pub struct CampaignOptions {
     pub net: Option<Arc<SnDnn>>,
     pub dt_s: f64,
     pub seed_base: u64,
+    /// Noise realisations per ISO (each its own seed, see the module docs).
+    pub realisations: u32,
     pub threads: usize,
     /// Each run is flown this many times and each step keeps its smallest wall time (the runs
     /// are deterministic, so the work is identical and the minimum strips the interference of
@@ -48,6 +52,7 @@ impl CampaignOptions {
             net,
             dt_s: crate::iso::dynamics::constants::DT_S,
             seed_base: 0,
+            realisations: 1,
             threads: 2,
             timing_repeats: 1,
         }
@@ -59,6 +64,8 @@ impl CampaignOptions {
 pub struct RunResult {
     pub method: Method,
     pub iso: u32,
+    /// Which noise realisation of the ISO (0 for a one-realisation campaign).
+    pub realisation: u32,
     pub delivery_error_m: f64,
     pub dv_mps: f64,
     /// b_e(t_f) for the methods that keep a bound.
@@ -91,11 +98,19 @@ pub struct MethodSummary {
     pub within_bound: Option<usize>,
 }
 
-/// Fly one ISO with one method (`o.timing_repeats` times, see there).
-pub fn run_one(o: &CampaignOptions, method: Method, iso: u32) -> Result<RunResult, String> {
-    let mut best = fly_once(o, method, iso)?;
+/// The seed gap between two realisations of one ISO.
+pub const REALISATION_SEED_STRIDE: u64 = 1_000_000;
+
+/// The run seed of realisation `k` of `iso`.
+pub fn run_seed(o: &CampaignOptions, iso: u32, k: u32) -> u64 {
+    o.seed_base + u64::from(iso) + u64::from(k) * REALISATION_SEED_STRIDE
+}
+
+/// Fly one ISO's realisation `k` with one method (`o.timing_repeats` times, see there).
+pub fn run_one(o: &CampaignOptions, method: Method, iso: u32, k: u32) -> Result<RunResult, String> {
+    let mut best = fly_once(o, method, iso, k)?;
     for _ in 1..o.timing_repeats {
-        let again = fly_once(o, method, iso)?;
+        let again = fly_once(o, method, iso, k)?;
         if (again.delivery_error_m.to_bits(), again.dv_mps.to_bits())
             != (best.delivery_error_m.to_bits(), best.dv_mps.to_bits())
         {
@@ -106,9 +121,9 @@ pub fn run_one(o: &CampaignOptions, method: Method, iso: u32) -> Result<RunResul
     Ok(best)
 }
 
-fn fly_once(o: &CampaignOptions, method: Method, iso: u32) -> Result<RunResult, String> {
+fn fly_once(o: &CampaignOptions, method: Method, iso: u32, k: u32) -> Result<RunResult, String> {
     let plant_cfg = IsoEncounterConfig { iso_index: Some(iso), ..o.plant.clone() };
-    let seed = o.seed_base + u64::from(iso);
+    let seed = run_seed(o, iso, k);
     let mut plant: IsoEncounterPlant =
         crate::iso::config::build_plant(&plant_cfg, 1, o.dt_s, seed).map_err(|p| format!("{p:?}"))?;
     let cfg = NrAlgorithmConfig { method, ..o.algorithm.clone() };
@@ -118,6 +133,7 @@ fn fly_once(o: &CampaignOptions, method: Method, iso: u32) -> Result<RunResult, 
     Ok(RunResult {
         method,
         iso,
+        realisation: k,
         delivery_error_m: plant.delivery_error_m(0).ok_or("t_f not reached")?,
         dv_mps: plant.dv_mps(0),
         bound_m: agents[0].bound_m(),
@@ -126,14 +142,19 @@ fn fly_once(o: &CampaignOptions, method: Method, iso: u32) -> Result<RunResult, 
     })
 }
 
-/// Every (method, ISO) run, on `threads` threads; results in (method, ISO) order. `stop` is
+/// Every (method, ISO, realisation) run, on `threads` threads; results in that order. `stop` is
 /// asked by the calling thread between runs and every 50 ms while they go on (so it need not be
 /// `Sync`, e.g. "has a signal come?"): once it says true, no further run starts, the runs under
 /// way finish, and the result is an error. A failing run stops the hand-out too; the error is
 /// the one of the first failing run in (method, ISO) order.
 pub fn run_all(o: &CampaignOptions, stop: &dyn Fn() -> bool) -> Result<Vec<RunResult>, String> {
-    let jobs: Vec<(Method, u32)> = o.methods.iter().flat_map(|m| o.isos.clone().map(move |i| (*m, i))).collect();
-    let runs = Campaign::new(jobs.len()).workers(o.threads).stop(stop).run(|j| run_one(o, jobs[j].0, jobs[j].1));
+    let jobs: Vec<(Method, u32, u32)> = o
+        .methods
+        .iter()
+        .flat_map(|m| o.isos.clone().flat_map(move |i| (0..o.realisations).map(move |k| (*m, i, k))))
+        .collect();
+    let runs =
+        Campaign::new(jobs.len()).workers(o.threads).stop(stop).run(|j| run_one(o, jobs[j].0, jobs[j].1, jobs[j].2));
     runs.map_err(|e| match e {
         CampaignError::Case(f) => f.source,
         CampaignError::Stopped { .. } => "stopped before every run finished".into(),
@@ -186,10 +207,14 @@ pub fn comparisons(runs: &[RunResult]) -> String {
     if nr.is_empty() {
         return String::new();
     }
-    let mut t = MdTable::new(["NR vs", "ISOs", "NR error smaller", "NR Δv / other's: median", "max", "ISOs > 1.25×"]);
+    let mut t = MdTable::new(["NR vs", "runs", "NR error smaller", "NR Δv / other's: median", "max", "runs > 1.25×"]);
     for m in Method::ALL.into_iter().filter(|m| *m != Method::NeuralRendezvous) {
-        let pairs: Vec<(&RunResult, &RunResult)> =
-            nr.iter().filter_map(|a| runs.iter().find(|b| b.method == m && b.iso == a.iso).map(|b| (*a, b))).collect();
+        let pairs: Vec<(&RunResult, &RunResult)> = nr
+            .iter()
+            .filter_map(|a| {
+                runs.iter().find(|b| b.method == m && (b.iso, b.realisation) == (a.iso, a.realisation)).map(|b| (*a, b))
+            })
+            .collect();
         if pairs.is_empty() {
             continue;
         }
@@ -205,4 +230,68 @@ pub fn comparisons(runs: &[RunResult]) -> String {
         ]);
     }
     t.to_string()
+}
+
+/// With several realisations per ISO: each method's statistics computed per realisation, as
+/// their range over the realisations (least – largest), so a tail figure can be told from the
+/// luck of one noise draw. Empty with one realisation.
+pub fn spread(o: &CampaignOptions, runs: &[RunResult]) -> String {
+    if o.realisations < 2 {
+        return String::new();
+    }
+    let mut t = MdTable::new([
+        "method",
+        "realisations",
+        "error median (m)",
+        "p99 (m)",
+        "max (m)",
+        "mean (m)",
+        "Δv median (m/s)",
+        "≤ b_e(t_f)",
+    ]);
+    for &m in &o.methods {
+        let per: Vec<MethodSummary> = (0..o.realisations)
+            .map(|k| {
+                let rs: Vec<RunResult> = runs.iter().filter(|r| r.method == m && r.realisation == k).cloned().collect();
+                summarise(&CampaignOptions { methods: vec![m], ..o.clone() }, &rs).remove(0)
+            })
+            .collect();
+        let range = |f: &dyn Fn(&MethodSummary) -> f64, digits: usize| {
+            let (lo, hi) =
+                per.iter().map(f).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)));
+            format!("{lo:.digits$} – {hi:.digits$}")
+        };
+        let bound = per.iter().filter_map(|s| s.within_bound).collect::<Vec<_>>();
+        t.row([
+            m.name().to_string(),
+            o.realisations.to_string(),
+            range(&|s| s.error_median_m, 2),
+            range(&|s| s.error_p99_m, 2),
+            range(&|s| s.error_max_m, 2),
+            range(&|s| s.error_mean_m, 2),
+            range(&|s| s.dv_median_mps, 3),
+            match (bound.iter().min(), bound.iter().max()) {
+                (Some(lo), Some(hi)) => format!("{lo} – {hi} of {}", per[0].runs),
+                _ => "–".into(),
+            },
+        ]);
+    }
+    t.to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn realisation_zero_is_the_one_realisation_seed_and_every_run_has_its_own() {
+        let o = CampaignOptions { seed_base: 7, ..CampaignOptions::new(vec![Method::Nmpc], None) };
+        assert_eq!(run_seed(&o, 203, 0), 210);
+        let mut seeds: Vec<u64> =
+            TEST_ISOS.flat_map(|i| (0..5).map(move |k| (i, k))).map(|(i, k)| run_seed(&o, i, k)).collect();
+        let n = seeds.len();
+        seeds.sort_unstable();
+        seeds.dedup();
+        assert_eq!(seeds.len(), n);
+    }
 }

@@ -11,7 +11,7 @@ use cohort_report::chart::series_color;
 use cohort_report::markdown::MdTable;
 use cohort_report::stats::{median, quantile};
 
-use crate::iso::campaign::eval::{CampaignOptions, MethodSummary, RunResult, comparisons};
+use crate::iso::campaign::eval::{CampaignOptions, MethodSummary, RunResult, comparisons, spread};
 use crate::iso::config::Method;
 use crate::iso::dynamics::constants::DV_BUDGET_MPS;
 use crate::plots::{self, Line, Panel, Style};
@@ -202,12 +202,15 @@ fn markdown(r: &Report<'_>, plots: &[PathBuf], out: &Path) -> String {
     let _ = writeln!(md, "Command: `{}`\n", r.command);
     let _ = writeln!(
         md,
-        "ISOs {}..{} ({} each), one spacecraft per run, run seed = {} + ISO index; Δt = {} s, plant.nav_scale = {}; \
-         per-step times on {} thread(s), the smallest of {} identical run(s) per step; wall {:.0} s.\n",
+        "ISOs {}..{} ({} each), {} noise realisation(s) per ISO, one spacecraft per run, run seed = {} + ISO index \
+         + realisation × {}; Δt = {} s, plant.nav_scale = {}; per-step times on {} thread(s), the smallest of {} \
+         identical run(s) per step; wall {:.0} s.\n",
         o.isos.start,
         o.isos.end,
         o.isos.len(),
+        o.realisations,
         o.seed_base,
+        crate::iso::campaign::eval::REALISATION_SEED_STRIDE,
         o.dt_s,
         o.plant.nav_scale,
         o.threads,
@@ -218,9 +221,17 @@ fn markdown(r: &Report<'_>, plots: &[PathBuf], out: &Path) -> String {
     md += &main_table(r.rows);
     let _ = writeln!(md, "\nΔv budget {DV_BUDGET_MPS} m/s.\n");
     md += &nr_lines(r);
+    let noisy_runs: Vec<RunResult> = r.runs.iter().filter(|(n, _)| n == "noisy").map(|(_, x)| x.clone()).collect();
+    let sp = spread(o, &noisy_runs);
+    if !sp.is_empty() {
+        let _ = writeln!(
+            md,
+            "\n## Across the {} noise realisations of each ISO (each statistic per realisation: least – largest)\n\n{sp}",
+            o.realisations
+        );
+    }
     md += &bound_section(r.runs);
-    let noisy: Vec<RunResult> = r.runs.iter().filter(|(n, _)| n == "noisy").map(|(_, x)| x.clone()).collect();
-    let cmp = comparisons(&noisy);
+    let cmp = comparisons(&noisy_runs);
     if !cmp.is_empty() {
         md += "\n## Neural-Rendezvous against each method, ISO by ISO\n\n";
         md += &cmp;
@@ -277,16 +288,18 @@ fn summary_csv(rows: &[Row]) -> String {
 }
 
 fn runs_csv(runs: &[(String, RunResult)]) -> String {
-    let mut t =
-        String::from("method,navigation,iso,delivery_error_m,dv_mps,bound_m,clipped_steps,step_p50_s,step_max_s\n");
+    let mut t = String::from(
+        "method,navigation,iso,realisation,delivery_error_m,dv_mps,bound_m,clipped_steps,step_p50_s,step_max_s\n",
+    );
     for (nav, r) in runs {
         let mut c = r.compute_s.clone();
         c.sort_by(f64::total_cmp);
         let _ = writeln!(
             t,
-            "{},{nav},{},{:?},{:?},{},{},{:?},{:?}",
+            "{},{nav},{},{},{:?},{:?},{},{},{:?},{:?}",
             r.method.name(),
             r.iso,
+            r.realisation,
             r.delivery_error_m,
             r.dv_mps,
             r.bound_m.map_or(String::new(), |b| format!("{b:?}")),
