@@ -238,8 +238,8 @@ fn run_case(job: &Job, i: u64) -> Result<CaseRow, CaseError> {
     };
     let r = CaseRow::new(i, plan.case_seed(i), &values, outcome, host);
     row::save(root, &r).map_err(|e| CaseError::Io(format!("{}: {e}", row::case_dir(root, i).display())))?;
-    if r.status != "ok" {
-        warn!("case {i}: {}{}", r.status, r.error.as_deref().map(|e| format!(": {e}")).unwrap_or_default());
+    if r.outcome.status != "ok" {
+        warn!("case {i}: {}{}", r.outcome.status, r.outcome.error.as_deref().map(|e| format!(": {e}")).unwrap_or_default());
     }
     Ok(r)
 }
@@ -248,14 +248,14 @@ fn run_case(job: &Job, i: u64) -> Result<CaseRow, CaseError> {
 /// (known once a case has finished).
 fn chosen_metric(a: &CampaignArgs, first: Option<&CaseRow>) -> Option<String> {
     a.metric.clone().or_else(|| a.until.as_ref().map(|u| u.metric.clone())).or_else(|| {
-        first.and_then(|r| r.verdict.iter().find(|v| v.ours.is_some())).map(|v| format!("ours: {}", v.name))
+        first.and_then(|r| r.outcome.verdict.iter().find(|v| v.ours.is_some())).map(|v| format!("ours: {}", v.name))
     })
 }
 
 /// The names a metric may be, for an error naming a wrong one.
 fn metric_choices(r: &CaseRow) -> String {
-    let mut names: Vec<String> = r.metrics.keys().cloned().collect();
-    names.extend(r.verdict.iter().filter(|v| v.ours.is_some()).map(|v| format!("ours: {}", v.name)));
+    let mut names: Vec<String> = r.outcome.metrics.keys().cloned().collect();
+    names.extend(r.outcome.verdict.iter().filter(|v| v.ours.is_some()).map(|v| format!("ours: {}", v.name)));
     names.join(", ")
 }
 
@@ -294,7 +294,7 @@ fn run(job: &Job, workers: usize, done: Vec<Option<CaseRow>>, mode: &str) -> Exi
         // cases by index that ran ok has is a wrong name. Judged once those cases have all
         // finished, whatever order they finished in, so the verdict does not depend on the workers.
         let head = &rows[..total.min(METRIC_CHECK_CASES)];
-        let ok: Vec<&CaseRow> = head.iter().flatten().filter(|r| r.status == "ok").collect();
+        let ok: Vec<&CaseRow> = head.iter().flatten().filter(|r| r.outcome.status == "ok").collect();
         let judged = head.iter().all(Option::is_some) && !ok.is_empty();
         if judged && ok.iter().all(|r| r.value(&metric).is_none()) && !bad_metric.swap(true, Ordering::SeqCst) {
             error!(
@@ -363,7 +363,7 @@ fn finish(plan: &Plan, a: &CampaignArgs, root: &Path, mode: &str, finished: Vec<
     let plots = match (&metric, a.no_plots) {
         (Some(m), false) => report::plots(root, m, &columns, &rows),
         (None, false) => {
-            let example = rows.first().and_then(|r| r.metrics.keys().next().cloned()).unwrap_or_default();
+            let example = rows.first().and_then(|r| r.outcome.metrics.keys().next().cloned()).unwrap_or_default();
             info!("no metric to plot: choose one with --metric (e.g. {example})");
             Vec::new()
         }
@@ -392,7 +392,7 @@ fn finish(plan: &Plan, a: &CampaignArgs, root: &Path, mode: &str, finished: Vec<
     if let Err(e) = std::fs::write(&md_path, &md) {
         return crate::fail(CommandError::failed(format!("{}: {e}", md_path.display())));
     }
-    let not_ok = rows.iter().filter(|r| r.status != "ok").count();
+    let not_ok = rows.iter().filter(|r| r.outcome.status != "ok").count();
     if not_ok > 0 {
         warn!("{not_ok} of {} cases did not end ok (their status is in the table)", rows.len());
     }

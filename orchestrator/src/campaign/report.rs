@@ -54,7 +54,7 @@ pub fn markdown(h: &Header, rows: &[CaseRow], plots: &[PathBuf]) -> String {
         drawn(&mut md, h, rows);
     }
     let mut status: BTreeMap<&str, usize> = BTreeMap::new();
-    rows.iter().for_each(|r| *status.entry(r.status.as_str()).or_default() += 1);
+    rows.iter().for_each(|r| *status.entry(r.outcome.status.as_str()).or_default() += 1);
     let status: Vec<String> = status.iter().map(|(s, n)| format!("{s} {n}")).collect();
     let _ = writeln!(md, "## Runs\n\nStatus: {}.\n", status.join(", "));
     verdicts(&mut md, rows);
@@ -113,9 +113,9 @@ fn verdicts(md: &mut String, rows: &[CaseRow]) {
         t.row([name.to_string(), p.to_string(), f.to_string(), na.to_string(), rate]);
     };
     for (name, _) in &lines {
-        count(name, &|r| r.verdict.iter().find(|v| v.name == *name).map(|v| v.verdict.clone()));
+        count(name, &|r| r.outcome.verdict.iter().find(|v| v.name == *name).map(|v| v.verdict.clone()));
     }
-    count("overall", &|r| Some(r.verdict_overall.clone()));
+    count("overall", &|r| Some(r.outcome.verdict_overall.clone()));
     let _ = writeln!(md, "{t}");
 }
 

@@ -83,15 +83,9 @@ pub struct CaseRow {
     pub case: u64,
     pub seed: u64,
     pub values: Vec<Cell>,
-    /// The run's status ("ok", "degraded", "diverged", "failed").
-    pub status: String,
-    pub error: Option<String>,
-    /// Summary metrics, `f64::to_bits`.
-    pub metrics: BTreeMap<String, u64>,
-    pub verdict: Vec<VerdictCell>,
-    pub verdict_overall: String,
-    /// Wall time of the case's run, s (progress only; not in the table).
-    pub wall_s: f64,
+    /// Its fields sit beside the three above in `row.json`.
+    #[serde(flatten)]
+    pub outcome: Outcome,
     /// The host daemon that ran it (`campaign --hosts`; not in the table, which does not depend
     /// on where a case ran).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -99,31 +93,19 @@ pub struct CaseRow {
 }
 
 impl CaseRow {
-    pub fn new(case: u64, seed: u64, values: &[toml::Value], o: Outcome, host: Option<String>) -> Self {
-        let Outcome { status, error, metrics, verdict, verdict_overall, wall_s } = o;
-        Self {
-            case,
-            seed,
-            values: values.iter().map(Cell::of).collect(),
-            status,
-            error,
-            metrics,
-            verdict,
-            verdict_overall,
-            wall_s,
-            host,
-        }
+    pub fn new(case: u64, seed: u64, values: &[toml::Value], outcome: Outcome, host: Option<String>) -> Self {
+        Self { case, seed, values: values.iter().map(Cell::of).collect(), outcome, host }
     }
 
     pub fn metric(&self, name: &str) -> Option<f64> {
-        self.metrics.get(name).map(|b| f64::from_bits(*b))
+        self.outcome.metrics.get(name).map(|b| f64::from_bits(*b))
     }
 
     /// A summary metric, or `ours: <verdict line>`: what `--metric` and `--until` may name.
     pub fn value(&self, name: &str) -> Option<f64> {
         self.metric(name).or_else(|| {
             let line = name.strip_prefix("ours: ")?;
-            self.verdict.iter().find(|v| v.name == line)?.ours.map(f64::from_bits)
+            self.outcome.verdict.iter().find(|v| v.name == line)?.ours.map(f64::from_bits)
         })
     }
 }

@@ -21,13 +21,13 @@ pub const FILE: &str = "campaign.parquet";
 
 /// The metric columns of `rows`: every name any case produced, sorted.
 pub fn metric_names(rows: &[CaseRow]) -> Vec<String> {
-    rows.iter().flat_map(|r| r.metrics.keys().cloned()).collect::<BTreeSet<_>>().into_iter().collect()
+    rows.iter().flat_map(|r| r.outcome.metrics.keys().cloned()).collect::<BTreeSet<_>>().into_iter().collect()
 }
 
 /// The verdict lines of `rows`, in order of first appearance, with their units.
 pub fn verdict_names(rows: &[CaseRow]) -> Vec<(String, String)> {
     let mut out: Vec<(String, String)> = Vec::new();
-    for v in rows.iter().flat_map(|r| &r.verdict) {
+    for v in rows.iter().flat_map(|r| &r.outcome.verdict) {
         if !out.iter().any(|(n, _)| *n == v.name) {
             out.push((v.name.clone(), v.unit.clone()));
         }
@@ -89,8 +89,8 @@ pub fn batch(rows: &[CaseRow], columns: &[String]) -> Result<RecordBatch, String
         rows.iter().for_each(|r| b.append_option(f(r)));
         Arc::new(b.finish()) as ArrayRef
     };
-    push(field("status", DataType::Utf8, false, None), strings(&|r| Some(r.status.clone())));
-    push(field("error", DataType::Utf8, true, None), strings(&|r| r.error.clone()));
+    push(field("status", DataType::Utf8, false, None), strings(&|r| Some(r.outcome.status.clone())));
+    push(field("error", DataType::Utf8, true, None), strings(&|r| r.outcome.error.clone()));
     for (k, name) in columns.iter().enumerate() {
         let (f, a) = drawn_column(name, rows, k);
         push(f, a);
@@ -101,13 +101,13 @@ pub fn batch(rows: &[CaseRow], columns: &[String]) -> Result<RecordBatch, String
         push(field(&name, DataType::Float64, true, cohort_runtime::units::unit_of(&name)), Arc::new(b.finish()));
     }
     for (name, unit) in verdict_names(rows) {
-        let line = |r: &CaseRow| r.verdict.iter().find(|v| v.name == name).cloned();
+        let line = |r: &CaseRow| r.outcome.verdict.iter().find(|v| v.name == name).cloned();
         push(field(&format!("verdict: {name}"), DataType::Utf8, true, None), strings(&|r| line(r).map(|v| v.verdict)));
         let mut b = Float64Builder::new();
         rows.iter().for_each(|r| b.append_option(line(r).and_then(|v| v.ours).map(f64::from_bits)));
         push(field(&format!("ours: {name}"), DataType::Float64, true, Some(&unit)), Arc::new(b.finish()));
     }
-    push(field("verdict_overall", DataType::Utf8, false, None), strings(&|r| Some(r.verdict_overall.clone())));
+    push(field("verdict_overall", DataType::Utf8, false, None), strings(&|r| Some(r.outcome.verdict_overall.clone())));
     let schema = Arc::new(Schema::new(fields));
     RecordBatch::try_new(schema, arrays).map_err(|e| e.to_string())
 }
