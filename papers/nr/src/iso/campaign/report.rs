@@ -145,7 +145,7 @@ fn sweep_table(points: &[SweepPoint], x_name: &str, with_nav: bool) -> String {
 fn bound_section(runs: &[(String, RunResult)]) -> String {
     let mut t = MdTable::new([
         "navigation",
-        "ISOs",
+        "runs",
         "error ≤ b_e(t_f)",
         "error / bound: min",
         "median",
