@@ -239,7 +239,11 @@ fn run_case(job: &Job, i: u64) -> Result<CaseRow, CaseError> {
     let r = CaseRow::new(i, plan.case_seed(i), &values, outcome, host);
     row::save(root, &r).map_err(|e| CaseError::Io(format!("{}: {e}", row::case_dir(root, i).display())))?;
     if r.outcome.status != "ok" {
-        warn!("case {i}: {}{}", r.outcome.status, r.outcome.error.as_deref().map(|e| format!(": {e}")).unwrap_or_default());
+        warn!(
+            "case {i}: {}{}",
+            r.outcome.status,
+            r.outcome.error.as_deref().map(|e| format!(": {e}")).unwrap_or_default()
+        );
     }
     Ok(r)
 }

@@ -94,3 +94,17 @@ fn four_spacecraft_share_one_plant_and_each_delivers() {
         assert!(targets.iter().filter(|t| **t == targets[j]).count() == 1);
     }
 }
+
+/// A Δv budget is kept to the plant's own count (the rocket equation), and PD on the t = 0 plan,
+/// which spends ≈ 61 m/s unconstrained, spends all of it.
+#[test]
+fn a_dv_budget_is_kept_to_the_plants_count() {
+    let plant_cfg = IsoEncounterConfig { iso_index: Some(200), ..IsoEncounterConfig::default() };
+    let mut plant = build_plant(&plant_cfg, 1, 600.0, 200).unwrap();
+    let mut cfg = NrAlgorithmConfig::new(Method::Pd);
+    cfg.dv_budget_mps = Some(5.0);
+    let mut agents = [NrAgent::new(cfg, 600.0, None).unwrap()];
+    sim::run(&mut plant, &mut agents, 144, 600.0, 200, false);
+    let dv = plant.dv_mps(0);
+    assert!(dv <= 5.0 && dv > 5.0 * 0.999, "Δv {dv} m/s against a 5 m/s budget");
+}

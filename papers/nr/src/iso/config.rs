@@ -288,6 +288,24 @@ pub struct NrAlgorithmConfig {
     /// Remark 8); clips are counted.
     #[serde(default = "d_true")]
     pub clip_to_u_max: bool,
+    /// A Δv budget the agent keeps to, m/s (absent: none): each command is cut so that the Δv
+    /// spent (rocket equation, as the plant counts it) never passes it; then the spacecraft
+    /// coasts. For baselines that overspend (PD and robust tracking on the t = 0 plan).
+    #[serde(default)]
+    pub dv_budget_mps: Option<f64>,
+    /// Linear MPC only: `receding` (one QP per step, the default) or `once` (one QP at the first
+    /// step, its command sequence flown open-loop to t_f — the paper's reading of [12]).
+    #[serde(default)]
+    pub linear_mpc: LinearMpcMode,
+}
+
+/// How the linear MPC baseline is flown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LinearMpcMode {
+    #[default]
+    Receding,
+    Once,
 }
 
 impl NrAlgorithmConfig {
@@ -317,6 +335,9 @@ impl NrAlgorithmConfig {
         }
         if let Some(c) = self.c_sn {
             positive(&mut p, "algorithm.c_sn", c);
+        }
+        if let Some(b) = self.dv_budget_mps {
+            positive(&mut p, "algorithm.dv_budget_mps", b);
         }
         if self.method.needs_weights() && self.weights.is_none() {
             p.push(Problem::new(

@@ -26,7 +26,8 @@ use cohort_scenario::Overrides;
 
 use crate::iso::campaign::eval::{CampaignOptions, RunResult, run_all, summarise};
 use crate::iso::campaign::report::{self as campaign_report, Report, Row, SweepPoint};
-use crate::iso::config::{IsoEncounterConfig, Method};
+use crate::iso::config::{IsoEncounterConfig, LinearMpcMode, Method};
+use crate::iso::dynamics::constants::DV_BUDGET_MPS;
 use crate::iso::host::kinds::NrSetup;
 use crate::iso::train::imitation::{TrainOptions, train};
 use crate::nn::sn_dnn::SnDnn;
@@ -227,6 +228,37 @@ fn same_as_scenario(trained: &Path, scenario: Option<&Path>, gamma: f64) -> Stri
     )
 }
 
+/// The like-for-like baselines beside the main rows: PD and robust tracking kept to the Δv budget,
+/// and linear MPC solved once at t = 0 and flown open-loop (the paper's reading), each flown on
+/// the same ISOs and noise as its unconstrained, receding row.
+fn variants(
+    p: &Plan,
+    launcher: &dyn Launcher,
+    rows: &mut Vec<Row>,
+    all_runs: &mut Vec<(String, RunResult)>,
+) -> Result<(), CommandError> {
+    let budget = format!("Δv budget {DV_BUDGET_MPS} m/s");
+    for m in [Method::Pd, Method::RobustTracking, Method::LinearMpc] {
+        if !p.base.methods.contains(&m) {
+            continue;
+        }
+        stopped(launcher)?;
+        let mut o = CampaignOptions { methods: vec![m], ..p.base.clone() };
+        let what = if m == Method::LinearMpc {
+            o.algorithm.linear_mpc = LinearMpcMode::Once;
+            "one solve at t = 0".to_string()
+        } else {
+            o.algorithm.dv_budget_mps = Some(DV_BUDGET_MPS);
+            budget.clone()
+        };
+        let runs = fly(&o, launcher)?;
+        let s = summarise(&o, &runs).remove(0);
+        rows.push(Row { label: format!("{}, {what}", m.name()), summary: s });
+        all_runs.extend(runs.into_iter().map(|r| (format!("noisy, {what}"), r)));
+    }
+    Ok(())
+}
+
 /// The command.
 pub fn run(a: &CampaignArgs, launcher: &dyn Launcher) -> Result<String, CommandError> {
     let started = Instant::now();
@@ -250,6 +282,7 @@ pub fn run(a: &CampaignArgs, launcher: &dyn Launcher) -> Result<String, CommandE
         rows.push(Row { label: format!("{}, perfect navigation", m.name()), summary: s });
         all_runs.extend(perfect.into_iter().map(|r| ("perfect".to_string(), r)));
     }
+    variants(&p, launcher, &mut rows, &mut all_runs)?;
     let dt = dt_sweep(&p, launcher)?;
     let mut notes = Vec::new();
     let gamma = gamma_sweep(&p, a, launcher, &mut notes)?;

@@ -22,8 +22,8 @@ use cohort_runtime::model::{AgentInput, Algorithm, Neighbour, RestoreStateError,
 use cohort_runtime::solver_stats::{SolveLog, SolverStats};
 use serde::{Deserialize, Serialize};
 
-use crate::iso::config::{Method, NrAlgorithmConfig};
-use crate::iso::control::baselines::{linear_mpc, pd, robust_tracking};
+use crate::iso::config::{LinearMpcMode, Method, NrAlgorithmConfig};
+use crate::iso::control::baselines::{linear_mpc, linear_mpc_plan, pd, robust_tracking};
 use crate::iso::control::bound::Bound;
 use crate::iso::control::min_norm::min_norm;
 use crate::iso::control::tracking::{Tracking, tracking};
@@ -79,6 +79,11 @@ struct State {
     fixed: Option<Desired>,
     clipped_steps: u64,
     bad_readings: u64,
+    /// Δv spent so far by the commands sent (rocket equation), m/s.
+    dv_spent_mps: f64,
+    /// The one-solve linear MPC's commands, from the step at `lin_from_s`.
+    lin_plan: Option<Vec<V3>>,
+    lin_from_s: f64,
 }
 
 pub struct NrAgent {
@@ -249,6 +254,26 @@ impl NrAgent {
         (d, k)
     }
 
+    /// `u` cut so that the Δv it spends over this step (the rocket equation, as the plant counts
+    /// it) keeps the total within `budget`; the spent total updated.
+    fn within_budget(&mut self, u: V3, budget: f64, r: &Reading) -> V3 {
+        let ve = r.isp_s * G0_MPS2;
+        let dv = |n: f64| ve * (r.m_kg / (r.m_kg - n * self.dt_s / ve)).ln();
+        // A part in 10⁹ kept back: the plant sums the same rocket equation in its own order.
+        let left = (budget * (1.0 - 1e-9) - self.st.dv_spent_mps).max(0.0);
+        let n = u.norm();
+        let scale = if n == 0.0 || dv(n) <= left {
+            1.0
+        } else {
+            // The rocket equation inverted: the thrust that spends exactly what is left.
+            let n_left = ve * r.m_kg * (1.0 - (-left / ve).exp()) / self.dt_s;
+            n_left / n
+        };
+        let u = u * scale;
+        self.st.dv_spent_mps += dv(u.norm());
+        u
+    }
+
     /// The method's command (LVLH, N) and its nominal part u_ℓ (or u_mpc), and the mode.
     fn decide(&mut self, r: &Reading, inp: &ScpInput) -> (V3, V3, f64) {
         let t = inp.t0_s;
@@ -282,6 +307,15 @@ impl NrAgent {
                 }
                 let (u, mode) = self.track(r, t, u_mpc, &mut |_| Desired::from_plan(&plan), false);
                 (u, u_mpc, mode)
+            }
+            Method::LinearMpc if self.cfg.linear_mpc == LinearMpcMode::Once => {
+                if self.st.lin_plan.is_none() {
+                    self.st.lin_plan = Some(linear_mpc_plan(inp, &mut self.log).map(|(u, _)| u).unwrap_or_default());
+                    self.st.lin_from_s = t;
+                }
+                let k = ((t - self.st.lin_from_s) / self.dt_s).round() as usize;
+                let u = self.st.lin_plan.as_ref().and_then(|p| p.get(k)).copied().unwrap_or_else(V3::zeros);
+                (u, u, MODE_GUIDANCE)
             }
             Method::LinearMpc => {
                 let u = linear_mpc(inp, &mut self.log).map(|(u, _)| u).unwrap_or_else(V3::zeros);
@@ -367,6 +401,9 @@ impl Algorithm for NrAgent {
         }
         if !u.iter().all(|c| c.is_finite()) {
             u = V3::zeros();
+        }
+        if let Some(budget) = self.cfg.dv_budget_mps {
+            u = self.within_budget(u, budget, &r);
         }
         let b = self.st.bound.unwrap_or(Bound::new(-1.0, -1.0));
         let o = &mut self.st.out;
