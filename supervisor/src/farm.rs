@@ -16,9 +16,9 @@ use zenoh::pubsub::Subscriber;
 use zenoh::sample::SampleKind;
 use zenoh::{Session, Wait};
 
-use crate::hostproto::{self, Info, request_key};
+use crate::hostproto::{self, request_key};
 pub use crate::hostproto::{CaseReply, CaseRequest};
-use crate::remote::{PreflightError, preflight};
+use crate::remote::{PreflightError, daemon_infos};
 
 /// A case's reply may take this long (a whole case runs before it comes): past it the host
 /// counts as lost for that case.
@@ -38,15 +38,16 @@ pub enum FarmOpenError {
     Preflight(#[from] PreflightError),
     #[error("cannot open the daemons' zenoh session: {0}")]
     Session(String),
+    /// Its liveliness token cannot be watched.
     #[error("host {host}: {reason}")]
-    Info { host: String, reason: String },
+    Watch { host: String, reason: String },
 }
 
 impl cohort_runtime::exit::ToExitCode for FarmOpenError {
     fn exit_code(&self) -> u8 {
         match self {
             Self::Preflight(_) => cohort_runtime::exit::INVALID,
-            Self::Session(_) | Self::Info { .. } => cohort_runtime::exit::FAILED,
+            Self::Session(_) | Self::Watch { .. } => cohort_runtime::exit::FAILED,
         }
     }
 }
@@ -86,16 +87,14 @@ impl Farm {
     /// Check every daemon (reachable, named, this build), connect to them all and learn their
     /// worker counts.
     pub fn open(specs: &[HostSpec]) -> Result<Self, FarmOpenError> {
-        preflight(specs)?;
+        let infos = daemon_infos(specs)?;
         let connect: Vec<String> = specs.iter().map(|h| h.endpoint.clone()).collect();
         let mut cfg = session_config(&[], &connect).map_err(|e| FarmOpenError::Session(e.to_string()))?;
         cfg.insert_json5("scouting/gossip/enabled", "false").map_err(|e| FarmOpenError::Session(e.to_string()))?;
         let session = zenoh::open(cfg).wait().map_err(|e| FarmOpenError::Session(e.to_string()))?;
         let mut hosts = Vec::new();
         let mut watch = Vec::new();
-        for h in specs {
-            let info =
-                ask_info(&session, &h.name).map_err(|reason| FarmOpenError::Info { host: h.name.clone(), reason })?;
+        for (h, info) in specs.iter().zip(&infos) {
             let host = Arc::new(Host {
                 name: h.name.clone(),
                 endpoint: h.endpoint.clone(),
@@ -113,7 +112,7 @@ impl Farm {
                     }
                 })
                 .wait()
-                .map_err(|e| FarmOpenError::Info { host: h.name.clone(), reason: format!("cannot watch it: {e}") })?;
+                .map_err(|e| FarmOpenError::Watch { host: h.name.clone(), reason: format!("cannot watch it: {e}") })?;
             watch.push(sub);
             hosts.push(host);
         }
@@ -236,23 +235,4 @@ enum Asked {
     /// The host went (or its query ended unanswered) before it replied.
     Lost,
     Interrupted,
-}
-
-fn ask_info(session: &Session, name: &str) -> Result<Info, String> {
-    let deadline = Instant::now() + Duration::from_secs(10);
-    loop {
-        let replies = session
-            .get(request_key(name, "info"))
-            .timeout(Duration::from_secs(4))
-            .wait()
-            .map_err(|e| format!("info: {e}"))?;
-        if let Ok(r) = replies.recv() {
-            let sample = r.into_result().map_err(|e| String::from_utf8_lossy(&e.payload().to_bytes()).to_string())?;
-            return serde_json::from_slice(&sample.payload().to_bytes()).map_err(|e| format!("bad info: {e}"));
-        }
-        if Instant::now() > deadline {
-            return Err("did not answer its info request".into());
-        }
-        std::thread::sleep(ROUTE_RETRY);
-    }
 }

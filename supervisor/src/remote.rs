@@ -104,6 +104,12 @@ impl cohort_runtime::exit::ToExitCode for PreflightError {
 /// Before anything starts: every host's daemon is reachable at its endpoint, answers to its name,
 /// and was built from the same sources. The first problem, naming the host.
 pub fn preflight(hosts: &[HostSpec]) -> Result<(), PreflightError> {
+    daemon_infos(hosts).map(|_| ())
+}
+
+/// [`preflight`], keeping each daemon's answer (in the order of `hosts`).
+pub(crate) fn daemon_infos(hosts: &[HostSpec]) -> Result<Vec<Info>, PreflightError> {
+    let mut infos = Vec::with_capacity(hosts.len());
     for (k, h) in hosts.iter().enumerate() {
         let at = format!("hosts[{k}] ({} at {})", h.name, h.endpoint);
         let fail = |problem| PreflightError { at: at.clone(), problem };
@@ -142,8 +148,9 @@ pub fn preflight(hosts: &[HostSpec]) -> Result<(), PreflightError> {
                 ours: cohort_wire::build_id(),
             }));
         }
+        infos.push(info);
     }
-    Ok(())
+    Ok(infos)
 }
 
 /// One host daemon of a run, as the supervisor sees it.

@@ -141,7 +141,7 @@ impl Plan {
     }
 
     /// Case `i`'s drawn values and its scenario text.
-    pub fn case_text(&self, i: u64) -> (Vec<toml::Value>, String) {
+    fn case_text(&self, i: u64) -> (Vec<toml::Value>, String) {
         let values = self.dispersions.draw(self.seed, i);
         let mut t = self.base.clone();
         self.dispersions.apply(&mut t, &values);
@@ -154,9 +154,14 @@ impl Plan {
 
     /// Case `i`, validated and configured; the reason, naming the dispersion, when it is not valid.
     pub fn case(&self, i: u64) -> Result<(Vec<toml::Value>, Setup), String> {
+        self.case_and_text(i).map(|(values, _, s)| (values, s))
+    }
+
+    /// [`Plan::case`] with the scenario text it was loaded from (what a host daemon is sent).
+    pub fn case_and_text(&self, i: u64) -> Result<(Vec<toml::Value>, String, Setup), String> {
         let (values, text) = self.case_text(i);
         match cohort_registry::load_text(&text, &self.file, &self.overrides) {
-            Ok(s) => Ok((values, s)),
+            Ok(s) => Ok((values, text, s)),
             Err(e) => Err(self.blame(i, &values, &e)),
         }
     }

@@ -64,8 +64,7 @@ pub fn run_case(
     i: u64,
     dir: &Path,
 ) -> Result<(Vec<toml::Value>, Outcome, String), CaseError> {
-    let (values, scenario_text) = plan.case_text(i);
-    let setup = plan.case(i).map_err(CaseError::Invalid)?.1;
+    let (values, scenario_text, setup) = plan.case_and_text(i).map_err(CaseError::Invalid)?;
     let io = |what: &str, e: &dyn std::fmt::Display| CaseError::Io(format!("{}: {e}", dir.join(what).display()));
     let resolved = setup.to_toml().map_err(|e| io("scenario.toml", &e))?;
     let _ = std::fs::remove_dir_all(dir);

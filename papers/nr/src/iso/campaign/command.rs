@@ -251,11 +251,24 @@ fn variants(
             o.algorithm.dv_budget_mps = Some(DV_BUDGET_MPS);
             budget.clone()
         };
-        let runs = fly(&o, launcher)?;
-        let s = summarise(&o, &runs).remove(0);
-        rows.push(Row { label: format!("{}, {what}", m.name()), summary: s });
-        all_runs.extend(runs.into_iter().map(|r| (format!("noisy, {what}"), r)));
+        extra_row(&o, launcher, &format!("{}, {what}", m.name()), &format!("noisy, {what}"), rows, all_runs)?;
     }
+    Ok(())
+}
+
+/// Fly `o` (one method) and add its row `label` and its runs, labelled `nav`.
+fn extra_row(
+    o: &CampaignOptions,
+    launcher: &dyn Launcher,
+    label: &str,
+    nav: &str,
+    rows: &mut Vec<Row>,
+    all_runs: &mut Vec<(String, RunResult)>,
+) -> Result<(), CommandError> {
+    let runs = fly(o, launcher)?;
+    let s = summarise(o, &runs).remove(0);
+    rows.push(Row { label: label.to_string(), summary: s });
+    all_runs.extend(runs.into_iter().map(|r| (nav.to_string(), r)));
     Ok(())
 }
 
@@ -277,10 +290,7 @@ pub fn run(a: &CampaignArgs, launcher: &dyn Launcher) -> Result<String, CommandE
         // One realisation: without navigation noise only the initial dispersion would differ.
         let mut o = CampaignOptions { methods: vec![m], realisations: 1, ..p.base.clone() };
         o.plant.nav_scale = 0.0;
-        let perfect = fly(&o, launcher)?;
-        let s = summarise(&o, &perfect).remove(0);
-        rows.push(Row { label: format!("{}, perfect navigation", m.name()), summary: s });
-        all_runs.extend(perfect.into_iter().map(|r| ("perfect".to_string(), r)));
+        extra_row(&o, launcher, &format!("{}, perfect navigation", m.name()), "perfect", &mut rows, &mut all_runs)?;
     }
     variants(&p, launcher, &mut rows, &mut all_runs)?;
     let dt = dt_sweep(&p, launcher)?;
