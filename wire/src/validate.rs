@@ -67,8 +67,10 @@ impl RejectCounts {
 pub struct Expect {
     pub run_id: u64,
     pub sender: u32,
-    /// Accepted steps, inclusive. In lockstep a neighbour may already be one step ahead, so
-    /// agents accept `k..=k+1` from neighbours and exactly `k` from the plant.
+    /// Accepted steps, inclusive. The plant accepts the open step (less the longest link delay);
+    /// an agent accepts measurements from its current step and neighbours' shares from its
+    /// step less the delays, both up to the run's last step (a returning agent cannot know how
+    /// far the others are).
     pub step_min: u64,
     pub step_max: u64,
     /// The run's key when `run.authenticate` is on.

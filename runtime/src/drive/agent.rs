@@ -151,7 +151,7 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
         let (tel, timing) = agent_files(p, &Proc::Agent(id).name(), &columns, restore.is_some())?;
         let plan = &*p.faults;
         let delay = u64::from(p.link_delay_steps);
-        let mut inbox = AgentInbox::new(p, id, neighbours, delay + u64::from(plan.max_delay()) + 1, restore.is_some());
+        let mut inbox = AgentInbox::new(p, id, neighbours, delay + u64::from(plan.max_delay()) + 1);
         let mut k = 0;
         if let Some(c) = restore {
             k = c.step;

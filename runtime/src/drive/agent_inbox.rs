@@ -79,10 +79,6 @@ pub(super) struct AgentInbox {
     pub(super) me_hist: Vec<(u64, bool)>,
     pub(super) peers: Vec<Peer>,
     pub(super) plan: Arc<FaultPlan>,
-    /// A relaunched agent, before its first measurement: its neighbours may already be far
-    /// ahead of its checkpoint (their shares of the return step can beat the plant's measurement
-    /// to it), so shares up to the run's last step are accepted.
-    pub(super) relaunched_until: Option<u64>,
     pub(super) fresh: bool,
     pub(super) received: u64,
     pub(super) rejects: RejectCounts,
@@ -96,8 +92,8 @@ pub(super) struct AgentInbox {
 
 impl AgentInbox {
     /// The inbox of agent `me` with these neighbours; `back`: the oldest share step accepted,
-    /// behind k; `relaunched`: restored from a checkpoint.
-    pub(super) fn new(p: &DriveParams, me: u32, neighbours: &[u32], back: u64, relaunched: bool) -> Self {
+    /// behind k.
+    pub(super) fn new(p: &DriveParams, me: u32, neighbours: &[u32], back: u64) -> Self {
         AgentInbox {
             run_id: p.run_id,
             me,
@@ -130,7 +126,6 @@ impl AgentInbox {
                 })
                 .collect(),
             plan: Arc::clone(&p.faults),
-            relaunched_until: relaunched.then_some(p.n_steps),
             fresh: false,
             received: 0,
             rejects: RejectCounts::default(),
@@ -244,17 +239,19 @@ impl Inbox for AgentInbox {
                     return;
                 };
                 peer.received += 1;
-                // A neighbour may be one step ahead (of this agent, or of the newest measurement
-                // when this agent is catching up); a delayed share may be `back` steps old.
+                // A delayed share may be `back` steps old. Ahead, any step of the run: this agent
+                // cannot know how far the others are. In lockstep a neighbour is at most one step
+                // ahead of the newest measurement, but an agent that was frozen or relaunched
+                // learns where the run is only from what it drains, and a drain the freeze cut
+                // between the plant's queue and a neighbour's meets that neighbour's shares of
+                // the return step before the measurement that names it. Rejected there, their
+                // tokens were lost and the returning agent waited for them until the plant
+                // declared it dead one step after its return (seen in CI under load).
                 let e = Expect {
                     run_id: self.run_id,
                     sender: from,
                     step_min: self.k.saturating_sub(self.back),
-                    step_max: match (self.last_meas_step, self.relaunched_until) {
-                        (None, Some(last)) => last,
-                        (m, _) => self.k.max(m.unwrap_or(0)) + 1,
-                    }
-                    .min(self.last_step),
+                    step_max: self.last_step,
                     key: self.key,
                 };
                 match validate_share(share, &e) {

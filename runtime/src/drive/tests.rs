@@ -392,3 +392,36 @@ fn the_lockstep_loop_flies_the_drivers_ring_bit_for_bit() {
     }
     let _ = std::fs::remove_dir_all(&base);
 }
+
+#[test]
+fn a_returning_agent_keeps_its_neighbours_shares_of_the_return_step_met_before_the_measurement() {
+    // Frozen at step 10 000 in the middle of a drain (its measurement queue read, a neighbour's
+    // not yet), thawed late: the neighbour's share of the return step 10 500 comes out of the
+    // drain before the plant's measurement 10 500 does. The agent then catches up and waits for
+    // that share's token; a share taken as "too far ahead" was a wait until the plant declared
+    // the agent dead one step after its return.
+    let base = std::env::temp_dir().join(format!("cohort-drive-return-{}", std::process::id()));
+    let p = params(&base, 20_000, Duration::from_secs(1));
+    let mut inbox = super::agent_inbox::AgentInbox::new(&p, 2, &[1], 1);
+    let all = Roster::all(2);
+    let measurement = |step: u64| {
+        let mut m = Measurement::new(Header::new(99, PLANT_ID, step, step as f64 * 0.1), &[0.0]);
+        m.live = all;
+        m
+    };
+    use super::wait::Inbox;
+    use cohort_wire::transport::Incoming;
+    inbox.take(Incoming::Measurement(&measurement(9_999)));
+    inbox.meas = None;
+    inbox.k = 10_000;
+    let share = Share::new(Header::new(99, 1, 10_500, 1050.0), &[0.0], &[1.0]);
+    inbox.take(Incoming::Share { from: 1, share: &share });
+    inbox.take(Incoming::Measurement(&measurement(10_500)));
+    assert_eq!(inbox.rejects.total(), 0, "{:?}", inbox.rejects);
+    // As after the catch-up: step 10 500's share is what completes the wait.
+    inbox.k = 10_500;
+    inbox.want_measurement = false;
+    inbox.need_shares = Some(10_500);
+    assert!(inbox.complete(), "the neighbour's token of the return step was lost");
+    let _ = std::fs::remove_dir_all(&base);
+}
