@@ -12,6 +12,7 @@ pub mod checkpoint;
 pub mod coop;
 pub mod drive;
 pub mod exit;
+pub mod links;
 pub mod lockstep;
 pub mod logging;
 pub mod model;

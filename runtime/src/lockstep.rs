@@ -111,7 +111,7 @@ impl Lockstep {
         for (i, a) in agents.iter_mut().enumerate() {
             let heard: Vec<Neighbour<'_>> = self.neighbours[i]
                 .iter()
-                .map(|&id| Neighbour { id, values: &self.shares[id as usize - 1].values })
+                .map(|&id| Neighbour { id, values: &self.shares[id as usize - 1].values, age_steps: 0 })
                 .collect();
             let started = Instant::now();
             a.step(self.dt_s, &heard);

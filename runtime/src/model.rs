@@ -15,6 +15,12 @@ pub trait PlantModel: Send {
     fn apply_command(&mut self, agent: u32, command: &[f64]);
     /// Integrate the truth by `dt_s` with the commands held.
     fn advance(&mut self, dt_s: f64);
+    /// Each agent's spacecraft position now, m, in agent order, in a frame whose origin is the
+    /// centre of the body that can occult the inter-satellite links (`[links]` model
+    /// `geometric`). False: this plant has no positions (attitude only), so only ideal links.
+    fn positions_m(&self, _out: &mut Vec<[f64; 3]>) -> bool {
+        false
+    }
     /// Telemetry values at the current time, matching [`PlantModel::columns`].
     fn row(&self, out: &mut Vec<f64>);
     /// Headline metrics for `summary.json`, computed at the end of the run.
@@ -50,11 +56,17 @@ pub struct ShareOut {
     pub values: Vec<f64>,
 }
 
-/// One live neighbour's share of step k.
+/// One live neighbour's newest share this agent has: of step k on ideal links, or older.
 #[derive(Debug, Clone, Copy)]
 pub struct Neighbour<'a> {
     pub id: u32,
     pub values: &'a [f64],
+    /// Steps since the neighbour sent it: 0 on ideal links; more when a link delays or loses
+    /// shares (`run.link_delay_steps`, delay and drop faults, `[links]` model `geometric`), in
+    /// which case the newest share delivered is held. Every shipped algorithm uses the share it
+    /// is given whatever its age (a zero-order hold of the neighbour's values); one that needs
+    /// fresh shares reads this.
+    pub age_steps: u64,
 }
 
 /// One spacecraft's estimator, controller and learner. The step protocol calls `share` when the

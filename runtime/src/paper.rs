@@ -87,6 +87,11 @@ pub trait PlantSetup: Send + Sync + Any {
     }
     /// Components of every agent's command.
     fn command_len(&self) -> usize;
+    /// Whether its model gives the spacecraft's positions (`PlantModel::positions_m`), which
+    /// `[links]` model `geometric` needs.
+    fn has_positions(&self) -> bool {
+        false
+    }
     /// The truth model (the plant process's, or the reference run's plant thread).
     fn build(&self, setup: &Setup) -> Box<dyn PlantModel>;
     /// What the plant's paper needs of the live agents that no longer holds, in words (checked
@@ -259,6 +264,9 @@ impl Setup {
                 .collect::<Result<_, _>>()?;
             t.insert("faults".into(), toml::Value::Array(faults));
         }
+        if s.links != cohort_scenario::links::Links::default() {
+            t.insert("links".into(), ser("links", toml::Table::try_from(&s.links))?.into());
+        }
         toml::to_string(&t).map_err(E::Document)
     }
 
@@ -403,6 +411,13 @@ pub fn configure(scenario: Scenario, papers: &[&'static dyn Paper]) -> Result<Se
     // Checked unless the (configured) algorithm's agents never talk.
     if algorithm.as_ref().is_none_or(|a| a.needs_connected_graph()) {
         cohort_scenario::validate::connectivity(&mut c, &scenario.agents);
+    }
+    if let Some(p) = plant.as_deref().filter(|p| scenario.links.is_geometric() && !p.has_positions()) {
+        c.fail(
+            "links.model",
+            "\"geometric\"",
+            format!("plant kind {:?} gives no spacecraft positions for the link model: only ideal links", p.kind()),
+        );
     }
     let (Some(plant), Some(algorithm)) = (plant, algorithm) else {
         return Err(c.problems);

@@ -318,6 +318,9 @@ pub struct ProcessReport {
     /// waiting decided and what it cost.
     #[serde(default)]
     pub wait: WaitStats,
+    /// The plant's, under `[links]` model `geometric`: what every directed link did.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub links: Vec<crate::links::LinkRow>,
 }
 
 /// A process's waits for its messages (measurements or shares), counted by the step loop.
@@ -379,6 +382,7 @@ impl ProcessReport {
             latency_from_ns: Default::default(),
             solver: None,
             wait: WaitStats::default(),
+            links: Vec::new(),
         }
     }
 
@@ -551,6 +555,10 @@ pub struct FaultReport {
     pub held: std::collections::BTreeMap<String, u64>,
     /// Receiver: the oldest share used, in steps behind the step it was used at.
     pub max_age_steps: u64,
+    /// Receiver, `[links]` model `geometric`: shares that arrived but that their link did not
+    /// deliver (out of range, blocked, lost in transit, or not sent while the link was busy).
+    #[serde(default)]
+    pub link_undelivered: u64,
     /// Receiver: valid shares that came after their step had closed (real-time mode).
     pub late: u64,
     /// Receiver, per sender: steps missing from its messages — lost in this reader's full queue

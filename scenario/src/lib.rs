@@ -8,6 +8,7 @@ pub mod dispersion;
 pub mod error;
 pub mod faults;
 pub mod hosts;
+pub mod links;
 pub mod live_graph;
 pub mod locate;
 pub mod parse;

@@ -245,7 +245,8 @@ fn apply_overrides(table: &mut toml::Table, o: &Overrides) {
     }
 }
 
-const TOP_KEYS: &[&str] = &["scenario", "run", "plant", "algorithm", "agents", "faults", "hosts", "dispersions"];
+const TOP_KEYS: &[&str] =
+    &["scenario", "run", "plant", "algorithm", "agents", "faults", "hosts", "links", "dispersions"];
 
 /// The typed scenario, if its meta, paper sections and agents parsed (a bad `[run]` or
 /// `[[faults]]` falls back to the defaults), with every problem found.
@@ -286,6 +287,10 @@ fn parse_table(mut table: toml::Table, base_dir: std::path::PathBuf) -> (Option<
         Some(v) => section::<RunSettings>(v, "run", &mut problems),
         None => Some(RunSettings::default()),
     };
+    let links = match table.remove("links") {
+        Some(v) => section::<crate::links::Links>(v, "links", &mut problems).unwrap_or_default(),
+        None => crate::links::Links::default(),
+    };
     let s = match (meta, plant, algorithm, agents) {
         (Some(scenario), Some(plant), Some(algorithm), Some(agents)) => {
             let faults = faults.unwrap_or_default();
@@ -299,6 +304,7 @@ fn parse_table(mut table: toml::Table, base_dir: std::path::PathBuf) -> (Option<
                 agents,
                 hosts,
                 faults,
+                links,
                 base_dir,
                 source: "".into(),
                 faults_in_file,

@@ -21,6 +21,8 @@ pub struct Scenario {
     pub hosts: Vec<HostSpec>,
     /// The fault plan (`[[faults]]`), see [`crate::faults`].
     pub faults: Vec<crate::faults::FaultSpec>,
+    /// The inter-satellite links (`[links]`), see [`crate::links`].
+    pub links: crate::links::Links,
     /// The directory of the scenario file: relative file paths inside paper sections (weights,
     /// tables) are relative to it.
     pub base_dir: PathBuf,

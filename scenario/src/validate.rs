@@ -1,7 +1,7 @@
 //! Sanity checks on a parsed scenario. Every check runs, so a file reports all its problems at
 //! once, each with its key path, value and reason. Nothing starts before these pass.
 
-use cohort_wire::msg::{MAX_AGENTS, MAX_COMMAND, MAX_READINGS, MAX_SHARE_VALUES};
+use cohort_wire::msg::{MAX_AGENTS, MAX_COMMAND, MAX_LINKS_IN, MAX_READINGS, MAX_SHARE_VALUES};
 
 use crate::checker::{Checker, fmt_f64};
 use crate::error::Problem;
@@ -28,6 +28,18 @@ pub fn validate(s: &Scenario) -> (bool, Vec<Problem>) {
     let (dt, dur) = (s.scenario.dt_s, s.scenario.duration_s);
     if dt.is_finite() && dt > 0.0 && dur.is_finite() && dur > 0.0 {
         crate::faults::check(&mut c, &s.faults, s.faults_in_file, s.n_agents(), dt, dur);
+    }
+    crate::links::check(&mut c, &s.links, dt);
+    if s.links.is_geometric()
+        && let Some(a) = s.agents.iter().find(|a| a.neighbours.len() > MAX_LINKS_IN)
+    {
+        c.fail(
+            format!("agents[{}].neighbours", s.agents.iter().position(|b| b.id == a.id).unwrap_or(0)),
+            format!("{} neighbours", a.neighbours.len()),
+            format!(
+                "links.model = \"geometric\" carries each agent's links in its measurement: at most {MAX_LINKS_IN}"
+            ),
+        );
     }
     if s.run.checkpoint_every_steps == 0
         && let Some(k) = s.faults.iter().position(|f| f.kind == "restart")

@@ -15,6 +15,7 @@ mod faults;
 mod flight_split;
 mod hardening;
 mod launch;
+mod links;
 mod live;
 mod logging;
 mod multihost;

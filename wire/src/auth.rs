@@ -87,6 +87,10 @@ impl MacKey {
             f.f64s(&m.readings[..(m.len as usize).min(MAX_READINGS)]);
             f.roster(&m.live);
             f.roster(&m.lost_at_close);
+            f.u32(m.links_len);
+            for code in m.links() {
+                f.u32(*code);
+            }
         })
     }
 

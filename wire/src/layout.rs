@@ -11,7 +11,9 @@
 //! tests check the table against `offset_of!` and `size_of`. ROS 1 field names cannot start with an
 //! underscore: `_pad` is called `pad` there.
 
-use crate::msg::{MAX_AGENTS, MAX_COMMAND, MAX_READINGS, MAX_SHARE_VALUES, Measurement, SCHEMA_VERSION, Share};
+use crate::msg::{
+    MAX_AGENTS, MAX_COMMAND, MAX_LINKS_IN, MAX_READINGS, MAX_SHARE_VALUES, Measurement, SCHEMA_VERSION, Share,
+};
 
 /// A primitive of the wire payloads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -85,6 +87,9 @@ pub const MEASUREMENT: &[Field] = &[
     array("readings", Prim::F64, MAX_READINGS),
     array("live", Prim::U64, MAX_AGENTS / 64),
     array("lost_at_close", Prim::U64, MAX_AGENTS / 64),
+    scalar("links_len", Prim::U32),
+    scalar("pad2", Prim::U32),
+    array("links", Prim::U32, MAX_LINKS_IN),
 ];
 
 /// [`Share`] after its header.

@@ -9,7 +9,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Bumped whenever a payload's layout or meaning changes.
-pub const SCHEMA_VERSION: u32 = 3;
+pub const SCHEMA_VERSION: u32 = 4;
 
 /// Sender id of the plant. Agents are numbered 1..=N as in the scenario; the orchestrator is
 /// [`ORCHESTRATOR_ID`].
@@ -24,6 +24,19 @@ pub const MAX_COMMAND: usize = 8;
 pub const MAX_SHARE_VALUES: usize = 512;
 /// Most agents in one scenario (service limits and ids are sized from the scenario below this).
 pub const MAX_AGENTS: usize = 256;
+/// Most neighbours whose links one measurement describes (`[links]` model `geometric`).
+pub const MAX_LINKS_IN: usize = 64;
+/// A link code of [`Measurement::links`]: below [`LINK_BLOCKED`], the whole steps the share the
+/// neighbour sends at this step takes to arrive (0: within the step, as on an ideal link).
+/// The line of sight is blocked by the occulting body.
+pub const LINK_BLOCKED: u32 = u32::MAX;
+/// The neighbour is farther than the link's maximum range.
+pub const LINK_OUT_OF_RANGE: u32 = u32::MAX - 1;
+/// In view, but the share is lost (the loss law's draw).
+pub const LINK_LOST_IN_TRANSIT: u32 = u32::MAX - 2;
+/// The link is still sending the neighbour's previous share (the data-rate cap): this one is
+/// not sent.
+pub const LINK_BUSY: u32 = u32::MAX - 3;
 
 /// Common header of every payload (design.md "Messages").
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
@@ -65,6 +78,13 @@ pub struct Measurement {
     /// was not used (the plant waited it out or learnt that the process died). Every other
     /// roster change in `live` took effect at this step.
     pub lost_at_close: Roster,
+    /// `[links]` model `geometric`: how many entries of `links` are used (0: ideal links).
+    pub links_len: u32,
+    pub _pad2: u32,
+    /// Per neighbour of the receiving agent, in its scenario order: what becomes of the share
+    /// that neighbour sends at this step (a delay in steps, or a `LINK_*` code). Decided by the
+    /// plant from the truth, so it rides with the step clock like the roster.
+    pub links: [u32; MAX_LINKS_IN],
 }
 
 /// A set of agent ids 1..=MAX_AGENTS as a bit mask.
@@ -114,9 +134,23 @@ impl Measurement {
             readings: [0.0; MAX_READINGS],
             live: Roster::EMPTY,
             lost_at_close: Roster::EMPTY,
+            links_len: 0,
+            _pad2: 0,
+            links: [0; MAX_LINKS_IN],
         };
         m.readings[..readings.len()].copy_from_slice(readings);
         m
+    }
+    /// The link codes (see [`Measurement::links`]); empty on ideal links or when `links_len` is
+    /// out of bounds (validation rejects such a message first).
+    pub fn links(&self) -> &[u32] {
+        self.links.get(..self.links_len as usize).unwrap_or(&[])
+    }
+    /// Set the link codes (at most [`MAX_LINKS_IN`], checked when the scenario was validated).
+    pub fn set_links(&mut self, codes: &[u32]) {
+        assert!(codes.len() <= MAX_LINKS_IN, "bound checked at scenario validation");
+        self.links_len = codes.len() as u32;
+        self.links[..codes.len()].copy_from_slice(codes);
     }
     /// The readings; empty when `len` is out of bounds (validation rejects such a message first).
     pub fn readings(&self) -> &[f64] {

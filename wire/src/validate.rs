@@ -8,7 +8,9 @@
 //! (which never reaches past the run's last step).
 
 use crate::auth::MacKey;
-use crate::msg::{Header, MAX_COMMAND, MAX_READINGS, MAX_SHARE_VALUES, Measurement, SCHEMA_VERSION, Share};
+use crate::msg::{
+    Header, MAX_COMMAND, MAX_LINKS_IN, MAX_READINGS, MAX_SHARE_VALUES, Measurement, SCHEMA_VERSION, Share,
+};
 
 /// Why a message was dropped. The discriminant indexes [`RejectCounts`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -110,7 +112,7 @@ fn all_finite(xs: &[f64]) -> bool {
 pub fn validate_measurement(m: &Measurement, e: &Expect) -> Result<(), Rejection> {
     check_origin(&m.header, e, |k| k.check_measurement(m))?;
     check_header(&m.header, e)?;
-    if m.len as usize > MAX_READINGS {
+    if m.len as usize > MAX_READINGS || m.links_len as usize > MAX_LINKS_IN {
         return Err(Rejection::Length);
     }
     if !all_finite(m.readings()) {

@@ -151,7 +151,7 @@ mod tests {
         let mut out = ShareOut::default();
         a.share(&AgentInput { k: 0, t_s: 0.0, readings: &[0.0, 0.0, 0.0] }, &mut out);
         assert_eq!(out.command, vec![0.0, 0.0, 0.0], "no neighbour heard yet, at rest");
-        a.step(0.01, &[Neighbour { id: 2, values: &[50.0, 0.0, 0.0, 0.0, 0.0, 0.0] }]);
+        a.step(0.01, &[Neighbour { id: 2, values: &[50.0, 0.0, 0.0, 0.0, 0.0, 0.0], age_steps: 0 }]);
         let mut out = ShareOut::default();
         a.share(&AgentInput { k: 1, t_s: 0.01, readings: &[0.0, 0.0, 0.0] }, &mut out);
         assert!(out.command[0] > 1.0, "pulled toward the far neighbour: {:?}", out.command);

@@ -66,7 +66,7 @@ fn drive(a: &mut dyn cohort_runtime::model::Algorithm, from: u64, steps: u64) ->
         a.share(&AgentInput { k, t_s: k as f64 * 0.01, readings: &y }, &mut out);
         bits.extend(out.command.iter().chain(&out.values).map(|x| x.to_bits()));
         let nb = [0.5, 0.1, 0.0, 0.0, 0.0, 0.0];
-        a.step(0.01, &[Neighbour { id: 2, values: &nb }]);
+        a.step(0.01, &[Neighbour { id: 2, values: &nb, age_steps: 0 }]);
         assert_eq!(a.take_failure(), None);
     }
     bits

@@ -36,7 +36,10 @@ fn agent_step(c: &mut Criterion) {
         b.iter(|| {
             let mut out = ShareOut::default();
             algo.share(&AgentInput { k, t_s: k as f64 * 0.01, readings: black_box(&readings) }, &mut out);
-            let nb = [Neighbour { id: 1, values: &nb_values }, Neighbour { id: 3, values: &nb_values }];
+            let nb = [
+                Neighbour { id: 1, values: &nb_values, age_steps: 0 },
+                Neighbour { id: 3, values: &nb_values, age_steps: 0 },
+            ];
             algo.step(0.01, &nb);
             k += 1;
         })

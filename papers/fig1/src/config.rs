@@ -284,6 +284,9 @@ pub fn trackability(agents: &[OrbitalAgent], live: &[bool]) -> Option<(usize, [f
 }
 
 impl PlantSetup for OrbitalSetup {
+    fn has_positions(&self) -> bool {
+        true
+    }
     fn kind(&self) -> &'static str {
         OrbitalKind.kind()
     }

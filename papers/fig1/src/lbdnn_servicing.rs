@@ -407,7 +407,10 @@ mod tests {
             let th: Vec<f64> = vec![3.0; 103];
             let mut nb = vec![1e3, -1e3, 0.0];
             nb.extend(th);
-            a.step(0.01, &[Neighbour { id: 2, values: &nb }, Neighbour { id: 6, values: &nb }]);
+            a.step(
+                0.01,
+                &[Neighbour { id: 2, values: &nb, age_steps: 0 }, Neighbour { id: 6, values: &nb, age_steps: 0 }],
+            );
             let norm = a.theta().iter().map(|t| t * t).sum::<f64>().sqrt();
             assert!(norm <= 50.0 + 1e-9, "step {k}: ‖θ̂‖ = {norm}");
             assert!(a.x.iter().all(|v| v.is_finite()));

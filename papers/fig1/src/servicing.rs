@@ -128,6 +128,11 @@ impl ServicingPlant {
 const AXES: [&str; 3] = ["x", "y", "z"];
 
 impl PlantModel for ServicingPlant {
+    /// The servicers' ECI positions: the Earth's centre is the origin, as `[links]` expects.
+    fn positions_m(&self, out: &mut Vec<[f64; 3]>) -> bool {
+        out.extend(self.bodies[1..].iter().map(|b| [b.r_eci_m[0], b.r_eci_m[1], b.r_eci_m[2]]));
+        true
+    }
     fn columns(&self) -> Vec<String> {
         let mut c = Vec::new();
         for b in 0..self.bodies.len() {

@@ -156,7 +156,7 @@ mod tests {
             out.extend(&share.command);
             out.extend(&share.values);
             let nb_values = share.values.clone();
-            a.step(0.01, &[Neighbour { id: 2, values: &nb_values }]);
+            a.step(0.01, &[Neighbour { id: 2, values: &nb_values, age_steps: 0 }]);
         }
     }
 

@@ -71,8 +71,10 @@ fn record() -> Vec<AgentQps> {
             out[i].problems.push((q.to_vec(), offset.to_vec()));
         }
         for (i, a) in agents.iter_mut().enumerate() {
-            let nb: Vec<Neighbour<'_>> =
-                graph[i].iter().map(|&j| Neighbour { id: j, values: &shares[j as usize - 1].values }).collect();
+            let nb: Vec<Neighbour<'_>> = graph[i]
+                .iter()
+                .map(|&j| Neighbour { id: j, values: &shares[j as usize - 1].values, age_steps: 0 })
+                .collect();
             a.step(dt_s, &nb);
             plant.apply_command(i as u32 + 1, &shares[i].command);
         }

@@ -19,6 +19,29 @@ pub(super) fn live_at(hist: &[(u64, bool)], u: u64) -> bool {
     hist.iter().rev().find(|(s, _)| *s <= u).is_none_or(|e| e.1)
 }
 
+/// What a neighbour's link did with its share of step `s`, as of step `u`.
+enum LinkVerdict {
+    /// Ideal links (no code for the step): as sent.
+    Ideal,
+    /// Delivered by step `u`.
+    Delivered,
+    /// Delivered later than `u`.
+    InFlight,
+    /// Never delivered (out of range, blocked, lost, or not sent while the link was busy).
+    Undelivered,
+}
+
+fn link_verdict(link: &[(u64, u32)], s: u64, u: u64) -> LinkVerdict {
+    match link.iter().find(|(step, _)| *step == s) {
+        None => LinkVerdict::Ideal,
+        Some((_, code)) => match crate::links::delay_of(*code) {
+            Some(d) if s + d <= u => LinkVerdict::Delivered,
+            Some(_) => LinkVerdict::InFlight,
+            None => LinkVerdict::Undelivered,
+        },
+    }
+}
+
 /// Fold measurement `m`'s roster into the history of agent `id`.
 fn note_roster(hist: &mut Vec<(u64, bool)>, m: &Measurement, id: u32) {
     let step = m.header.step;
@@ -46,6 +69,9 @@ pub(super) struct Peer {
     pub(super) hist: Vec<(u64, bool)>,
     /// Steps whose token (an on-time share, or a `LINK_LOST` token) has arrived.
     pub(super) tokens: Vec<u64>,
+    /// Geometric links: (step, link code) of its shares, from this agent's measurements (see
+    /// `cohort_wire::msg::Measurement::links`); empty on ideal links.
+    pub(super) link: Vec<(u64, u32)>,
     /// Messages received from it (valid or not), and the latency of the valid ones.
     pub(super) received: u64,
     pub(super) latency: LatencyHist,
@@ -118,6 +144,7 @@ impl AgentInbox {
                     held: None,
                     hist: Vec::new(),
                     tokens: Vec::new(),
+                    link: Vec::new(),
                     received: 0,
                     latency: LatencyHist::default(),
                     last_token: None,
@@ -146,12 +173,21 @@ impl AgentInbox {
         let back = self.back;
         for peer in &mut self.peers {
             let live = live_at(&peer.hist, u);
-            let Peer { id, arrived, spare, held, tokens, .. } = peer;
+            let Peer { id, arrived, spare, held, tokens, link, .. } = peer;
             let mut newest: Option<(u64, Vec<f64>)> = None;
             tokens.retain(|s| *s > u);
             arrived.retain_mut(|(s, v)| {
-                let due = plan.arrival(*id, *s).is_some_and(|a| a <= u) || *s <= u.saturating_sub(back);
-                if due {
+                let sent = plan.arrival(*id, *s).is_some_and(|a| a <= u) || *s <= u.saturating_sub(back);
+                let (due, undelivered) = match link_verdict(link, *s, u) {
+                    LinkVerdict::Ideal => (sent, false),
+                    LinkVerdict::InFlight => (false, false),
+                    LinkVerdict::Delivered => (sent, false),
+                    LinkVerdict::Undelivered => (true, true),
+                };
+                if undelivered {
+                    report.faults.link_undelivered += 1;
+                    spare.push(std::mem::take(v));
+                } else if due {
                     let taken = (*s, std::mem::take(v));
                     let replaced = if live && newest.as_ref().is_none_or(|(n, _)| *n < *s) {
                         newest.replace(taken)
@@ -162,6 +198,7 @@ impl AgentInbox {
                 }
                 !due
             });
+            link.retain(|&(s, code)| s > u || crate::links::delay_of(code).is_some_and(|d| s + d > u));
             if !live {
                 spare.extend(newest.map(|(_, v)| v));
                 continue;
@@ -181,7 +218,7 @@ impl AgentInbox {
             .peers
             .iter()
             .filter(|peer| live_at(&peer.hist, u))
-            .filter_map(|peer| peer.held.as_ref().map(|(_, v)| Neighbour { id: peer.id, values: v }))
+            .filter_map(|peer| peer.held.as_ref().map(|(s, v)| Neighbour { id: peer.id, values: v, age_steps: u - *s }))
             .collect();
         algo.step(dt_s, &nb);
     }
@@ -221,8 +258,13 @@ impl Inbox for AgentInbox {
                         self.last_meas_step = Some(step);
                         self.fresh = true;
                         note_roster(&mut self.me_hist, m, self.me);
-                        for peer in &mut self.peers {
+                        let links = m.links();
+                        let geometric = links.len() == self.peers.len() && !links.is_empty();
+                        for (n, peer) in self.peers.iter_mut().enumerate() {
                             note_roster(&mut peer.hist, m, peer.id);
+                            if geometric {
+                                peer.link.push((step, links[n]));
+                            }
                         }
                         self.meas_latency_ns = monotonic_ns().saturating_sub(m.header.sent_wall_ns);
                         self.meas = Some(Box::new(*m));

@@ -49,6 +49,8 @@ pub struct DriveParams {
     /// Processes of the run (the plant and every agent): the telemetry writers share a memory
     /// budget for the rows they hold back ([`crate::parquet_out::defer_budget`]).
     pub processes: u32,
+    /// `[links]` model `geometric` (None: ideal links): what the plant's link model needs.
+    pub links: Option<Arc<crate::links::LinkSetup>>,
 }
 
 impl DriveParams {
@@ -74,6 +76,7 @@ impl DriveParams {
             hold_timeout: Duration::from_secs(60),
             key: None,
             processes: 1,
+            links: None,
         }
     }
 
@@ -106,6 +109,7 @@ impl DriveParams {
             hold_timeout: Duration::from_secs_f64(s.run.startup_timeout_s + 2.0 * s.run.step_timeout_s),
             key: None,
             processes: s.n_agents() + 1,
+            links: s.links.is_geometric().then(|| Arc::new(crate::links::LinkSetup::from_scenario(s))),
         }
     }
 }

@@ -30,6 +30,8 @@ pub(super) struct PlantInbox {
     /// this is every share of every step).
     pub(super) newest_step: Vec<Option<u64>>,
     pub(super) newest_cmd: Vec<Vec<f64>>,
+    /// Per agent: the size of its latest data share, bits (the link model's share size).
+    pub(super) share_bits: Vec<u64>,
     /// Agents the orchestrator reported dead while the plant waited.
     pub(super) died: Roster,
     pub(super) latency_max_ns: u64,
@@ -58,6 +60,7 @@ impl PlantInbox {
             want: vec![false; n],
             newest_step: vec![None; n],
             newest_cmd: vec![Vec::new(); n],
+            share_bits: vec![0; n],
             died: Roster::EMPTY,
             latency_max_ns: 0,
             received: 0,
@@ -113,6 +116,9 @@ impl Inbox for PlantInbox {
                 } else if on_time && share.link == LINK_DATA {
                     self.late += 1; // its step closed without it (real time)
                 }
+                if share.link == LINK_DATA {
+                    self.share_bits[idx] = share_bits(share);
+                }
                 if share.link == LINK_DATA && self.newest_step[idx].is_none_or(|s| s < step) {
                     self.newest_step[idx] = Some(step);
                     self.newest_cmd[idx].clear();
@@ -146,6 +152,13 @@ impl Inbox for PlantInbox {
             }
         }
     }
+}
+
+/// A share's size on a link, bits: its header, lengths and the values it carries (a link sends
+/// what is used, not the fixed-size buffer).
+fn share_bits(s: &cohort_wire::msg::Share) -> u64 {
+    let header = std::mem::size_of::<cohort_wire::msg::Header>() + 16;
+    8 * (header as u64 + 8 * (u64::from(s.command_len) + u64::from(s.values_len)))
 }
 
 /// The plant's roster: who is live, and what changed (reported to the orchestrator and kept for

@@ -557,7 +557,13 @@ mod tests {
         let mut a = aemc_with(cfg, model, 1);
         share_at(&mut a, 0, &trajectory_of(cfg, 1).at(0.0).state(), &[0.0; 3]);
         let shares = vec![neighbour_share(cfg, 2), neighbour_share(cfg, 3)];
-        a.step(DT_S, &[Neighbour { id: 2, values: &shares[0] }, Neighbour { id: 3, values: &shares[1] }]);
+        a.step(
+            DT_S,
+            &[
+                Neighbour { id: 2, values: &shares[0], age_steps: 0 },
+                Neighbour { id: 3, values: &shares[1], age_steps: 0 },
+            ],
+        );
         (share_at(&mut a, 1, &x1, &t1), shares)
     }
 
@@ -766,7 +772,10 @@ mod tests {
         share_at(&mut a, 0, &trajectory_of(&cfg, 1).at(0.0).state(), &[0.0; 3]);
         let short = vec![0.0; 9];
         let good = neighbour_share(&cfg, 3);
-        a.step(DT_S, &[Neighbour { id: 2, values: &short }, Neighbour { id: 3, values: &good }]);
+        a.step(
+            DT_S,
+            &[Neighbour { id: 2, values: &short, age_steps: 0 }, Neighbour { id: 3, values: &good, age_steps: 0 }],
+        );
         share_at(&mut a, 1, &trajectory_of(&cfg, 1).at(DT_S).state(), &[0.0; 3]);
         let mut row = Vec::new();
         a.row(&mut row);

@@ -177,8 +177,10 @@ pub mod test_support {
                 assert_eq!(row.len(), algos[i].columns().len());
             }
             for i in 0..n {
-                let nb: Vec<Neighbour<'_>> =
-                    graph[i].iter().map(|&j| Neighbour { id: j, values: &outs[j as usize - 1].values }).collect();
+                let nb: Vec<Neighbour<'_>> = graph[i]
+                    .iter()
+                    .map(|&j| Neighbour { id: j, values: &outs[j as usize - 1].values, age_steps: 0 })
+                    .collect();
                 algos[i].step(DT_S, &nb);
                 let u: [f64; 3] = std::array::from_fn(|a| outs[i].command[a]);
                 run.max_thrust_n = u.iter().fold(run.max_thrust_n, |m, x| m.max(x.abs()));

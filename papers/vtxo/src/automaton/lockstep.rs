@@ -223,8 +223,8 @@ mod tests {
                 got.push(m);
             }
             acks.push((lo.values[0] as usize, lo.values[1] as u32));
-            leader.step(1.0, &[Neighbour { id: 2, values: &mo.values }]);
-            master.step(1.0, &[Neighbour { id: 1, values: &lo.values }]);
+            leader.step(1.0, &[Neighbour { id: 2, values: &mo.values, age_steps: 0 }]);
+            master.step(1.0, &[Neighbour { id: 1, values: &lo.values, age_steps: 0 }]);
         }
         assert_eq!(got, want);
         // The leader acknowledges the master's location one step later.

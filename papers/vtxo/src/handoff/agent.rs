@@ -215,7 +215,7 @@ impl Algorithm for HandoffAgent {
         let sup: Vec<Neighbour<'_>> = neighbours
             .iter()
             .filter(|n| n.values.len() > SUPERVISOR_OFFSET)
-            .map(|n| Neighbour { id: n.id, values: &n.values[SUPERVISOR_OFFSET..] })
+            .map(|n| Neighbour { id: n.id, values: &n.values[SUPERVISOR_OFFSET..], age_steps: n.age_steps })
             .collect();
         self.state.sup.receive(&sup);
         self.state.sup.advance(dt_s);

@@ -371,7 +371,8 @@ mod tests {
         let mut out = ShareOut::default();
         let r0 = readings([0.0, 0.0, 1.0], [0.1, 0.0, 0.0], [1.0, 0.5, 1.0]);
         a.share(&AgentInput { k: 0, t_s: 0.0, readings: &r0 }, &mut out);
-        let nbrs: Vec<Neighbour<'_>> = heard.iter().map(|(id, v)| Neighbour { id: *id, values: v }).collect();
+        let nbrs: Vec<Neighbour<'_>> =
+            heard.iter().map(|(id, v)| Neighbour { id: *id, values: v, age_steps: 0 }).collect();
         a.step(0.1, &nbrs);
         let r1 = readings([0.01, 0.0, 1.0], [0.1, 0.0, 0.0], [1.0, 0.5, 1.0]);
         a.share(&AgentInput { k: 1, t_s: 0.1, readings: &r1 }, &mut out);
@@ -480,7 +481,7 @@ mod tests {
         let r = readings([0.0, 0.0, 1.0], [0.0; 3], [1.0, 1.0, 1.0]);
         a.share(&AgentInput { k: 0, t_s: 0.0, readings: &r }, &mut out);
         let s = share_of([0.3, 0.0, 1.0], [0.0; 3]);
-        a.step(0.1, &[Neighbour { id: 2, values: &s }]);
+        a.step(0.1, &[Neighbour { id: 2, values: &s, age_steps: 0 }]);
         let bytes = a.save_state();
         let mut b = SwarmAgent::new(params(SwarmMethod::Nr), 0.1, Arc::new(pd));
         b.restore_state(&bytes).unwrap();

@@ -1,0 +1,71 @@
+//! Inter-satellite links from the geometry (`[links]` model `geometric`) with real processes: the
+//! multi-process run and the in-process reference agree bit for bit under delay, the rate cap and
+//! losses, every loss is the link model's, and the plant reports each directed link. Heavy:
+//! serialised.
+
+use std::path::Path;
+
+use cohort::{describe_output, heavy_scratch, launch_scenario, summary, telemetry_bits, telemetry_table};
+use serde_json::Value;
+
+/// `topologies/fig1-isl.toml` with its link-budget loss (nil at fig1's ranges) replaced by a
+/// constant 20 % so that the run loses shares.
+fn lossy_fig1_isl(dir: &Path) -> std::path::PathBuf {
+    let text = std::fs::read_to_string("topologies/fig1-isl.toml").expect("the shipped fig1-isl scenario");
+    let start = text.find("[links.loss]").expect("fig1-isl has a [links.loss] table");
+    let end = start + text[start..].find("\n\n").expect("a blank line after [links.loss]");
+    let lossy = format!("{}[links.loss]\nlaw = \"constant\"\np = 0.2{}", &text[..start], &text[end..]);
+    let path = dir.join("fig1-isl-lossy.toml");
+    std::fs::write(&path, lossy).unwrap();
+    path
+}
+
+fn plant_links(s: &Value) -> Vec<Value> {
+    let plant = s["processes"].as_array().unwrap().iter().find(|p| p["process"] == "plant").unwrap();
+    plant["links"].as_array().expect("the plant reports every link").clone()
+}
+
+#[test]
+fn geometric_links_with_losses_are_bit_identical_multi_process_and_in_reference() {
+    let (_g, dir) = heavy_scratch("links-lossy");
+    let file = lossy_fig1_isl(&dir);
+    let (mp, rf) = (dir.join("mp"), dir.join("ref"));
+    for (run, extra) in [(&mp, &[][..]), (&rf, &["--reference"][..])] {
+        let o = launch_scenario(&file, run, &[&["--duration", "20"], extra].concat());
+        assert!(o.status.success(), "{}", describe_output(&o));
+    }
+    let (a, b) = (telemetry_bits(&mp), telemetry_bits(&rf));
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x, y, "value differs (file, line, column, bits)");
+    }
+    let s = summary(&mp);
+    assert_eq!(s["status"], "ok");
+    let links = plant_links(&s);
+    assert_eq!(links.len(), 12, "6 servicers on a ring: 12 directed links");
+    assert_eq!(links, plant_links(&summary(&rf)), "the link record differs between the modes");
+    let count = |key: &str| links.iter().map(|l| l[key].as_u64().unwrap()).sum::<u64>();
+    let (sent, lost) = (count("delivered") + count("lost"), count("lost"));
+    // Sent shares are lost with p = 0.2: within 4 σ of the binomial.
+    let sigma = (sent as f64 * 0.2 * 0.8).sqrt();
+    assert!((lost as f64 - 0.2 * sent as f64).abs() < 4.0 * sigma, "{lost} of {sent} lost");
+    assert!(count("busy") > sent, "256 kbit/s sends one share in three: {} busy, {sent} sent", count("busy"));
+    // Every share a link did not deliver is one its reader set aside, none other.
+    let undelivered: u64 = s["processes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|p| p["process"] != "plant")
+        .map(|p| p["faults"]["link_undelivered"].as_u64().unwrap())
+        .sum();
+    assert!(undelivered > 0 && undelivered <= lost + count("busy"), "{undelivered}");
+    let plant = telemetry_table(&mp, "plant");
+    let delivered = plant.col("links_delivered_frac");
+    let mean = delivered.iter().sum::<f64>() / delivered.len() as f64;
+    assert!((0.2..0.34).contains(&mean), "delivered fraction {mean}");
+    // 20 ms of processing is 2 steps; with a share's bits at 256 kbit/s on top, 5 (the first
+    // shares, sent before the plant has seen one, have no serialisation time).
+    let delays = plant.col("links_delay_mean_steps");
+    assert!(delays.iter().all(|d| *d == 0.0 || (2.0..=5.0).contains(d)), "{delays:?}");
+    assert!(delays.contains(&5.0), "no share with its serialisation time");
+}
