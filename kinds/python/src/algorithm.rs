@@ -24,6 +24,18 @@ struct Methods {
     share: Py<PyAny>,
     step: Py<PyAny>,
     row: Py<PyAny>,
+    /// `step(dt_s, neighbours, ages)`: the class asked for each share's age in steps too.
+    step_takes_ages: bool,
+}
+
+/// Whether a bound method takes three positional arguments (after `self`).
+fn takes_three(py: Python<'_>, method: &Bound<'_, PyAny>) -> bool {
+    let params = py
+        .import("inspect")
+        .and_then(|i| i.call_method1("signature", (method,)))
+        .and_then(|sig| sig.getattr("parameters"))
+        .and_then(|p| p.len());
+    params.is_ok_and(|n| n >= 3)
 }
 
 pub struct PyAlgorithm {
@@ -66,7 +78,10 @@ impl PyAlgorithm {
         };
         let method = |m: &str| obj.getattr(m).map(Bound::unbind);
         match (method("share"), method("step"), method("row")) {
-            (Ok(share), Ok(step), Ok(row)) => me.methods = Some(Methods { share, step, row }),
+            (Ok(share), Ok(step), Ok(row)) => {
+                let step_takes_ages = takes_three(py, step.bind(py));
+                me.methods = Some(Methods { share, step, row, step_takes_ages })
+            }
             _ => me.failure.set(format!("{} lacks one of share, step, row", me.shape.name)),
         }
         me.columns = me.failure.keep(columns(py, &obj, (&me.shape.name, "agent's"))).unwrap_or_default();
@@ -100,11 +115,13 @@ impl PyAlgorithm {
     }
 
     fn call_step(&self, py: Python<'_>, m: &Methods, dt_s: f64, nb: &[Neighbour<'_>]) -> Result<(), String> {
-        let d = PyDict::new(py);
+        let (d, ages) = (PyDict::new(py), PyDict::new(py));
         for n in nb {
             d.set_item(n.id, array(py, n.values)).map_err(|e| self.raised(py, "step", &e))?;
+            ages.set_item(n.id, n.age_steps).map_err(|e| self.raised(py, "step", &e))?;
         }
-        m.step.bind(py).call1((dt_s, d)).map_err(|e| self.raised(py, "step", &e))?;
+        let called = if m.step_takes_ages { m.step.bind(py).call1((dt_s, d, ages)) } else { m.step.bind(py).call1((dt_s, d)) };
+        called.map_err(|e| self.raised(py, "step", &e))?;
         Ok(())
     }
 

@@ -11,7 +11,7 @@
 //! | built by the kind with the agent's settings          | `__init__(self, ctx)`            |
 //! | `columns()`                                          | `columns()` → list of str        |
 //! | `share(input, out)`                                  | `share(k, t_s, y)` → (command, values) |
-//! | `step(dt_s, neighbours)`                             | `step(dt_s, neighbours)` (dict id → array) |
+//! | `step(dt_s, neighbours)`                             | `step(dt_s, neighbours)` (dict id → array), or `step(dt_s, neighbours, ages)` (dict id → steps since sent) |
 //! | `row(out)`                                           | `row()` → sequence of float      |
 //! | `roster(live)` (optional)                            | `roster(live)` (optional)        |
 //! | `save_state()` / `restore_state(bytes)`              | the same, bytes                  |

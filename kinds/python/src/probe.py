@@ -27,6 +27,8 @@ METHODS = {
     },
 }
 OPTIONAL = {"algorithm": {"roster": ["live"]}, "plant": {"metrics": []}}
+# A second signature a method may have instead: step also gets each share's age, in steps.
+ALTERNATIVE = {"step": ["dt_s", "neighbours", "ages"]}
 
 
 def takes(fn, wanted):
@@ -66,8 +68,10 @@ def check(path, name, role):
         fn = getattr(cls, method, None)
         if method != "__init__" and fn is None:
             return f"class {name} has no method {method}({', '.join(wanted)}) (a {role} needs it)"
-        if fn is not None and not takes(fn, wanted):
-            return f"{name}.{method} must take ({', '.join(['self'] + wanted)}), not {inspect.signature(fn)}"
+        other = ALTERNATIVE.get(method)
+        if fn is not None and not takes(fn, wanted) and not (other and takes(fn, other)):
+            either = f"({', '.join(['self'] + wanted)})" + (f" or ({', '.join(['self'] + other)})" if other else "")
+            return f"{name}.{method} must take {either}, not {inspect.signature(fn)}"
     for method, wanted in OPTIONAL[role].items():
         fn = getattr(cls, method, None)
         if fn is not None and not takes(fn, wanted):

@@ -130,3 +130,29 @@ fn the_sections_checks_name_the_key_path() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_step_that_takes_three_arguments_gets_each_shares_age() {
+    let dir = scratch("ages");
+    std::fs::write(
+        dir.join("aged.py"),
+        "class Aged:\n    def __init__(self, ctx):\n        self.age = -1.0\n    def columns(self):\n        \
+         return ['age_steps_1']\n    def share(self, k, t_s, y):\n        return [0.0, 0.0, 0.0], [0.0] * 6\n    \
+         def step(self, dt_s, neighbours, ages):\n        self.age = float(ages[2])\n    def row(self):\n        \
+         return [self.age]\n    def save_state(self):\n        return b''\n    def restore_state(self, state):\n        pass\n",
+    )
+    .unwrap();
+    let section = format!(
+        "[algorithm]\nkind = \"python\"\nmodule = {:?}\nclass = \"Aged\"\nshare_values = 6\n",
+        dir.join("aged.py")
+    );
+    let setup: Setup = load(&scenario(&dir, &section), &Default::default(), KINDS).unwrap_or_else(|e| panic!("{e}"));
+    let mut a = setup.algorithm.build(&setup, 1);
+    let mut out = ShareOut::default();
+    a.share(&AgentInput { k: 0, t_s: 0.0, readings: &[0.0, 0.0, 0.0] }, &mut out);
+    a.step(0.01, &[Neighbour { id: 2, values: &[0.0; 6], age_steps: 3 }]);
+    assert_eq!(a.take_failure(), None);
+    let mut row = Vec::new();
+    a.row(&mut row);
+    assert_eq!(row, [3.0]);
+}
