@@ -26,6 +26,7 @@ macro_rules! errln {
 mod bench;
 mod campaign;
 mod launcher;
+mod links_study;
 mod live;
 mod progress;
 mod reference;
@@ -154,6 +155,9 @@ enum Cmd {
         #[command(flatten)]
         args: campaign::CampaignArgs,
     },
+    /// Inter-satellite links from the geometry ([links] model = "geometric"; docs/links.md).
+    #[command(subcommand)]
+    Links(links_study::LinksCmd),
     /// Measure what the multi-process runtime costs (see bench/results.md); run from the
     /// repository root.
     Bench {
@@ -524,6 +528,7 @@ fn generic(command: Cmd) -> ExitCode {
         Cmd::Launch(a) => launch_command(*a),
         Cmd::Sweep { file, args } => sweep(&file, &args),
         Cmd::Campaign { file, args } => campaign::command(&file, &args),
+        Cmd::Links(cmd) => links_study::command(&cmd),
         Cmd::Soak { file, wall, realtime, rate, faults, out, seed, live } => {
             if let Err(code) = live.start() {
                 return code;

@@ -65,6 +65,18 @@ pub trait PlantKind: Sync {
     fn configure(&self, ctx: &ConfigureCtx<'_>, c: &mut Checker) -> Option<Arc<dyn PlantSetup>>;
 }
 
+/// The frame of a plant's spacecraft positions, as the geometric link model sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LinkFrame {
+    /// No positions (attitude only, or no spacecraft): ideal links only.
+    None,
+    /// Positions in a frame whose origin is no body (a relative frame): no occultation.
+    Relative,
+    /// Positions about the centre of the body that can occult the links (the Earth, the Sun),
+    /// with its name and mean equatorial radius, m.
+    CentralBody(&'static str, f64),
+}
+
 /// A configured plant.
 pub trait PlantSetup: Send + Sync + Any {
     fn kind(&self) -> &'static str;
@@ -87,10 +99,11 @@ pub trait PlantSetup: Send + Sync + Any {
     }
     /// Components of every agent's command.
     fn command_len(&self) -> usize;
-    /// Whether its model gives the spacecraft's positions (`PlantModel::positions_m`), which
-    /// `[links]` model `geometric` needs.
-    fn has_positions(&self) -> bool {
-        false
+    /// What its model's positions (`PlantModel::positions_m`) are, for `[links]` model
+    /// `geometric`: none (attitude only), or positions in a frame with or without an occulting
+    /// body at its origin.
+    fn link_frame(&self) -> LinkFrame {
+        LinkFrame::None
     }
     /// The truth model (the plant process's, or the reference run's plant thread).
     fn build(&self, setup: &Setup) -> Box<dyn PlantModel>;
@@ -412,12 +425,8 @@ pub fn configure(scenario: Scenario, papers: &[&'static dyn Paper]) -> Result<Se
     if algorithm.as_ref().is_none_or(|a| a.needs_connected_graph()) {
         cohort_scenario::validate::connectivity(&mut c, &scenario.agents);
     }
-    if let Some(p) = plant.as_deref().filter(|p| scenario.links.is_geometric() && !p.has_positions()) {
-        c.fail(
-            "links.model",
-            "\"geometric\"",
-            format!("plant kind {:?} gives no spacecraft positions for the link model: only ideal links", p.kind()),
-        );
+    if let Some(p) = plant.as_deref().filter(|_| scenario.links.is_geometric()) {
+        check_link_frame(&mut c, p, &scenario.links);
     }
     let (Some(plant), Some(algorithm)) = (plant, algorithm) else {
         return Err(c.problems);
@@ -433,6 +442,27 @@ pub fn configure(scenario: Scenario, papers: &[&'static dyn Paper]) -> Result<Se
         setup.message_sizes().check(&mut c);
     }
     if c.problems.is_empty() { Ok(setup) } else { Err(c.problems) }
+}
+
+/// Geometric links need positions, and an occulting body only where the frame has one.
+fn check_link_frame(c: &mut Checker, p: &dyn PlantSetup, links: &cohort_scenario::links::Links) {
+    match p.link_frame() {
+        LinkFrame::None => c.fail(
+            "links.model",
+            "\"geometric\"",
+            format!("plant kind {:?} gives no spacecraft positions for the link model: only ideal links", p.kind()),
+        ),
+        LinkFrame::Relative => {
+            if let Some(r) = links.occulting_radius_m {
+                let why = format!(
+                    "plant kind {:?} gives positions in a relative frame, with no body at its origin",
+                    p.kind()
+                );
+                c.fail("links.occulting_radius_m", r, why);
+            }
+        }
+        LinkFrame::CentralBody(..) => {}
+    }
 }
 
 /// Read, parse, validate and configure a scenario file.

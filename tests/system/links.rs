@@ -69,3 +69,43 @@ fn geometric_links_with_losses_are_bit_identical_multi_process_and_in_reference(
     assert!(delays.iter().all(|d| *d == 0.0 || (2.0..=5.0).contains(d)), "{delays:?}");
     assert!(delays.contains(&5.0), "no share with its serialisation time");
 }
+
+#[test]
+fn the_links_study_tabulates_every_rung_and_its_ideal_rung_is_the_plain_run() {
+    let (_g, dir) = heavy_scratch("links-study");
+    let out = dir.join("study");
+    let o = cohort::orchestrator_command()
+        .args([
+            "links",
+            "study",
+            "topologies/fig1.toml",
+            "--duration",
+            "5",
+            "--metric",
+            "servicer_1.e_norm_last10s_mean_m",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let md = std::fs::read_to_string(out.join("links-study.md")).unwrap();
+    for rung in
+        ["ideal", "range-only delay", "+ blockage", "+ loss 1 %", "+ loss 10 %", "+ loss 30 %", "+ rate cap 64 kbit/s"]
+    {
+        assert!(md.contains(&format!("| {rung} |")), "no row {rung:?} in\n{md}");
+    }
+    // The ideal rung is the scenario as shipped: the same metrics, bit for bit, as a plain run.
+    let plain = dir.join("plain");
+    let o = launch_scenario(Path::new("topologies/fig1.toml"), &plain, &["--reference", "--duration", "5"]);
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let (a, b) = (summary(&out.join("fig1/rung-0")), summary(&plain));
+    assert_eq!(a["metrics"], b["metrics"]);
+    // Geometric rungs report their links; the delay rung delivers every share one step late.
+    let delay = plant_links(&summary(&out.join("fig1/rung-1")));
+    assert!(delay.iter().all(|l| l["delivered"] == l["steps"] && l["delay_max_steps"] == 1), "{delay:?}");
+    // A plant with no positions is refused, naming it.
+    let o = cohort::orchestrator_command().args(["links", "study", "topologies/dai.toml"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", describe_output(&o));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("gives no positions"), "{}", describe_output(&o));
+}

@@ -120,7 +120,8 @@ impl PyAlgorithm {
             d.set_item(n.id, array(py, n.values)).map_err(|e| self.raised(py, "step", &e))?;
             ages.set_item(n.id, n.age_steps).map_err(|e| self.raised(py, "step", &e))?;
         }
-        let called = if m.step_takes_ages { m.step.bind(py).call1((dt_s, d, ages)) } else { m.step.bind(py).call1((dt_s, d)) };
+        let called =
+            if m.step_takes_ages { m.step.bind(py).call1((dt_s, d, ages)) } else { m.step.bind(py).call1((dt_s, d)) };
         called.map_err(|e| self.raised(py, "step", &e))?;
         Ok(())
     }

@@ -9,11 +9,11 @@
 //! `--cases` extends a finished one). At the end: `campaign.parquet` (a row per case),
 //! `campaign.md` and `plots/`.
 
-mod fly;
+pub(crate) mod fly;
 mod plan;
 mod remote;
 mod report;
-mod row;
+pub(crate) mod row;
 pub mod serve;
 mod table;
 mod until;
@@ -92,7 +92,7 @@ pub struct CampaignArgs {
 
 /// Why a case did not give a row.
 #[derive(Debug, thiserror::Error)]
-enum CaseError {
+pub(crate) enum CaseError {
     #[error("interrupted")]
     Interrupted,
     #[error("{0}")]

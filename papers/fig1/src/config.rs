@@ -284,8 +284,8 @@ pub fn trackability(agents: &[OrbitalAgent], live: &[bool]) -> Option<(usize, [f
 }
 
 impl PlantSetup for OrbitalSetup {
-    fn has_positions(&self) -> bool {
-        true
+    fn link_frame(&self) -> cohort_runtime::paper::LinkFrame {
+        cohort_runtime::paper::LinkFrame::CentralBody("the Earth", 6_378_137.0)
     }
     fn kind(&self) -> &'static str {
         OrbitalKind.kind()

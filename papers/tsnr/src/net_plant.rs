@@ -95,6 +95,11 @@ impl TsnrNetPlant {
 }
 
 impl PlantModel for TsnrNetPlant {
+    /// The MUs' positions in the target's LVLH frame (no body at its origin).
+    fn positions_m(&self, out: &mut Vec<[f64; 3]>) -> bool {
+        out.extend((1..=N_MU as u32).map(|mu| self.state.r_lvlh_m[self.corner(mu)]));
+        true
+    }
     fn columns(&self) -> Vec<String> {
         let mut c = Vec::new();
         for i in 1..=N_MU {

@@ -186,6 +186,9 @@ impl PlantSetup for TsnrNetSetup {
     fn kind(&self) -> &'static str {
         TsnrNetKind.kind()
     }
+    fn link_frame(&self) -> cohort_runtime::paper::LinkFrame {
+        cohort_runtime::paper::LinkFrame::Relative
+    }
     fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(&self.config)
     }

@@ -118,6 +118,11 @@ impl IsoEncounterPlant {
 }
 
 impl PlantModel for IsoEncounterPlant {
+    /// Heliocentric inertial positions: the Sun is the origin.
+    fn positions_m(&self, out: &mut Vec<[f64; 3]>) -> bool {
+        out.extend(self.craft.iter().map(|c| [c.state.r_m[0], c.state.r_m[1], c.state.r_m[2]]));
+        true
+    }
     fn columns(&self) -> Vec<String> {
         let mut c = Vec::new();
         for j in 1..=self.craft.len() {

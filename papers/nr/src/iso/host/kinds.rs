@@ -74,6 +74,9 @@ impl PlantSetup for IsoEncounterConfig {
     fn kind(&self) -> &'static str {
         PLANT_KIND
     }
+    fn link_frame(&self) -> cohort_runtime::paper::LinkFrame {
+        cohort_runtime::paper::LinkFrame::CentralBody("the Sun", 6.957e8)
+    }
     fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }

@@ -183,6 +183,11 @@ impl SwarmPlant {
 }
 
 impl PlantModel for SwarmPlant {
+    /// The vehicles' positions in the swarm's frame (no body at its origin).
+    fn positions_m(&self, out: &mut Vec<[f64; 3]>) -> bool {
+        out.extend_from_slice(&self.p);
+        true
+    }
     fn columns(&self) -> Vec<String> {
         let mut c = Vec::new();
         for j in 1..=self.p.len() {

@@ -80,6 +80,9 @@ impl PlantSetup for SwarmConfig {
     fn kind(&self) -> &'static str {
         PLANT_KIND
     }
+    fn link_frame(&self) -> cohort_runtime::paper::LinkFrame {
+        cohort_runtime::paper::LinkFrame::Relative
+    }
     fn resolved(&self) -> Result<toml::Table, ConfigTableError> {
         table_of(self)
     }
