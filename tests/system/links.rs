@@ -60,14 +60,14 @@ fn geometric_links_with_losses_are_bit_identical_multi_process_and_in_reference(
         .sum();
     assert!(undelivered > 0 && undelivered <= lost + count("busy"), "{undelivered}");
     let plant = telemetry_table(&mp, "plant");
-    let delivered = plant.col("links_delivered_frac");
-    let mean = delivered.iter().sum::<f64>() / delivered.len() as f64;
-    assert!((0.2..0.34).contains(&mean), "delivered fraction {mean}");
+    // Over each last second: one share in three sent, 80 % of those delivered.
+    let delivered = plant.col("links_delivered_frac_1s");
+    assert!(delivered[100..].iter().all(|f| (0.18..0.36).contains(f)), "delivered fraction {delivered:?}");
     // 20 ms of processing is 2 steps; with a share's bits at 256 kbit/s on top, 5 (the first
     // shares, sent before the plant has seen one, have no serialisation time).
-    let delays = plant.col("links_delay_mean_steps");
-    assert!(delays.iter().all(|d| *d == 0.0 || (2.0..=5.0).contains(d)), "{delays:?}");
-    assert!(delays.contains(&5.0), "no share with its serialisation time");
+    let delays = plant.col("links_delay_mean_steps_1s");
+    assert!(delays.iter().all(|d| (2.0..=5.0).contains(d)), "{delays:?}");
+    assert_eq!(delays[100..].iter().copied().fold(0.0, f64::max), 5.0);
 }
 
 #[test]

@@ -4,8 +4,7 @@
 use std::time::{Duration, Instant};
 
 use cohort_wire::msg::{
-    CONTROL_DEAD, CONTROL_RESUME, Header, LINK_BLOCKED, LINK_OUT_OF_RANGE, Measurement, PLANT_ID, Roster, STATUS_DONE,
-    STATUS_HOLDING, STATUS_PROGRESS,
+    CONTROL_DEAD, CONTROL_RESUME, Header, Measurement, PLANT_ID, Roster, STATUS_DONE, STATUS_HOLDING, STATUS_PROGRESS,
 };
 use cohort_wire::transport::{Proc, Transport, monotonic_ns};
 use rand_chacha::ChaCha8Rng;
@@ -17,6 +16,7 @@ use super::params::DriveParams;
 use super::plant_inbox::{PlantInbox, PlantRoster};
 use super::status::{new_report, report_ready, status};
 use super::wait::Waiter;
+use crate::links::on_plant::PlantLinks;
 use crate::model::PlantModel;
 use crate::record::{ProcessReport, TelemetryWriter, TimingWriter, reject_map};
 
@@ -114,19 +114,6 @@ struct PlantDriver<'a, T: Transport + ?Sized> {
     links: Option<PlantLinks>,
 }
 
-/// The plant's side of geometric links: the model, the positions it reads, each reader's codes,
-/// and the telemetry values of the two latest steps decided (a row is written after the next
-/// step's measurements went out).
-struct PlantLinks {
-    model: crate::links::LinkModel,
-    positions: Vec<[f64; 3]>,
-    codes: Vec<Vec<u32>>,
-    rows: [(u64, [f64; 3]); 2],
-}
-
-/// The link columns of the plant's telemetry under geometric links.
-const LINK_COLUMNS: [&str; 3] = ["links_in_view_frac", "links_delivered_frac", "links_delay_mean_steps"];
-
 impl<'a, T: Transport + ?Sized> PlantDriver<'a, T> {
     /// Create the telemetry and timing files, then wait at the start barrier: nothing is sent
     /// before every reader exists.
@@ -140,14 +127,9 @@ impl<'a, T: Transport + ?Sized> PlantDriver<'a, T> {
     ) -> Result<Self, RunError> {
         let mut columns = vec!["k".to_string(), "t_s".to_string()];
         columns.extend(model.columns());
-        let links = p.links.as_ref().map(|l| PlantLinks {
-            model: l.model(p.dt_s),
-            positions: Vec::with_capacity(n_agents as usize),
-            codes: vec![Vec::new(); n_agents as usize],
-            rows: [(u64::MAX, [0.0; 3]); 2],
-        });
+        let links = p.links.as_ref().map(|l| PlantLinks::new(l, p.dt_s, n_agents as usize));
         if links.is_some() {
-            columns.extend(LINK_COLUMNS.iter().map(|c| c.to_string()));
+            columns.extend(crate::links::on_plant::COLUMNS.iter().map(|c| c.to_string()));
         }
         let (tel, timing) = plant_files(p, &columns)?;
         start_barrier(t, p)?;
@@ -238,7 +220,7 @@ impl<'a, T: Transport + ?Sized> PlantDriver<'a, T> {
             m.live = self.roster.live;
             m.lost_at_close = self.roster.lost_at_close;
             if let Some(l) = &self.links {
-                m.set_links(&l.codes[i as usize - 1]);
+                m.set_links(l.codes(i));
             }
             if let Some(k) = &p.key {
                 k.seal_measurement(&mut m);
@@ -253,25 +235,11 @@ impl<'a, T: Transport + ?Sized> PlantDriver<'a, T> {
     /// Geometric links: what becomes of every share of step k, from the truth at tₖ.
     fn decide_links(&mut self, k: u64) -> Result<(), RunError> {
         let Some(l) = &mut self.links else { return Ok(()) };
-        l.positions.clear();
-        if !self.model.positions_m(&mut l.positions) || l.positions.len() != self.n_agents as usize {
+        if !l.read_positions(|out| self.model.positions_m(out)) {
             let what = "positions for the link model (links.model = \"geometric\")".to_string();
             return Err(RunError::Diverged { step: k, t_s: self.p.t_s(k), who: "the plant model", what });
         }
-        l.model.decide(k, &l.positions, &self.inbox.share_bits, &mut l.codes);
-        let (mut links, mut in_view, mut delivered, mut delay) = (0.0, 0.0, 0.0, 0.0);
-        for code in l.codes.iter().flatten() {
-            links += 1.0;
-            if !matches!(*code, LINK_BLOCKED | LINK_OUT_OF_RANGE) {
-                in_view += 1.0;
-            }
-            if let Some(d) = crate::links::delay_of(*code) {
-                delivered += 1.0;
-                delay += d as f64;
-            }
-        }
-        let frac = |x: f64, of: f64| if of > 0.0 { x / of } else { 0.0 };
-        l.rows[(k % 2) as usize] = (k, [frac(in_view, links), frac(delivered, links), frac(delay, delivered)]);
+        l.decide(k, &self.inbox.share_bits);
         Ok(())
     }
 
@@ -367,9 +335,7 @@ impl<'a, T: Transport + ?Sized> PlantDriver<'a, T> {
             self.row.push(t_s);
             self.model.row(&mut self.row);
             if let Some(l) = &self.links {
-                let (at, values) = l.rows[(k % 2) as usize];
-                debug_assert_eq!(at, k, "step k's links were decided with its measurements");
-                self.row.extend_from_slice(&values);
+                self.row.extend_from_slice(&l.row(k));
             }
         }
         let round_ns = monotonic_ns() - self.round_start;
@@ -432,7 +398,7 @@ impl<'a, T: Transport + ?Sized> PlantDriver<'a, T> {
         report.faults.late = self.inbox.late;
         report.faults.roster = std::mem::take(&mut self.roster.changes);
         report.messages_sent = self.sent;
-        report.links = self.links.as_ref().map_or(Vec::new(), |l| l.model.stats());
+        report.links = self.links.as_ref().map_or(Vec::new(), |l| l.stats());
         for (i, (n, h)) in self.inbox.from.iter().zip(&self.inbox.latency).enumerate() {
             let name = Proc::Agent(i as u32 + 1).name();
             report.received_from.insert(name.clone(), *n);

@@ -16,6 +16,7 @@
 //! none at step 0, so the first share has no serialisation time.
 
 pub mod loss;
+pub mod on_plant;
 mod stats;
 
 use cohort_scenario::links::{C_MPS, Links};
