@@ -40,6 +40,9 @@ pub struct StudyArgs {
     /// Override scenario.duration_s, in seconds.
     #[arg(long)]
     duration: Option<f64>,
+    /// Override scenario.seed (every rung flies the same seed).
+    #[arg(long, value_parser = crate::seed_arg)]
+    seed: Option<u64>,
     /// Rungs flown at once (default: the machine's cores). The tables do not depend on it.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
     workers: Option<u64>,
@@ -61,7 +64,7 @@ pub struct RungResult {
 pub fn command(cmd: &LinksCmd) -> ExitCode {
     let LinksCmd::Study(a) = cmd;
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(format!("runs/links-study-{}", cohort_host::utc_stamp())));
-    let overrides = Overrides { duration_s: a.duration, ..Overrides::default() };
+    let overrides = Overrides { duration_s: a.duration, seed: a.seed, ..Overrides::default() };
     let workers = a.workers.map_or_else(|| std::thread::available_parallelism().map_or(1, usize::from), |w| w as usize);
     let mut md = String::from("# Links study\n\n");
     for file in &a.files {

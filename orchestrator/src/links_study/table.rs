@@ -28,9 +28,10 @@ impl LinkTotals {
             delay_sum_steps: sum("delay_sum_steps"),
         }
     }
-    fn cells(&self) -> [String; 3] {
+    fn cells(&self, ideal: bool) -> [String; 3] {
         if self.steps == 0 {
-            return ["100 %".into(), "0 %".into(), "0".into()];
+            let what = if ideal { "all (ideal)" } else { "no links (no neighbours)" };
+            return [what.into(), "–".into(), "–".into()];
         }
         let pct = |x: u64| format!("{:.1} %", 100.0 * x as f64 / self.steps as f64);
         let delay = if self.delivered == 0 { 0.0 } else { self.delay_sum_steps as f64 / self.delivered as f64 };
@@ -74,7 +75,7 @@ fn row(r: &RungResult, n_cells: usize, metrics: &[String]) -> String {
     let Some((o, links)) = &r.flown else {
         return format!("| {} | (no central body: as the rung before) |{}\n", r.rung, " |".repeat(4 + n_cells));
     };
-    let [delivered, blocked, delay] = links.cells();
+    let [delivered, blocked, delay] = links.cells(r.rung == "ideal");
     let mut s = format!("| {} | {delivered} | {blocked} | {delay} | {} | {} |", r.rung, o.status, o.verdict_overall);
     for v in &o.verdict {
         let ours = v.ours.map_or("–".to_string(), |b| format!("{:.4}", f64::from_bits(b)));
