@@ -425,3 +425,63 @@ fn a_returning_agent_keeps_its_neighbours_shares_of_the_return_step_met_before_t
     assert!(inbox.complete(), "the neighbour's token of the return step was lost");
     let _ = std::fs::remove_dir_all(&base);
 }
+
+/// Records what each `step` was given: (neighbour's value, its age).
+struct Heard(Vec<Vec<(f64, u64)>>);
+impl Algorithm for Heard {
+    fn columns(&self) -> Vec<String> {
+        Vec::new()
+    }
+    fn share(&mut self, _input: &AgentInput<'_>, _out: &mut ShareOut) {}
+    fn step(&mut self, _dt_s: f64, neighbours: &[Neighbour<'_>]) {
+        self.0.push(neighbours.iter().map(|n| (n.values[0], n.age_steps)).collect());
+    }
+    fn row(&self, _out: &mut Vec<f64>) {}
+    fn save_state(&self) -> Vec<u8> {
+        Vec::new()
+    }
+    fn restore_state(&mut self, _bytes: &[u8]) -> Result<(), RestoreStateError> {
+        Ok(())
+    }
+}
+
+#[test]
+fn a_reader_never_uses_a_share_its_link_did_not_deliver_and_uses_a_delayed_one_from_its_arrival() {
+    use super::wait::Inbox;
+    use cohort_wire::transport::Incoming;
+    let base = std::env::temp_dir().join(format!("cohort-drive-links-{}", std::process::id()));
+    let p = params(&base, 100, Duration::from_secs(1));
+    let mut inbox = super::agent_inbox::AgentInbox::new(&p, 2, &[1], 1);
+    let mut algo = Heard(Vec::new());
+    let mut report = ProcessReport::new("agent-2".into());
+    // Agent 1's link to agent 2 per step: delivered at once, blocked, lost, two steps late, busy,
+    // busy, at once.
+    let codes = [0, LINK_BLOCKED, LINK_LOST_IN_TRANSIT, 2, LINK_BUSY, LINK_BUSY, 0];
+    for (k, code) in codes.iter().enumerate() {
+        let k = k as u64;
+        let mut m = Measurement::new(Header::new(99, PLANT_ID, k, k as f64 * 0.1), &[0.0]);
+        m.live = Roster::all(2);
+        m.set_links(&[*code]);
+        inbox.k = k;
+        inbox.want_measurement = true;
+        inbox.take(Incoming::Measurement(&m));
+        // Every share travels at once; its value is the step it was sent at.
+        let share = Share::new(Header::new(99, 1, k, k as f64 * 0.1), &[0.0], &[k as f64]);
+        inbox.take(Incoming::Share { from: 1, share: &share });
+        inbox.advance(&mut algo, Some(k), 0.1, &mut report);
+    }
+    // Step 0's share at once; steps 1 and 2 never (blocked, lost): step 0's is held, aging; step
+    // 3's is used from step 5 (2 steps late), 4's and 5's never (busy); step 6's at once.
+    let want: Vec<Vec<(f64, u64)>> = vec![
+        vec![(0.0, 0)],
+        vec![(0.0, 1)],
+        vec![(0.0, 2)],
+        vec![(0.0, 3)],
+        vec![(0.0, 4)],
+        vec![(3.0, 2)],
+        vec![(6.0, 0)],
+    ];
+    assert_eq!(algo.0, want);
+    assert_eq!(report.faults.link_undelivered, 4, "blocked, lost and busy twice");
+    let _ = std::fs::remove_dir_all(&base);
+}
