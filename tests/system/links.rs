@@ -1,7 +1,7 @@
 //! Inter-satellite links from the geometry (`[links]` model `geometric`) with real processes: the
-//! multi-process run and the in-process reference agree bit for bit under delay, the rate cap and
-//! losses, every loss is the link model's, and the plant reports each directed link. Heavy:
-//! serialised.
+//! multi-process run and the in-process reference agree bit for bit under delay, the rate cap,
+//! losses and link faults on top, every loss is counted, and the plant reports each directed link.
+//! Heavy: serialised.
 
 use std::path::Path;
 
@@ -30,8 +30,10 @@ fn geometric_links_with_losses_are_bit_identical_multi_process_and_in_reference(
     let (_g, dir) = heavy_scratch("links-lossy");
     let file = lossy_fig1_isl(&dir);
     let (mp, rf) = (dir.join("mp"), dir.join("ref"));
+    // The fault plan on top: agent 2's shares dropped, agent 5's held 3 steps.
+    let faults = ["--fault", "drop:agent=2@t=5,p=0.3", "--fault", "delay:agent=5@t=8,for=4,steps=3"];
     for (run, extra) in [(&mp, &[][..]), (&rf, &["--reference"][..])] {
-        let o = launch_scenario(&file, run, &[&["--duration", "20"], extra].concat());
+        let o = launch_scenario(&file, run, &[&["--duration", "20"][..], &faults, extra].concat());
         assert!(o.status.success(), "{}", describe_output(&o));
     }
     let (a, b) = (telemetry_bits(&mp), telemetry_bits(&rf));
@@ -59,6 +61,11 @@ fn geometric_links_with_losses_are_bit_identical_multi_process_and_in_reference(
         .map(|p| p["faults"]["link_undelivered"].as_u64().unwrap())
         .sum();
     assert!(undelivered > 0 && undelivered <= lost + count("busy"), "{undelivered}");
+    let dropped = s["processes"].as_array().unwrap().iter().find(|p| p["process"] == "agent-2").unwrap()["faults"]
+        ["shares_dropped"]
+        .as_u64()
+        .unwrap();
+    assert!(dropped > 100, "the drop fault ran too: {dropped}");
     let plant = telemetry_table(&mp, "plant");
     // Over each last second: one share in three sent, 80 % of those delivered.
     let delivered = plant.col("links_delivered_frac_1s");
