@@ -17,7 +17,7 @@ pub const MAX_LINK_DELAY_STEPS: u64 = 60_000;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum LinkModel {
+pub enum LinkKind {
     #[default]
     Ideal,
     Geometric,
@@ -28,7 +28,7 @@ pub enum LinkModel {
 #[serde(deny_unknown_fields)]
 pub struct Links {
     #[serde(default)]
-    pub model: LinkModel,
+    pub model: LinkKind,
     /// Carrier acquisition, coding and on-board handling added to the light time, s.
     #[serde(default)]
     pub processing_latency_s: f64,
@@ -73,7 +73,7 @@ pub enum Loss {
 
 impl Links {
     pub fn is_geometric(&self) -> bool {
-        self.model == LinkModel::Geometric
+        self.model == LinkKind::Geometric
     }
 }
 

@@ -1,7 +1,7 @@
 //! The study's ladder of link conditions, each rung adding one thing to the one before.
 
 use cohort_runtime::paper::LinkFrame;
-use cohort_scenario::links::{LinkModel, Links, Loss};
+use cohort_scenario::links::{LinkKind, Links, Loss};
 
 /// Atmosphere margin added to the central body's radius for grazing rays, m (the Earth's
 /// atmosphere bends and absorbs a crosslink well above the surface; 100 km is our choice).
@@ -20,7 +20,7 @@ pub struct Rung {
 /// The ladder for a plant whose positions are in `frame`: ideal; range-only delay; + blockage
 /// by the central body; + loss 1 %, 10 %, 30 %; + the rate cap.
 pub fn ladder(frame: LinkFrame) -> Vec<Rung> {
-    let delay = Links { model: LinkModel::Geometric, ..Links::default() };
+    let delay = Links { model: LinkKind::Geometric, ..Links::default() };
     let occulter = match frame {
         LinkFrame::CentralBody(_, radius_m) => Some(radius_m + ATMOSPHERE_MARGIN_M),
         _ => None,

@@ -179,9 +179,8 @@ impl AgentInbox {
             arrived.retain_mut(|(s, v)| {
                 let sent = plan.arrival(*id, *s).is_some_and(|a| a <= u) || *s <= u.saturating_sub(back);
                 let (due, undelivered) = match link_verdict(link, *s, u) {
-                    LinkVerdict::Ideal => (sent, false),
+                    LinkVerdict::Ideal | LinkVerdict::Delivered => (sent, false),
                     LinkVerdict::InFlight => (false, false),
-                    LinkVerdict::Delivered => (sent, false),
                     LinkVerdict::Undelivered => (true, true),
                 };
                 if undelivered {

@@ -1,13 +1,13 @@
 //! The link model on hand geometry: blockage, delay, loss frequency, the rate cap.
 
 use super::*;
-use cohort_scenario::links::{LinkModel as Kind, Loss};
+use cohort_scenario::links::{LinkKind, Loss};
 use rand::SeedableRng;
 
 const R_EARTH_M: f64 = 6_378_137.0;
 
 fn links(f: impl FnOnce(&mut Links)) -> Links {
-    let mut l = Links { model: Kind::Geometric, ..Links::default() };
+    let mut l = Links { model: LinkKind::Geometric, ..Links::default() };
     f(&mut l);
     l
 }
