@@ -116,3 +116,36 @@ fn the_links_study_tabulates_every_rung_and_its_ideal_rung_is_the_plain_run() {
     assert_eq!(o.status.code(), Some(2), "{}", describe_output(&o));
     assert!(String::from_utf8_lossy(&o.stderr).contains("gives no positions"), "{}", describe_output(&o));
 }
+
+#[test]
+fn a_links_study_over_seeds_gives_each_rungs_spread_and_how_many_seeds_fail() {
+    let (_g, dir) = heavy_scratch("links-study-seeds");
+    let out = dir.join("study");
+    let o = cohort::orchestrator_command()
+        .args(["links", "study", "topologies/tsnr-case1.toml", "--duration", "5", "--seeds", "3"])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let md = std::fs::read_to_string(out.join("links-study.md")).unwrap();
+    assert!(md.contains("3 seeds per rung"), "{md}");
+    let ideal = md.lines().find(|l| l.starts_with("| ideal |")).unwrap();
+    assert!(ideal.contains("3/3 ok"), "{ideal}");
+    // Each seed's run is kept, and a seed's ideal rung is that seed's plain run.
+    for seed in [1, 2, 3] {
+        assert!(out.join(format!("tsnr-case1/rung-0/seed-{seed}/summary.json")).is_file());
+    }
+    let plain = dir.join("plain");
+    let o = launch_scenario(
+        Path::new("topologies/tsnr-case1.toml"),
+        &plain,
+        &["--reference", "--duration", "5", "--seed", "2"],
+    );
+    assert!(o.status.success(), "{}", describe_output(&o));
+    // (Its QP solve times are wall-clock: compared are the deterministic metrics.)
+    let (a, b) = (summary(&out.join("tsnr-case1/rung-0/seed-2")), summary(&plain));
+    for key in ["fuel_total_ns", "mu_1.terminal_err_m", "mu_4.err_rms_0_10_m", "net.max_edge_tension_n"] {
+        assert_eq!(a["metrics"][key], b["metrics"][key], "{key}");
+    }
+}

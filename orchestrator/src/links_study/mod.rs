@@ -40,9 +40,13 @@ pub struct StudyArgs {
     /// Override scenario.duration_s, in seconds.
     #[arg(long)]
     duration: Option<f64>,
-    /// Override scenario.seed (every rung flies the same seed).
+    /// Override scenario.seed (every rung flies the same seeds).
     #[arg(long, value_parser = crate::seed_arg)]
     seed: Option<u64>,
+    /// Seeds per rung (the scenario's seed, or --seed, and the next ones): the table gives each
+    /// verdict line's mean and range and how many seeds fail.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    seeds: u64,
     /// Rungs flown at once (default: the machine's cores). The tables do not depend on it.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
     workers: Option<u64>,
@@ -54,11 +58,11 @@ pub struct StudyArgs {
     metrics: Vec<String>,
 }
 
-/// One rung of one scenario, flown: its outcome and what its links did.
+/// One rung of one scenario, flown: per seed, its outcome and what its links did.
 pub struct RungResult {
     pub rung: &'static str,
-    /// None: the rung does not apply to this plant.
-    pub flown: Option<(Outcome, table::LinkTotals)>,
+    /// Empty: the rung does not apply to this plant.
+    pub flown: Vec<(Outcome, table::LinkTotals)>,
 }
 
 pub fn command(cmd: &LinksCmd) -> ExitCode {
@@ -68,7 +72,7 @@ pub fn command(cmd: &LinksCmd) -> ExitCode {
     let workers = a.workers.map_or_else(|| std::thread::available_parallelism().map_or(1, usize::from), |w| w as usize);
     let mut md = String::from("# Links study\n\n");
     for file in &a.files {
-        match study(file, &overrides, &out, workers) {
+        match study(file, &overrides, a.seeds, &out, workers) {
             Ok((name, results)) => md.push_str(&table::markdown(&name, file, &results, &a.metrics)),
             Err(e) => return crate::fail(e),
         }
@@ -82,8 +86,14 @@ pub fn command(cmd: &LinksCmd) -> ExitCode {
     ExitCode::SUCCESS
 }
 
-/// Fly every rung of `file`; the scenario's name and a result per rung.
-fn study(file: &Path, o: &Overrides, out: &Path, workers: usize) -> Result<(String, Vec<RungResult>), CommandError> {
+/// Fly every rung of `file` at `seeds` seeds; the scenario's name and a result per rung.
+fn study(
+    file: &Path,
+    o: &Overrides,
+    seeds: u64,
+    out: &Path,
+    workers: usize,
+) -> Result<(String, Vec<RungResult>), CommandError> {
     let base = cohort_registry::load(file, o).map_err(|e| CommandError::invalid(e.to_string()))?;
     let frame = base.plant.link_frame();
     if frame == LinkFrame::None {
@@ -94,24 +104,38 @@ fn study(file: &Path, o: &Overrides, out: &Path, workers: usize) -> Result<(Stri
         );
         return Err(CommandError::invalid(why));
     }
+    let first = base.parsed.scenario.seed;
+    if first.checked_add(seeds - 1).is_none_or(|s| s > cohort_scenario::validate::MAX_SEED) {
+        return Err(CommandError::invalid(format!("--seeds {seeds} from seed {first}: the last passes 2^63 − 1")));
+    }
     let text = std::fs::read_to_string(file).map_err(|e| CommandError::failed(format!("{}: {e}", file.display())))?;
     let name = base.parsed.scenario.name.clone();
     let rungs = ladder(frame);
-    let setups: Vec<Option<Setup>> = rungs
-        .iter()
-        .map(|r| r.links.as_ref().map(|l| with_links(&text, file, o, l)).transpose())
+    let n = seeds as usize;
+    // Case i: rung i / n at seed first + i % n.
+    let setups: Vec<Option<Setup>> = (0..rungs.len() * n)
+        .map(|i| {
+            let o = Overrides { seed: Some(first + (i % n) as u64), ..o.clone() };
+            rungs[i / n].links.as_ref().map(|l| with_links(&text, file, &o, l)).transpose()
+        })
         .collect::<Result<_, _>>()?;
     let dir = out.join(&name);
-    let fly_rung = |i: usize| -> Result<Option<(Outcome, table::LinkTotals)>, String> {
+    let fly_case = |i: usize| -> Result<Option<(Outcome, table::LinkTotals)>, String> {
         let Some(setup) = &setups[i] else { return Ok(None) };
-        let rung_dir = dir.join(format!("rung-{i}"));
-        let outcome = fly(setup, &rung_dir, How::in_process(setup, true), false).map_err(|e| e.to_string())?;
-        Ok(Some((outcome, table::LinkTotals::read(&rung_dir.join("summary.json")))))
+        let case_dir = match n {
+            1 => dir.join(format!("rung-{i}")),
+            _ => dir.join(format!("rung-{}", i / n)).join(format!("seed-{}", first + (i % n) as u64)),
+        };
+        let outcome = fly(setup, &case_dir, How::in_process(setup, true), false).map_err(|e| e.to_string())?;
+        Ok(Some((outcome, table::LinkTotals::read(&case_dir.join("summary.json")))))
     };
-    tracing::info!("{}: {} rungs on {workers} worker(s)", file.display(), rungs.len());
+    tracing::info!("{}: {} rungs × {n} seed(s) on {workers} worker(s)", file.display(), rungs.len());
     let flown =
-        Campaign::new(rungs.len()).workers(workers).run(fly_rung).map_err(|e| CommandError::failed(e.source))?;
-    Ok((name, rungs.iter().zip(flown).map(|(r, flown)| RungResult { rung: r.name, flown }).collect()))
+        Campaign::new(setups.len()).workers(workers).run(fly_case).map_err(|e| CommandError::failed(e.source))?;
+    let mut flown = flown.into_iter();
+    let results =
+        rungs.iter().map(|r| RungResult { rung: r.name, flown: flown.by_ref().take(n).flatten().collect() }).collect();
+    Ok((name, results))
 }
 
 /// The scenario of `text` with its `[links]` replaced by `links`, configured.
