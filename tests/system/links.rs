@@ -20,6 +20,13 @@ fn lossy_fig1_isl(dir: &Path) -> std::path::PathBuf {
     path
 }
 
+/// `orchestrator links study ARGS --out OUT`, which must succeed; its `links-study.md`.
+fn study(args: &[&str], out: &Path) -> String {
+    let o = cohort::orchestrator_command().args(["links", "study"]).args(args).arg("--out").arg(out).output().unwrap();
+    assert!(o.status.success(), "{}", describe_output(&o));
+    std::fs::read_to_string(out.join("links-study.md")).unwrap()
+}
+
 fn plant_links(s: &Value) -> Vec<Value> {
     let plant = s["processes"].as_array().unwrap().iter().find(|p| p["process"] == "plant").unwrap();
     plant["links"].as_array().expect("the plant reports every link").clone()
@@ -81,22 +88,7 @@ fn geometric_links_with_losses_are_bit_identical_multi_process_and_in_reference(
 fn the_links_study_tabulates_every_rung_and_its_ideal_rung_is_the_plain_run() {
     let (_g, dir) = heavy_scratch("links-study");
     let out = dir.join("study");
-    let o = cohort::orchestrator_command()
-        .args([
-            "links",
-            "study",
-            "topologies/fig1.toml",
-            "--duration",
-            "5",
-            "--metric",
-            "servicer_1.e_norm_last10s_mean_m",
-        ])
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", describe_output(&o));
-    let md = std::fs::read_to_string(out.join("links-study.md")).unwrap();
+    let md = study(&["topologies/fig1.toml", "--duration", "5", "--metric", "servicer_1.e_norm_last10s_mean_m"], &out);
     for rung in
         ["ideal", "range-only delay", "+ blockage", "+ loss 1 %", "+ loss 10 %", "+ loss 30 %", "+ rate cap 64 kbit/s"]
     {
@@ -121,14 +113,7 @@ fn the_links_study_tabulates_every_rung_and_its_ideal_rung_is_the_plain_run() {
 fn a_links_study_over_seeds_gives_each_rungs_spread_and_how_many_seeds_fail() {
     let (_g, dir) = heavy_scratch("links-study-seeds");
     let out = dir.join("study");
-    let o = cohort::orchestrator_command()
-        .args(["links", "study", "topologies/tsnr-case1.toml", "--duration", "5", "--seeds", "3"])
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", describe_output(&o));
-    let md = std::fs::read_to_string(out.join("links-study.md")).unwrap();
+    let md = study(&["topologies/tsnr-case1.toml", "--duration", "5", "--seeds", "3"], &out);
     assert!(md.contains("3 seeds per rung"), "{md}");
     let ideal = md.lines().find(|l| l.starts_with("| ideal |")).unwrap();
     assert!(ideal.contains("3/3 ok"), "{ideal}");
