@@ -155,4 +155,5 @@ fn a_step_that_takes_three_arguments_gets_each_shares_age() {
     let mut row = Vec::new();
     a.row(&mut row);
     assert_eq!(row, [3.0]);
+    let _ = std::fs::remove_dir_all(&dir);
 }
