@@ -13,6 +13,16 @@ use crate::launcher::How;
 /// Fly `setup` in the run directory `dir` (made here; a leftover of an interrupted try is removed
 /// first) and keep its telemetry only if asked.
 pub fn fly(setup: &Setup, dir: &Path, how: How, keep_telemetry: bool) -> Result<Outcome, CaseError> {
+    fly_with_summary(setup, dir, how, keep_telemetry).map(|(outcome, _)| outcome)
+}
+
+/// [`fly`], with the run's summary (what `summary.json` holds) for a caller that reads more of it.
+pub fn fly_with_summary(
+    setup: &Setup,
+    dir: &Path,
+    how: How,
+    keep_telemetry: bool,
+) -> Result<(Outcome, crate::summary::Summary), CaseError> {
     if dir.exists() {
         std::fs::remove_dir_all(dir).map_err(|e| CaseError::Io(format!("{}: {e}", dir.display())))?;
     }
@@ -37,12 +47,13 @@ pub fn fly(setup: &Setup, dir: &Path, how: How, keep_telemetry: bool) -> Result<
             unit: v.unit.clone(),
         })
         .collect();
-    Ok(Outcome {
+    let outcome = Outcome {
         status: summary.status.as_str().to_string(),
         error: outcome.error.clone(),
         metrics: summary.metrics.iter().map(|(k, v)| (k.clone(), v.to_bits())).collect(),
         verdict,
         verdict_overall: summary.verdict_overall.unwrap_or("n/a").to_string(),
         wall_s: outcome.wall_s,
-    })
+    };
+    Ok((outcome, summary))
 }

@@ -18,7 +18,7 @@ use cohort_runtime::paper::{LinkFrame, Setup};
 use cohort_scenario::Overrides;
 use cohort_scenario::links::Links;
 
-use crate::campaign::fly::fly;
+use crate::campaign::fly::fly_with_summary;
 use crate::campaign::row::Outcome;
 use crate::launcher::How;
 pub use ladder::ladder;
@@ -126,8 +126,9 @@ fn study(
             1 => dir.join(format!("rung-{i}")),
             _ => dir.join(format!("rung-{}", i / n)).join(format!("seed-{}", first + (i % n) as u64)),
         };
-        let outcome = fly(setup, &case_dir, How::in_process(setup, true), false).map_err(|e| e.to_string())?;
-        Ok(Some((outcome, table::LinkTotals::read(&case_dir.join("summary.json")))))
+        let (outcome, summary) =
+            fly_with_summary(setup, &case_dir, How::in_process(setup, true), false).map_err(|e| e.to_string())?;
+        Ok(Some((outcome, table::LinkTotals::of(&summary))))
     };
     tracing::info!("{}: {} rungs × {n} seed(s) on {workers} worker(s)", file.display(), rungs.len());
     let flown =

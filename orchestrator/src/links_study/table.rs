@@ -15,19 +15,17 @@ pub struct LinkTotals {
 }
 
 impl LinkTotals {
-    /// The totals of a run's `summary.json` (zero on ideal links, where the plant reports none).
-    pub fn read(summary: &Path) -> Self {
-        let s: serde_json::Value =
-            std::fs::read_to_string(summary).ok().and_then(|t| serde_json::from_str(&t).ok()).unwrap_or_default();
-        let plant = s["processes"].as_array().and_then(|p| p.iter().find(|p| p["process"] == "plant").cloned());
-        let links = plant.and_then(|p| p["links"].as_array().cloned()).unwrap_or_default();
-        let sum = |key: &str| links.iter().filter_map(|l| l[key].as_u64()).sum::<u64>();
-        LinkTotals {
-            steps: sum("steps"),
-            delivered: sum("delivered"),
-            blocked: sum("blocked"),
-            delay_sum_steps: sum("delay_sum_steps"),
+    /// The totals of a run's summary (zero on ideal links, where the plant reports none).
+    pub fn of(summary: &crate::summary::Summary) -> Self {
+        let plant = summary.processes.iter().find(|p| p.process == "plant");
+        let mut t = LinkTotals::default();
+        for l in plant.map_or(&[][..], |p| &p.links) {
+            t.steps += l.stats.steps;
+            t.delivered += l.stats.delivered;
+            t.blocked += l.stats.blocked;
+            t.delay_sum_steps += l.stats.delay_sum_steps;
         }
+        t
     }
     fn add(&mut self, o: &LinkTotals) {
         self.steps += o.steps;
@@ -126,9 +124,8 @@ fn spread(values: &[Option<f64>]) -> String {
         [] => "–".into(),
         [x] if values.len() == 1 => format!("{x:.4}"),
         xs => {
-            let mean = xs.iter().sum::<f64>() / xs.len() as f64;
-            let (lo, hi) = xs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(*x), b.max(*x)));
-            format!("{mean:.4} [{lo:.4}, {hi:.4}]")
+            let d = cohort_report::stats::describe(xs);
+            format!("{:.4} [{:.4}, {:.4}]", d.mean, d.min, d.max)
         }
     }
 }

@@ -96,19 +96,18 @@ impl LinkModel {
                 let i = self.readers[j][n] as usize;
                 let (a, b) = (&pos[i - 1], &pos[j]);
                 let bits = share_bits[i - 1] as f64;
-                let busy = self.busy_until_s[j][n];
-                let code = self.one(a, b, t_s, bits, busy);
+                let (r, busy) = (range_m(a, b), self.busy_until_s[j][n]);
+                let code = self.one(a, b, r, t_s, bits, busy);
                 self.busy_until_s[j][n] = self.next_busy(code, t_s, bits, busy);
-                self.stats[j][n].count(code, range_m(a, b));
+                self.stats[j][n].count(code, r);
                 codes[j].push(code);
             }
         }
     }
 
-    /// One link's code (the caller updates the busy time from it).
-    fn one(&mut self, a: &[f64; 3], b: &[f64; 3], t_s: f64, bits: f64, busy_until_s: f64) -> u32 {
+    /// One link's code, its ends a and b `r` apart (the caller updates the busy time from it).
+    fn one(&mut self, a: &[f64; 3], b: &[f64; 3], r: f64, t_s: f64, bits: f64, busy_until_s: f64) -> u32 {
         let l = &self.cfg;
-        let r = range_m(a, b);
         if l.max_range_m.is_some_and(|m| r > m) {
             return LINK_OUT_OF_RANGE;
         }

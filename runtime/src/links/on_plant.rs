@@ -2,7 +2,8 @@
 //! and the link columns of the plant's telemetry.
 //!
 //! The columns are averages over the last second of steps: with a rate cap every link sends in
-//! the same steps, so a per-step fraction only alternates between 0 and 1.
+//! the same steps, so a per-step fraction only alternates between 0 and 1. The window keeps
+//! whole counts, so its running sums are exact however long the run.
 
 use std::collections::VecDeque;
 
@@ -14,7 +15,7 @@ use super::{LinkModel, LinkSetup, delay_of};
 pub const COLUMNS: [&str; 3] = ["links_in_view_frac_1s", "links_delivered_frac_1s", "links_delay_mean_steps_1s"];
 
 /// Per step: (links, in view, delivered, sum of the delivered delays).
-type StepCounts = [f64; 4];
+type StepCounts = [u64; 4];
 
 pub struct PlantLinks {
     model: LinkModel,
@@ -36,7 +37,7 @@ impl PlantLinks {
             codes: vec![Vec::new(); n_agents],
             window: VecDeque::new(),
             window_steps: (1.0 / dt_s).ceil().max(1.0) as usize,
-            sums: [0.0; 4],
+            sums: [0; 4],
             rows: [(u64::MAX, [0.0; 3]); 2],
         }
     }
@@ -50,33 +51,29 @@ impl PlantLinks {
     /// Decide every link for the shares of step k (positions read first), and its columns.
     pub fn decide(&mut self, k: u64, share_bits: &[u64]) {
         self.model.decide(k, &self.positions, share_bits, &mut self.codes);
-        let mut counts = [0.0; 4];
+        let mut counts = [0; 4];
         for code in self.codes.iter().flatten() {
-            counts[0] += 1.0;
-            counts[1] += f64::from(u8::from(!matches!(*code, LINK_BLOCKED | LINK_OUT_OF_RANGE)));
+            counts[0] += 1;
+            counts[1] += u64::from(!matches!(*code, LINK_BLOCKED | LINK_OUT_OF_RANGE));
             if let Some(d) = delay_of(*code) {
-                counts[2] += 1.0;
-                counts[3] += d as f64;
+                counts[2] += 1;
+                counts[3] += d;
             }
         }
         self.slide(counts);
-        let s = &self.sums;
+        let s = self.sums.map(|x| x as f64);
         let frac = |x: f64, of: f64| if of > 0.0 { x / of } else { 0.0 };
         self.rows[(k % 2) as usize] = (k, [frac(s[1], s[0]), frac(s[2], s[0]), frac(s[3], s[2])]);
     }
 
-    /// The window's sums are recomputed from its steps (not kept by adding and subtracting),
-    /// so rounding never drifts over a long run.
+    /// Add step k's counts to the window and drop the step that leaves it.
     fn slide(&mut self, counts: StepCounts) {
         self.window.push_back(counts);
-        if self.window.len() > self.window_steps {
-            self.window.pop_front();
-        }
-        self.sums = [0.0; 4];
-        for c in &self.window {
-            for (s, x) in self.sums.iter_mut().zip(c) {
-                *s += x;
-            }
+        self.sums.iter_mut().zip(&counts).for_each(|(s, x)| *s += x);
+        if self.window.len() > self.window_steps
+            && let Some(old) = self.window.pop_front()
+        {
+            self.sums.iter_mut().zip(&old).for_each(|(s, x)| *s -= x);
         }
     }
 
