@@ -9,15 +9,20 @@
 //! both agents), `science` (the Table 5 analogue: 100 seeds of the science phase, PD and SMC
 //! attitude), `leader` (both spacecraft controlling, (70) with (66)), `orbit` (the orbit period
 //! with and without J2), `sources` (the Sec. 7 case with no noise, each noise source alone, and
-//! all, each law at 10 ms and 1 ms, two threads). No section: all of them
+//! all, each law at 10 ms and 1 ms, two threads), `fused` (the same case by noise set with the
+//! paper's dead-reckoned v̂_rel and with the fusing filter, two threads), `table5` (Table 5 by step
+//! and by reading of the wheel bias, two threads). No section: all of them
 //! (≈ 12 min on one core, and `sources` 8.7 min on two). Tables go to stdout as markdown.
 
 use std::time::Instant;
 
-use cohort_paper_vtxo::flight::config::{LeaderControl, RelativeController, ScienceAttitude, VtxoAlgorithmConfig};
+use cohort_paper_vtxo::flight::config::{
+    LeaderControl, RelativeController, RelativeNavigation, ScienceAttitude, VtxoAlgorithmConfig,
+};
 use cohort_paper_vtxo::flight::mekf::MekfVariant;
 use cohort_paper_vtxo::flight::relative_control::Switching;
 use cohort_paper_vtxo::formation::sim::Sim;
+use cohort_paper_vtxo::learn::science::sim as science_sim;
 use cohort_paper_vtxo::model::config::{AttitudeDraw, VtxoPlantConfig};
 use cohort_paper_vtxo::model::metrics::mekf_error_rad;
 use cohort_paper_vtxo::model::orbit::{Gravity, MU_EARTH_M3PS2, OrbitPair, V3};
@@ -275,36 +280,87 @@ fn sources() {
         .into_iter()
         .flat_map(|dt| Law::ALL.into_iter().flat_map(move |l| SOURCES.map(|s| (dt, l, s))))
         .collect();
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results = std::sync::Mutex::new(vec![None; jobs.len()]);
-    std::thread::scope(|sc| {
-        for _ in 0..2 {
-            sc.spawn(|| {
-                loop {
-                    let j = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                    let Some(&(dt, law, source)) = jobs.get(j) else { return };
-                    let mut a = VtxoAlgorithmConfig::default();
-                    law.apply(&mut a);
-                    let r = run(&only(source), &a, dt, 9300.0, 1);
-                    let cell = format!(
-                        "{:.3e} / {:.3e}",
-                        metric(&r.metrics, "transverse_rms_mm"),
-                        metric(&r.metrics, "transverse_max_mm")
-                    );
-                    results.lock().unwrap()[j] = Some(cell);
-                }
-            });
-        }
+    let results = on_two_threads(&jobs, |&(dt, law, source)| {
+        let mut a = VtxoAlgorithmConfig::default();
+        law.apply(&mut a);
+        let r = run(&only(source), &a, dt, 9300.0, 1);
+        format!("{:.3e} / {:.3e}", metric(&r.metrics, "transverse_rms_mm"), metric(&r.metrics, "transverse_max_mm"))
     });
-    let results = results.into_inner().unwrap();
     println!(
         "| source | {} |",
         [0.01, 0.001].map(|dt| Law::ALL.map(|l| format!("{} {} ms", l.name(), dt * 1e3)).join(" | ")).join(" | ")
     );
     println!("|---|{}", "---|".repeat(6));
     for (k, source) in SOURCES.iter().enumerate() {
-        let cells: Vec<String> = (0..6).map(|c| results[c * SOURCES.len() + k].clone().unwrap_or_default()).collect();
+        let cells: Vec<String> = (0..6).map(|c| results[c * SOURCES.len() + k].clone()).collect();
         println!("| {source} | {} |", cells.join(" | "));
+    }
+}
+
+/// `f` of every job on two threads, in the jobs' order.
+fn on_two_threads<J: Sync, R: Send>(jobs: &[J], f: impl Fn(&J) -> R + Sync) -> Vec<R> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let next = AtomicUsize::new(0);
+    let results = std::sync::Mutex::new((0..jobs.len()).map(|_| None).collect::<Vec<Option<R>>>());
+    std::thread::scope(|sc| {
+        for _ in 0..2 {
+            sc.spawn(|| {
+                loop {
+                    let j = next.fetch_add(1, Ordering::SeqCst);
+                    let Some(job) = jobs.get(j) else { return };
+                    let r = f(job);
+                    results.lock().expect("no worker panicked")[j] = Some(r);
+                }
+            });
+        }
+    });
+    results.into_inner().expect("no worker panicked").into_iter().map(|r| r.expect("every job ran")).collect()
+}
+
+/// Sec. 7 at the paper's conditions with the follower's relative navigation as the paper has it
+/// (dead reckoning of v̂_rel from the accelerometers) and with the fusing filter
+/// (`algorithm.relative.navigation = "filter"`): each law at 10 ms and 1 ms, with no noise, with
+/// the accelerometer noise, its bias, the position sensors, or everything. Two threads.
+fn fused() {
+    const SETS: [&str; 5] = ["none", "accelerometer noise", "accelerometer bias", "ranging + interferometer", "all"];
+    const NAVS: [RelativeNavigation; 2] = [RelativeNavigation::DeadReckoning, RelativeNavigation::Filter];
+    let jobs: Vec<(RelativeNavigation, &str, f64, Law)> = NAVS
+        .into_iter()
+        .flat_map(|n| SETS.into_iter().flat_map(move |s| [0.01, 0.001].into_iter().flat_map(move |dt| Law::ALL.map(|l| (n, s, dt, l)))))
+        .collect();
+    let results = on_two_threads(&jobs, |&(nav, set, dt, law)| {
+        let mut a = VtxoAlgorithmConfig::default();
+        law.apply(&mut a);
+        a.relative.navigation = nav;
+        let m = run(&only(set), &a, dt, 9300.0, 1).metrics;
+        let g = |k: &str| metric(&m, k);
+        (
+            format!("{:.3e} / {:.3e}", g("transverse_rms_mm"), g("transverse_max_mm")),
+            format!("{:.2e}", g("follower_v_rel_hat_error_end_mps")),
+            format!("{:.3}", g("range_error_end_m")),
+        )
+    });
+    let head = [0.01, 0.001].map(|dt| Law::ALL.map(|l| format!("{} {} ms", l.name(), dt * 1e3)).join(" | ")).join(" | ");
+    for (title, pick) in [
+        ("transverse RMS / max over the last 15 s (mm)", 0),
+        ("‖v̂_rel − v_rel‖ at the end (m/s)", 1),
+        ("range error at the end (m)", 2),
+    ] {
+        println!("\n### Sec. 7 by navigation and noise set: {title}, seed 1, 9 300 s\n");
+        println!("| navigation | noise | {head} |");
+        println!("|---|---|{}", "---|".repeat(6));
+        for (row, chunk) in results.chunks(6).enumerate() {
+            let (nav, set, _, _) = jobs[row * 6];
+            let cells: Vec<&str> = chunk.iter().map(|c| [&c.0, &c.1, &c.2][pick].as_str()).collect();
+            println!("| {} | {set} | {} |", nav_name(nav), cells.join(" | "));
+        }
+    }
+}
+
+fn nav_name(n: RelativeNavigation) -> &'static str {
+    match n {
+        RelativeNavigation::DeadReckoning => "dead reckoning",
+        RelativeNavigation::Filter => "filter",
     }
 }
 
@@ -446,6 +502,82 @@ fn science() {
     }
 }
 
+/// Mean and P99 of the finite values, and how many were not (diverged flights).
+fn spread(v: &[f64]) -> (f64, f64, usize) {
+    let mut ok: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    let m = ok.iter().sum::<f64>() / ok.len().max(1) as f64;
+    (m, p99(&mut ok), v.len() - ok.len())
+}
+
+/// A flight diverged when its rate ends above 1 deg/s (the starts are 0.05 deg/s 1σ) or its
+/// numbers are not finite; its e and E are then NaN (left out of the statistics and counted).
+fn science_outcome(o: &science_sim::Outcome) -> (f64, f64) {
+    let w = o.omega_end_rad_s.norm().to_degrees();
+    if w.is_finite() && w < 1.0 && o.error_deg.is_finite() && o.energy_j.is_finite() {
+        (o.error_deg, o.energy_j)
+    } else {
+        (f64::NAN, f64::NAN)
+    }
+}
+
+/// Table 5 against the step and the reading of the wheel bias: Table 4's gains over the science
+/// phase (0.2 h) at dt 0.01, 0.1, 1 and 2 s (the author's code integrates at 2 s), (a) in the
+/// Pareto data's flight (truth feedback, `learn/science/sim.rs`) for every reading of Table E.10's
+/// b_τ, 100 draws (seed 1), common random numbers; (b) in the full plant (MEKF, sensors, every
+/// model; the plant's reading), 100 seeds, leader's metrics.
+fn table5() {
+    use science_sim::{ScienceLaw, WheelBias};
+    println!("\n### Table 5 by step and wheel-bias reading, science-phase flight (truth feedback), 100 draws\n");
+    println!("| dt (s) | b_τ reading | PD e mean / P99 (deg) | PD E mean / P99 (J) | PD diverged | SMC e mean / P99 (deg) | SMC E mean / P99 (J) | SMC diverged |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let jobs: Vec<(f64, WheelBias)> =
+        [0.01, 0.1, 1.0, 2.0].into_iter().flat_map(|dt| WheelBias::ALL.map(|b| (dt, b))).collect();
+    let rows = on_two_threads(&jobs, |&(dt, bias)| {
+        ScienceLaw::ALL.map(|law| {
+            let (mut e, mut en) = (Vec::new(), Vec::new());
+            for i in 0..100 {
+                let (start, env, _) = science_sim::draw_with(1, i, science_sim::steps(science_sim::PHASE_S, dt), dt, bias);
+                let (a, b) = science_outcome(&science_sim::fly(&start, &env, &law.law(law.table4()), dt));
+                e.push(a);
+                en.push(b);
+            }
+            let ((em, ep, n), (jm, jp, _)) = (spread(&e), spread(&en));
+            format!("{em:.4} / {ep:.4} | {jm:.3e} / {jp:.3e} | {n}")
+        })
+    });
+    for ((dt, bias), [pd, smc]) in jobs.iter().zip(rows) {
+        println!("| {dt} | {} | {pd} | {smc} |", bias.name());
+    }
+    println!("\n### Table 5 by step, full plant (leader; follower alike), 100 seeds\n");
+    println!("| dt (s) | PD e mean / P99 (deg) | PD E mean / P99 (J) | PD diverged | SMC e mean / P99 (deg) | SMC E mean / P99 (J) | SMC diverged |");
+    println!("|---|---|---|---|---|---|---|");
+    let jobs: Vec<(f64, ScienceAttitude)> =
+        [0.01, 0.1, 1.0, 2.0].into_iter().flat_map(|dt| [ScienceAttitude::Pd, ScienceAttitude::Smc].map(|l| (dt, l))).collect();
+    let cells = on_two_threads(&jobs, |&(dt, sci)| {
+        let (mut e, mut en) = (Vec::new(), Vec::new());
+        for seed in 1..=100 {
+            let mut p = VtxoPlantConfig::default();
+            p.attitude.draw = AttitudeDraw::Science;
+            p.orbit.r_rel0_eci_m = p.metrics.r_target_eci_m;
+            p.orbit.v_rel0_eci_mps = [0.0; 3];
+            let mut a = VtxoAlgorithmConfig::default();
+            a.attitude.science = sci;
+            a.relative.controller = RelativeController::Off;
+            let r = run(&p, &a, dt, 720.0, seed);
+            let (em, jm) = (metric(&r.metrics, "leader_attitude_error_mean_deg"), metric(&r.metrics, "leader_energy_j"));
+            // The same divergence rule as the flight's: an error past 10° or a non-finite number.
+            let ok = em.is_finite() && em < 10.0 && jm.is_finite();
+            e.push(if ok { em } else { f64::NAN });
+            en.push(if ok { jm } else { f64::NAN });
+        }
+        let ((em, ep, n), (jm, jp, _)) = (spread(&e), spread(&en));
+        format!("{em:.4} / {ep:.4} | {jm:.3e} / {jp:.3e} | {n}")
+    });
+    for (k, pair) in cells.chunks(2).enumerate() {
+        println!("| {} | {} | {} |", jobs[2 * k].0, pair[0], pair[1]);
+    }
+}
+
 fn leader_smc() {
     println!("\n### Both spacecraft control: leader (70) + follower (66), each with the other's previous command\n");
     println!("Start r_rel(0) = [10, 20, 1100] m, v_rel(0) = [1, 1, 1] m/s, 200 s at dt 10 ms, seed 1.\n");
@@ -490,6 +622,9 @@ fn main() {
     if want("sources") {
         sources();
     }
+    if want("fused") {
+        fused();
+    }
     if want("sec7") {
         sec7();
     }
@@ -498,6 +633,9 @@ fn main() {
     }
     if want("science") {
         science();
+    }
+    if want("table5") {
+        table5();
     }
     if want("leader") {
         leader_smc();

@@ -10,6 +10,7 @@ use crate::config::Checker;
 use crate::flight::attitude_control::AttitudeLaw;
 use crate::flight::mekf::{FilterModel, MekfVariant};
 use crate::flight::relative_control::{RelativeLaw, Switching};
+use crate::flight::relative_filter::RelativeFilterConfig;
 use crate::model::config::StarTrackerConfig;
 
 /// The ACS phase (Sec. 2.1): which attitude law flies.
@@ -237,6 +238,9 @@ pub struct RelativeControlConfig {
     pub v_target_eci_mps: [f64; 3],
     pub smc: RelativeSmcGains,
     pub pd: RelativePdGains,
+    pub navigation: RelativeNavigation,
+    /// What the filter assumes (`navigation = "filter"` only).
+    pub filter: RelativeFilterConfig,
 }
 
 impl Default for RelativeControlConfig {
@@ -248,6 +252,8 @@ impl Default for RelativeControlConfig {
             v_target_eci_mps: [0.0; 3],
             smc: RelativeSmcGains::default(),
             pd: RelativePdGains::default(),
+            navigation: RelativeNavigation::default(),
+            filter: RelativeFilterConfig::default(),
         }
     }
 }
@@ -279,6 +285,17 @@ impl Default for RelativePdGains {
     fn default() -> Self {
         Self { p: 1.0, d: 1.0 }
     }
+}
+
+/// How the follower estimates r_rel, v_rel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum RelativeNavigation {
+    /// Sec. 7: each sensor read for its own state, v̂_rel integrated from the accelerometers.
+    #[default]
+    DeadReckoning,
+    /// Ours: the readings fused by [`crate::flight::relative_filter`].
+    Filter,
 }
 
 /// `[algorithm.leader]`.
@@ -313,6 +330,14 @@ impl VtxoAlgorithmConfig {
             },
             RelativeController::Pd => RelativeLaw::Pd { p: r.pd.p, d: r.pd.d },
             RelativeController::Off => RelativeLaw::Off,
+        }
+    }
+
+    /// The follower's navigation filter, when it flies one.
+    pub fn relative_filter(&self) -> Option<RelativeFilterConfig> {
+        match self.relative.navigation {
+            RelativeNavigation::DeadReckoning => None,
+            RelativeNavigation::Filter => Some(self.relative.filter.clone()),
         }
     }
 
@@ -359,6 +384,18 @@ impl VtxoAlgorithmConfig {
         c.positive_all(&format!("{p}.smc.epsilon_mps"), &r.smc.epsilon_mps);
         c.positive(&format!("{p}.pd.p"), r.pd.p);
         c.non_negative(&format!("{p}.pd.d"), r.pd.d);
+        let f = &r.filter;
+        // R and the prior of v must be positive definite; the rest may be zero.
+        c.positive_all(&format!("{p}.filter.position_noise_3sigma_m"), &f.position_noise_3sigma_m);
+        c.positive(&format!("{p}.filter.initial_velocity_3sigma_mps"), f.initial_velocity_3sigma_mps);
+        c.positive(&format!("{p}.filter.accel_bias_tau_s"), f.accel_bias_tau_s);
+        for (k, v) in [
+            ("accel_noise_3sigma_mps2", f.accel_noise_3sigma_mps2),
+            ("accel_bias_3sigma_mps2", f.accel_bias_3sigma_mps2),
+            ("unmodelled_accel_3sigma_mps2", f.unmodelled_accel_3sigma_mps2),
+        ] {
+            c.non_negative(&format!("{p}.filter.{k}"), v);
+        }
         c.problems
     }
 

@@ -14,6 +14,7 @@ use crate::flight::acs::Acs;
 use crate::flight::attitude_control::AttitudeLaw;
 use crate::flight::layout::Readings;
 use crate::flight::relative_control::{RelativeLaw, RelativeState, follower_accel, sliding_vector};
+use crate::flight::relative_filter::RelativeFilterConfig;
 use crate::flight::relative_nav::RelativeNav;
 use crate::flight::share::{FollowerShare, LeaderShare};
 use crate::model::quaternion::V3;
@@ -39,11 +40,12 @@ impl Follower {
         mu_m3ps2: f64,
         r_target_eci_m: V3,
         v_target_eci_mps: V3,
+        filter: Option<RelativeFilterConfig>,
     ) -> Self {
         Self {
             acs,
             law,
-            nav: RelativeNav::new(mu_m3ps2),
+            nav: RelativeNav::new(mu_m3ps2, filter),
             mass_kg,
             r_target_eci_m,
             v_target_eci_mps,
@@ -85,6 +87,11 @@ impl Algorithm for Follower {
         for (name, unit) in [("f_cmd", "n"), ("r_rel_hat_eci", "m"), ("v_rel_hat_eci", "mps"), ("s_eci", "mps")] {
             for ax in ["x", "y", "z"] {
                 c.push(format!("{name}_{ax}_{unit}"));
+            }
+        }
+        if self.nav.filter_cfg.is_some() {
+            for (name, unit) in [("accel_bias_hat_eci", "mps2"), ("v_rel_sigma_eci", "mps")] {
+                c.extend(["x", "y", "z"].map(|ax| format!("{name}_{ax}_{unit}")));
             }
         }
         c
@@ -133,5 +140,11 @@ impl Algorithm for Follower {
         // NaN until v̂_rel is known (step 0): a zero would read as an estimate.
         out.extend(self.nav.v_rel_mps.unwrap_or(V3::repeat(f64::NAN)).iter());
         out.extend(self.sliding().iter());
+        if self.nav.filter_cfg.is_some() {
+            // NaN until the filter starts with v̂_rel (step 0).
+            let f = self.nav.filter.as_ref();
+            out.extend(f.map_or(V3::repeat(f64::NAN), |f| f.bias_mps2()).iter());
+            out.extend(f.map_or(V3::repeat(f64::NAN), |f| f.v_sigma_mps()).iter());
+        }
     }
 }

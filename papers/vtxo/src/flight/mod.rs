@@ -13,5 +13,6 @@ pub mod layout;
 pub(crate) mod leader;
 pub mod mekf;
 pub mod relative_control;
+pub mod relative_filter;
 pub(crate) mod relative_nav;
 pub mod share;

@@ -13,9 +13,14 @@
 //!   the follower has no v̂_rel (and commands no thrust) at step 0.
 //! - r̂_L, v̂_L are the leader's shared estimates, propagated by the follower over each step with
 //!   the point-mass model (36)–(37) and the leader's shared command.
+//!
+//! With `algorithm.relative.navigation = "filter"` (ours, not the paper's) the same readings go
+//! through [`crate::flight::relative_filter`] instead: r̂_rel and v̂_rel are the filter's, and the
+//! differential accelerometer bias is estimated, so v̂_rel no longer drifts.
 
 use serde::{Deserialize, Serialize};
 
+use crate::flight::relative_filter::{RelativeFilter, RelativeFilterConfig};
 use crate::flight::share::LeaderShare;
 use crate::model::orbit::{point_mass_accel, rk4_point_mass};
 use crate::model::quaternion::V3;
@@ -31,10 +36,13 @@ pub struct RelativeNav {
     pub a_leader_meas_mps2: V3,
     /// The follower's own hand-over velocity, kept until the leader's state arrives.
     pub own_handover_v_mps: Option<V3>,
+    /// The fusing filter's statistics when it flies, and the filter once v̂_rel(t₀) is known.
+    pub filter_cfg: Option<RelativeFilterConfig>,
+    pub filter: Option<RelativeFilter>,
 }
 
 impl RelativeNav {
-    pub fn new(mu_m3ps2: f64) -> Self {
+    pub fn new(mu_m3ps2: f64, filter_cfg: Option<RelativeFilterConfig>) -> Self {
         Self {
             mu_m3ps2,
             r_rel_m: V3::zeros(),
@@ -43,15 +51,25 @@ impl RelativeNav {
             u_leader_mps2: V3::zeros(),
             a_leader_meas_mps2: V3::zeros(),
             own_handover_v_mps: None,
+            filter_cfg,
+            filter: None,
         }
     }
 
     /// At step k: integrate v̂_rel over the step that just ended (with the r̂_rel of its start and
     /// the follower's accelerometer reading of step k), then take the new position measurement.
+    /// With the filter: its prediction over the step with the same input, then its update with the
+    /// reading.
     pub fn measure(&mut self, dt_s: f64, r_rel_meas_m: &V3, accel_meas_mps2: &V3) {
         if let (Some(v), Some((rl, _))) = (&mut self.v_rel_mps, &self.leader_rv) {
             let dg = point_mass_accel(self.mu_m3ps2, &(rl + self.r_rel_m)) - point_mass_accel(self.mu_m3ps2, rl);
-            *v += dt_s * (dg + accel_meas_mps2 - self.a_leader_meas_mps2);
+            let u = dg + accel_meas_mps2 - self.a_leader_meas_mps2;
+            if let Some(f) = &mut self.filter {
+                f.step(dt_s, &u, r_rel_meas_m);
+                (self.r_rel_m, *v) = (f.r_m(), f.v_mps());
+                return;
+            }
+            *v += dt_s * u;
         }
         self.r_rel_m = *r_rel_meas_m;
     }
@@ -67,7 +85,9 @@ impl RelativeNav {
         if self.v_rel_mps.is_none()
             && let Some(vf) = self.own_handover_v_mps.take()
         {
-            self.v_rel_mps = Some(vf - s.v_eci_mps);
+            let v = vf - s.v_eci_mps;
+            self.v_rel_mps = Some(v);
+            self.filter = self.filter_cfg.as_ref().map(|c| RelativeFilter::new(c, &self.r_rel_m, &v));
         }
     }
 

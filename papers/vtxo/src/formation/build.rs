@@ -78,5 +78,6 @@ pub fn build_follower(cfg: &VtxoAlgorithmConfig) -> follower::Follower {
         orbit::MU_EARTH_M3PS2,
         V3::from(r.r_target_eci_m),
         V3::from(r.v_target_eci_mps),
+        cfg.relative_filter(),
     )
 }

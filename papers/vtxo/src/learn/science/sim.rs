@@ -126,9 +126,67 @@ pub struct Environment {
     pub disturbance_n_m: Vec<V3>,
 }
 
+/// How Table E.10's wheel-bias entry (w_bτ = 1 mN·m 3σ, τ_τ = 1 h, no initial value) is read.
+/// The plant and the Pareto data use [`WheelBias::EcrvFromZero`]; the others are the readings
+/// the Table 5 study compares.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum WheelBias {
+    /// No bias.
+    Off,
+    /// w_bτ the stationary 3σ of the ECRV b_τ, started at 0 (ours).
+    EcrvFromZero,
+    /// The same ECRV started at a draw from its stationary spread.
+    EcrvStationary,
+    /// w_bτ the 3σ of the driving noise of each sample: b⁺ = e^{−Δt/τ} b + w n (depends on Δt).
+    DrivenPerSample,
+    /// w_bτ a driving density, N·m/√s: b⁺ = e^{−Δt/τ} b + w √Δt n.
+    DrivenPerRootSecond,
+}
+
+impl WheelBias {
+    pub const ALL: [WheelBias; 5] = [
+        WheelBias::Off,
+        WheelBias::EcrvFromZero,
+        WheelBias::EcrvStationary,
+        WheelBias::DrivenPerSample,
+        WheelBias::DrivenPerRootSecond,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            WheelBias::Off => "off",
+            WheelBias::EcrvFromZero => "ECRV from 0 (ours)",
+            WheelBias::EcrvStationary => "ECRV drawn",
+            WheelBias::DrivenPerSample => "driven per sample",
+            WheelBias::DrivenPerRootSecond => "driven per √s",
+        }
+    }
+
+    /// (initial 3σ, stationary 3σ) of the ECRV that realises this reading at step `dt_s` for the
+    /// entry `w` (a driving noise q per step is an ECRV of stationary σ = q/√(1 − φ²)).
+    fn ecrv_3sigma(self, w: f64, tau_s: f64, dt_s: f64) -> (f64, f64) {
+        let per_step = (1.0 - (-2.0 * dt_s / tau_s).exp()).sqrt();
+        match self {
+            WheelBias::Off => (0.0, 0.0),
+            WheelBias::EcrvFromZero => (0.0, w),
+            WheelBias::EcrvStationary => (w, w),
+            WheelBias::DrivenPerSample => (0.0, w / per_step),
+            WheelBias::DrivenPerRootSecond => (0.0, w * dt_s.sqrt() / per_step),
+        }
+    }
+}
+
 /// The start of draw `index` of `seed` and its environment over `steps` steps of `dt_s`, from
-/// the ChaCha8 stream (seed, index) (returned for whatever the caller draws next).
+/// the ChaCha8 stream (seed, index) (returned for whatever the caller draws next), with the
+/// plant's reading of the wheel bias.
 pub fn draw(seed: u64, index: u64, steps: usize, dt_s: f64) -> (Start, Environment, ChaCha8Rng) {
+    draw_with(seed, index, steps, dt_s, WheelBias::EcrvFromZero)
+}
+
+/// [`draw`] with another reading of the wheel bias. Every reading consumes the stream alike, so
+/// one (seed, index) gives the same start, noise and disturbance under each (common random
+/// numbers: the readings differ by the bias alone).
+pub fn draw_with(seed: u64, index: u64, steps: usize, dt_s: f64, bias: WheelBias) -> (Start, Environment, ChaCha8Rng) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(index);
     let theta = white::<3, _>(THETA0_SIGMA_DEG.to_radians(), &mut rng);
@@ -136,12 +194,13 @@ pub fn draw(seed: u64, index: u64, steps: usize, dt_s: f64) -> (Start, Environme
         V3::from_fn(|i, _| Normal::new(0.0, OMEGA0_SIGMA_DEG_S[i].to_radians()).expect("σ > 0").sample(&mut rng));
     let start = Start { q: quaternion::from_rotation_vector(&theta), omega_rad_s: omega };
     // Table E.10's wheels as the plant builds them (plant.rs `make_craft`, WheelConfig defaults).
+    let (bias0_3sigma, bias_3sigma) = bias.ecrv_3sigma(1e-3, 3600.0, dt_s);
     let model = ErrorModel {
         scale_3sigma: 0.01,
         misalignment_3sigma_rad: 1e-3,
         noise_3sigma: 1e-3,
-        bias_3sigma: 1e-3,
-        bias0_3sigma: 0.0,
+        bias_3sigma,
+        bias0_3sigma,
         bias_tau_s: 3600.0,
     };
     let mut wheels = Actuator::new(&model, &mut rng);
@@ -228,6 +287,36 @@ mod tests {
         let (_, e, _) = draw(7, 0, 20_000, DT_S);
         let sd = (e.disturbance_n_m.iter().map(|d| d.x * d.x).sum::<f64>() / 20_000.0).sqrt();
         assert!((sd / (TORQUE_NOISE_3SIGMA_N_M / 3.0) - 1.0).abs() < 0.05, "σ w_ω {sd}");
+    }
+
+    #[test]
+    fn wheel_bias_readings_differ_by_the_bias_alone() {
+        let (dt, n) = (0.1, 7200);
+        let (s0, off, _) = draw_with(5, 2, n, dt, WheelBias::Off);
+        let bias_at = |b: WheelBias| {
+            let (s, e, _) = draw_with(5, 2, n, dt, b);
+            assert_eq!((s, &e.disturbance_n_m), (s0, &off.disturbance_n_m), "{b:?}");
+            // The wheel error less the (shared) white noise is the bias.
+            (0..n).map(|k| e.wheel_error_n_m[k] - off.wheel_error_n_m[k]).collect::<Vec<V3>>()
+        };
+        assert_eq!(draw(5, 2, n, dt).1.wheel_error_n_m, draw_with(5, 2, n, dt, WheelBias::EcrvFromZero).1.wheel_error_n_m);
+        let from_zero = bias_at(WheelBias::EcrvFromZero);
+        let drawn = bias_at(WheelBias::EcrvStationary);
+        let per_sample = bias_at(WheelBias::DrivenPerSample);
+        let per_root_s = bias_at(WheelBias::DrivenPerRootSecond);
+        assert_eq!((from_zero[0], per_sample[0], per_root_s[0]), (V3::zeros(), V3::zeros(), V3::zeros()));
+        assert_ne!(drawn[0], V3::zeros());
+        // After 720 s, over the three axes: a driven walk of q per step has σ ≈ q√n (n ≪ τ/Δt);
+        // per √s, q√Δt per step; from 0 the ECRV has σ√(1 − e^{−2t/τ}) ≈ 0.57σ. Loose bounds (3 samples).
+        let rms = |v: &[V3]| (v[n - 1].norm_squared() / 3.0).sqrt();
+        let q = 1e-3 / 3.0;
+        for (name, got, want) in [
+            ("per sample", rms(&per_sample), q * (n as f64).sqrt()),
+            ("per √s", rms(&per_root_s), q * (n as f64 * dt).sqrt()),
+            ("from zero", rms(&from_zero), q * (1.0 - (-2.0 * 720.0 / 3600.0f64).exp()).sqrt()),
+        ] {
+            assert!(got > 0.2 * want && got < 3.0 * want, "{name}: {got:e} vs {want:e}");
+        }
     }
 
     #[test]

@@ -51,11 +51,26 @@ pub struct Options {
     pub lr: f64,
     pub max_norm: f64,
     pub folds: usize,
+    /// The fraction of rows with the largest χ = E + w·e dropped before training (Sec. 5's
+    /// post-processing, as we read it: see [`keep_best`]).
+    pub drop_worst: f64,
 }
 
 impl Options {
     pub fn reference(data: PathBuf, out: PathBuf, seed: u64) -> Self {
-        Self { data, out, seed, hidden: 32, epochs: 300, patience: 20, batch: 64, lr: 1e-3, max_norm: 3.0, folds: 4 }
+        Self {
+            data,
+            out,
+            seed,
+            hidden: 32,
+            epochs: 300,
+            patience: 20,
+            batch: 64,
+            lr: 1e-3,
+            max_norm: 3.0,
+            folds: 4,
+            drop_worst: DROP_WORST,
+        }
     }
 }
 
@@ -73,6 +88,24 @@ pub fn read_table(path: &Path) -> Result<Table, String> {
     let x = (0..n).map(|r| std::array::from_fn(|i| cols[i][r])).collect();
     let y = (0..n).map(|r| std::array::from_fn(|o| cols[N_IN + o][r])).collect();
     Ok(Table { x, y })
+}
+
+/// Sec. 5: "removing the top 80% of data with the highest χ values to enhance the accuracy of ML
+/// estimation". Read literally that keeps a fifth of the points; we read it as removing the points
+/// above the 80th percentile of χ (the worst 20 %): the author's published table holds 7 892 rows at
+/// a stated 0.51 h per point, i.e. ≈ 4 000 h of production, and the literal reading would need
+/// five times that. Either is one flag away (`--drop-worst 0.8`).
+pub const DROP_WORST: f64 = 0.2;
+
+/// The rows whose χ = E + w·e is at most the (1 − `drop_worst`) quantile of the table's χ (ties
+/// kept), in the table's order.
+pub fn keep_best(t: &Table, drop_worst: f64) -> Table {
+    let chi: Vec<f64> = t.x.iter().zip(&t.y).map(|(x, y)| y[0] + x[N_IN - 1] * y[1]).collect();
+    let mut sorted = chi.clone();
+    sorted.sort_by(f64::total_cmp);
+    let cut = if drop_worst <= 0.0 { f64::INFINITY } else { quantile(&sorted, 1.0 - drop_worst) };
+    let keep: Vec<usize> = (0..chi.len()).filter(|&r| chi[r] <= cut).collect();
+    Table { x: keep.iter().map(|&r| t.x[r]).collect(), y: keep.iter().map(|&r| t.y[r]).collect() }
 }
 
 /// Standardisation of the inputs and scale of the outputs, from training rows.
@@ -233,6 +266,8 @@ fn split_validation(rows: &[usize]) -> (Vec<usize>, Vec<usize>) {
 /// What the cross-validation and the final fit measured.
 #[derive(Debug, Clone)]
 pub struct Report {
+    /// Rows of the table, and rows kept by the post-processing.
+    pub rows: usize,
     pub points: usize,
     /// MAPE per output and fold, percent.
     pub fold_mape: Vec<[f64; N_OUT]>,
@@ -247,9 +282,12 @@ pub struct Report {
 impl Report {
     pub fn markdown(&self, command: &str, o: &Options) -> String {
         let mut md = format!(
-            "# Transient DNN (Sec. 3.2.1)\n\n`{command}`\n\n{} points; heads 8-{h}-{h}-1 ×5, ReLU, Adam lr {}, batch {}, \
+            "# Transient DNN (Sec. 3.2.1)\n\n`{command}`\n\n{} of the table's {} rows (the {:.0} % with the largest χ = E + w·e \
+             dropped); heads 8-{h}-{h}-1 ×5, ReLU, Adam lr {}, batch {}, \
              max-norm {}, ≤ {} epochs, patience {}.\n\n| output | 4-fold MAPE % (per fold) | mean | held-out P99 | data P99 |\n|---|---|---|---|---|\n",
             self.points,
+            self.rows,
+            100.0 * o.drop_worst,
             o.lr,
             o.batch,
             o.max_norm,
@@ -277,7 +315,8 @@ impl Report {
 
 /// Train with cross-validation, write the weights; returns the report.
 pub fn train(o: &Options) -> Result<Report, String> {
-    let t = read_table(&o.data)?;
+    let all = read_table(&o.data)?;
+    let t = keep_best(&all, o.drop_worst);
     let n = t.x.len();
     if n < 2 * o.folds.max(2) {
         return Err(format!("{}: {n} rows, too few for {}-fold cross-validation", o.data.display(), o.folds));
@@ -322,6 +361,7 @@ pub fn train(o: &Options) -> Result<Report, String> {
     }
     std::fs::write(&o.out, fin.dnn.to_bytes()).map_err(|e| format!("{}: {e}", o.out.display()))?;
     Ok(Report {
+        rows: all.x.len(),
         points: n,
         fold_mape,
         fold_epochs,
@@ -341,6 +381,21 @@ pub fn report_path(weights: &Path) -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn post_processing_drops_the_largest_chi() {
+        // χ = E + w·e for rows 0..10: E = r, e = 1, w = 10 − 2r → χ = 10 − r (row 0 worst).
+        let t = Table {
+            x: (0..10).map(|r| std::array::from_fn(|i| if i == N_IN - 1 { 10.0 - 2.0 * r as f64 } else { 0.0 })).collect(),
+            y: (0..10).map(|r| [r as f64, 1.0, 72.0, 0.1, 0.2]).collect(),
+        };
+        let kept = keep_best(&t, 0.2);
+        let energies: Vec<f64> = kept.y.iter().map(|y| y[0]).collect();
+        // P80 of χ ∈ {1..10} is 8.2: rows with χ 9 and 10 (rows 1 and 0) go, the order stays.
+        assert_eq!(energies, (2..10).map(f64::from).collect::<Vec<_>>());
+        assert_eq!(keep_best(&t, 0.0).y.len(), 10);
+        assert_eq!(keep_best(&t, 0.8).y.len(), 2);
+    }
 
     #[test]
     fn the_plain_forward_pass_matches_candle() {

@@ -68,6 +68,10 @@ pub struct DnnArgs {
     /// Units per hidden layer.
     #[arg(long, default_value_t = 32)]
     pub hidden: usize,
+    /// Fraction of the rows with the largest χ = E + w·e dropped before training (the paper's
+    /// post-processing as we read it; 0 keeps every row).
+    #[arg(long, default_value_t = crate::learn::transient::train::DROP_WORST)]
+    pub drop_worst: f64,
 }
 
 /// `orchestrator vtxo transient-mc` arguments.
@@ -121,18 +125,22 @@ fn run_dnn(matches: &clap::ArgMatches) -> Result<String, CommandError> {
             crate::learn::transient::dnn::MAX_HIDDEN
         )));
     }
+    if !(0.0..1.0).contains(&a.drop_worst) {
+        return Err(CommandError::invalid(format!("--drop-worst {}: a fraction in [0, 1)", a.drop_worst)));
+    }
     if let Err(e) = crate::learn::transient::train::read_table(&a.data) {
         return Err(CommandError::invalid(format!("--data: {e}")));
     }
     let mut o = crate::learn::transient::train::Options::reference(a.data.clone(), a.out.clone(), a.seed);
-    (o.epochs, o.hidden) = (a.epochs, a.hidden);
+    (o.epochs, o.hidden, o.drop_worst) = (a.epochs, a.hidden, a.drop_worst);
     let command = format!(
-        "orchestrator train {DNN_NAME} --data {} --out {} --seed {} --epochs {} --hidden {}",
+        "orchestrator train {DNN_NAME} --data {} --out {} --seed {} --epochs {} --hidden {} --drop-worst {}",
         a.data.display(),
         a.out.display(),
         a.seed,
         a.epochs,
-        a.hidden
+        a.hidden,
+        a.drop_worst
     );
     let t0 = std::time::Instant::now();
     let report = crate::learn::transient::train::train(&o).map_err(CommandError::failed)?;
