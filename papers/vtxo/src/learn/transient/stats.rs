@@ -83,14 +83,18 @@ pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, String
 /// Table 2's analogue of a data table, as markdown.
 pub fn table2_markdown(path: &Path) -> Result<String, String> {
     let names: Vec<&str> = ROWS.iter().map(|r| r.1).collect();
-    let cols = read_columns(path, &names)?;
+    Ok(table2_of(&read_columns(path, &names)?))
+}
+
+/// Table 2's analogue of columns in [`ROWS`]' order, as markdown.
+pub fn table2_of(cols: &[Vec<f64>]) -> String {
     let mut t = MdTable::new(["y", "mean", "mode", "variance", "P1", "max", "P99"]);
-    for ((name, _), c) in ROWS.iter().zip(&cols) {
+    for ((name, _), c) in ROWS.iter().zip(cols) {
         let s = stats(c);
         let f4 = |x: f64| format!("{x:.4}");
         t.row([name.to_string(), f4(s.mean), f4(s.mode), format!("{:.4e}", s.var), f4(s.p1), f4(s.max), f4(s.p99)]);
     }
-    Ok(format!("{} points\n\n{t}", cols[0].len()))
+    format!("{} points\n\n{t}", cols.first().map_or(0, Vec::len))
 }
 
 #[cfg(test)]
