@@ -326,7 +326,10 @@ fn fused() {
     const NAVS: [RelativeNavigation; 2] = [RelativeNavigation::DeadReckoning, RelativeNavigation::Filter];
     let jobs: Vec<(RelativeNavigation, &str, f64, Law)> = NAVS
         .into_iter()
-        .flat_map(|n| SETS.into_iter().flat_map(move |s| [0.01, 0.001].into_iter().flat_map(move |dt| Law::ALL.map(|l| (n, s, dt, l)))))
+        .flat_map(|n| {
+            SETS.into_iter()
+                .flat_map(move |s| [0.01, 0.001].into_iter().flat_map(move |dt| Law::ALL.map(|l| (n, s, dt, l))))
+        })
         .collect();
     let results = on_two_threads(&jobs, |&(nav, set, dt, law)| {
         let mut a = VtxoAlgorithmConfig::default();
@@ -334,9 +337,13 @@ fn fused() {
         a.relative.navigation = nav;
         let m = run(&only(set), &a, dt, 9300.0, 1).metrics;
         let g = |k: &str| metric(&m, k);
-        (format!("{:.3e} / {:.3e}", g("transverse_rms_mm"), g("transverse_max_mm")), format!("{:.3}", g("range_error_end_m")))
+        (
+            format!("{:.3e} / {:.3e}", g("transverse_rms_mm"), g("transverse_max_mm")),
+            format!("{:.3}", g("range_error_end_m")),
+        )
     });
-    let head = [0.01, 0.001].map(|dt| Law::ALL.map(|l| format!("{} {} ms", l.name(), dt * 1e3)).join(" | ")).join(" | ");
+    let head =
+        [0.01, 0.001].map(|dt| Law::ALL.map(|l| format!("{} {} ms", l.name(), dt * 1e3)).join(" | ")).join(" | ");
     for (title, pick) in [("transverse RMS / max over the last 15 s (mm)", 0), ("range error at the end (m)", 1)] {
         println!("\n### Sec. 7 by navigation and noise set: {title}, seed 1, 9 300 s\n");
         println!("| navigation | noise | {head} |");
@@ -532,7 +539,9 @@ fn science_outcome(o: &science_sim::Outcome) -> (f64, f64) {
 fn table5() {
     use science_sim::{ScienceLaw, WheelBias};
     println!("\n### Table 5 by step and wheel-bias reading, science-phase flight (truth feedback), 100 draws\n");
-    println!("| dt (s) | b_τ reading | PD e mean / P99 (deg) | PD E mean / P99 (J) | PD lost | SMC e mean / P99 (deg) | SMC E mean / P99 (J) | SMC lost |");
+    println!(
+        "| dt (s) | b_τ reading | PD e mean / P99 (deg) | PD E mean / P99 (J) | PD lost | SMC e mean / P99 (deg) | SMC E mean / P99 (J) | SMC lost |"
+    );
     println!("|---|---|---|---|---|---|---|---|");
     let jobs: Vec<(f64, WheelBias)> =
         [0.01, 0.1, 1.0, 2.0].into_iter().flat_map(|dt| WheelBias::ALL.map(|b| (dt, b))).collect();
@@ -540,7 +549,8 @@ fn table5() {
         ScienceLaw::ALL.map(|law| {
             let (mut e, mut en) = (Vec::new(), Vec::new());
             for i in 0..100 {
-                let (start, env, _) = science_sim::draw_with(1, i, science_sim::steps(science_sim::PHASE_S, dt), dt, bias);
+                let (start, env, _) =
+                    science_sim::draw_with(1, i, science_sim::steps(science_sim::PHASE_S, dt), dt, bias);
                 let (a, b) = science_outcome(&science_sim::fly(&start, &env, &law.law(law.table4()), dt));
                 e.push(a);
                 en.push(b);
@@ -552,10 +562,14 @@ fn table5() {
         println!("| {dt} | {} | {pd} | {smc} |", bias.name());
     }
     println!("\n### Table 5 by step, full plant (leader; follower alike), 100 seeds\n");
-    println!("| dt (s) | PD e mean / P99 (deg) | PD E mean / P99 (J) | PD lost | SMC e mean / P99 (deg) | SMC E mean / P99 (J) | SMC lost |");
+    println!(
+        "| dt (s) | PD e mean / P99 (deg) | PD E mean / P99 (J) | PD lost | SMC e mean / P99 (deg) | SMC E mean / P99 (J) | SMC lost |"
+    );
     println!("|---|---|---|---|---|---|---|");
-    let jobs: Vec<(f64, ScienceAttitude)> =
-        [0.01, 0.1, 1.0, 2.0].into_iter().flat_map(|dt| [ScienceAttitude::Pd, ScienceAttitude::Smc].map(|l| (dt, l))).collect();
+    let jobs: Vec<(f64, ScienceAttitude)> = [0.01, 0.1, 1.0, 2.0]
+        .into_iter()
+        .flat_map(|dt| [ScienceAttitude::Pd, ScienceAttitude::Smc].map(|l| (dt, l)))
+        .collect();
     let cells = on_two_threads(&jobs, |&(dt, sci)| {
         let (mut e, mut en) = (Vec::new(), Vec::new());
         for seed in 1..=100 {
@@ -567,7 +581,8 @@ fn table5() {
             a.attitude.science = sci;
             a.relative.controller = RelativeController::Off;
             let r = run(&p, &a, dt, 720.0, seed);
-            let (em, jm) = (metric(&r.metrics, "leader_attitude_error_mean_deg"), metric(&r.metrics, "leader_energy_j"));
+            let (em, jm) =
+                (metric(&r.metrics, "leader_attitude_error_mean_deg"), metric(&r.metrics, "leader_energy_j"));
             // Lost: an error past 10° or a non-finite number (the plant has no end-rate metric).
             let ok = em.is_finite() && em < 10.0 && jm.is_finite();
             e.push(if ok { em } else { f64::NAN });

@@ -36,9 +36,10 @@ pub struct RelativeNav {
     pub a_leader_meas_mps2: V3,
     /// The follower's own hand-over velocity, kept until the leader's state arrives.
     pub own_handover_v_mps: Option<V3>,
-    /// The fusing filter's statistics when it flies, and the filter once v̂_rel(t₀) is known.
+    /// The fusing filter's statistics when it flies, and the filter once v̂_rel(t₀) is known
+    /// (boxed: 3 × 12 values the dead-reckoning follower need not carry).
     pub filter_cfg: Option<RelativeFilterConfig>,
-    pub filter: Option<RelativeFilter>,
+    pub filter: Option<Box<RelativeFilter>>,
 }
 
 impl RelativeNav {
@@ -87,7 +88,7 @@ impl RelativeNav {
         {
             let v = vf - s.v_eci_mps;
             self.v_rel_mps = Some(v);
-            self.filter = self.filter_cfg.as_ref().map(|c| RelativeFilter::new(c, &self.r_rel_m, &v));
+            self.filter = self.filter_cfg.as_ref().map(|c| Box::new(RelativeFilter::new(c, &self.r_rel_m, &v)));
         }
     }
 

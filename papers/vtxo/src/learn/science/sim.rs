@@ -299,7 +299,10 @@ mod tests {
             // The wheel error less the (shared) white noise is the bias.
             (0..n).map(|k| e.wheel_error_n_m[k] - off.wheel_error_n_m[k]).collect::<Vec<V3>>()
         };
-        assert_eq!(draw(5, 2, n, dt).1.wheel_error_n_m, draw_with(5, 2, n, dt, WheelBias::EcrvFromZero).1.wheel_error_n_m);
+        assert_eq!(
+            draw(5, 2, n, dt).1.wheel_error_n_m,
+            draw_with(5, 2, n, dt, WheelBias::EcrvFromZero).1.wheel_error_n_m
+        );
         let from_zero = bias_at(WheelBias::EcrvFromZero);
         let drawn = bias_at(WheelBias::EcrvStationary);
         let per_sample = bias_at(WheelBias::DrivenPerSample);

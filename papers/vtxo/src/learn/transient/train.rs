@@ -399,7 +399,9 @@ mod tests {
     fn post_processing_drops_the_largest_chi() {
         // χ = E + w·e for rows 0..10: E = r, e = 1, w = 10 − 2r → χ = 10 − r (row 0 worst).
         let t = Table {
-            x: (0..10).map(|r| std::array::from_fn(|i| if i == N_IN - 1 { 10.0 - 2.0 * r as f64 } else { 0.0 })).collect(),
+            x: (0..10)
+                .map(|r| std::array::from_fn(|i| if i == N_IN - 1 { 10.0 - 2.0 * r as f64 } else { 0.0 }))
+                .collect(),
             y: (0..10).map(|r| [r as f64, 1.0, 72.0, 0.1, 0.2]).collect(),
         };
         let kept = keep_best(&t, 0.2);
