@@ -96,6 +96,10 @@ pub struct CaseResult {
     pub compute_total_s: f64,
     /// One SCP solve of the same case, s.
     pub scp_solve_s: f64,
+    /// Vehicle-steps at which the safety filter changed the command, and vehicle-steps flown
+    /// (NaN for the SCP).
+    pub filtered_steps: f64,
+    pub vehicle_steps: f64,
     /// The reference run's directory (NR, the deep set).
     pub run_dir: Option<PathBuf>,
 }
@@ -121,6 +125,8 @@ impl CaseResult {
             compute_p99_s: f64::NAN,
             compute_total_s: f64::NAN,
             scp_solve_s: f64::NAN,
+            filtered_steps: f64::NAN,
+            vehicle_steps: f64::NAN,
             run_dir: None,
         }
     }
@@ -185,20 +191,23 @@ pub fn fly_reference(
     row.within_0_1_m = r.metric("within_0_1_m");
     row.max_goal_dist_m = r.metric("max_goal_dist_m");
     row.effort_mps = r.metric("total_effort_mps");
-    let (p50, p99, total) = agent_compute(dir)?;
+    row.filtered_steps = r.metric("filtered_steps");
+    let (p50, p99, total, steps) = agent_compute(dir)?;
     (row.compute_p50_s, row.compute_p99_s, row.compute_total_s) = (p50, p99, total);
+    row.vehicle_steps = steps * row.n as f64;
     Ok(())
 }
 
-/// The run's `agent_compute` p50, p99 and total over every agent and step, s (summary.json).
-fn agent_compute(dir: &Path) -> Result<(f64, f64, f64), String> {
+/// The run's `agent_compute` p50, p99 and total over every agent and step, s, and its steps
+/// (summary.json).
+fn agent_compute(dir: &Path) -> Result<(f64, f64, f64, f64), String> {
     let path = dir.join("summary.json");
     let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
     let c = &v["latency_ns"]["agent_compute"];
-    match (c["p50"].as_f64(), c["p99"].as_f64(), c["total"].as_f64()) {
-        (Some(a), Some(b), Some(t)) => Ok((a * 1e-9, b * 1e-9, t * 1e-9)),
-        _ => Err(format!("{}: no latency_ns.agent_compute", path.display())),
+    match (c["p50"].as_f64(), c["p99"].as_f64(), c["total"].as_f64(), v["steps_completed"].as_f64()) {
+        (Some(a), Some(b), Some(t), Some(k)) => Ok((a * 1e-9, b * 1e-9, t * 1e-9, k)),
+        _ => Err(format!("{}: no latency_ns.agent_compute or steps_completed", path.display())),
     }
 }
 

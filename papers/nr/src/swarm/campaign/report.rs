@@ -20,7 +20,7 @@ pub const SPEEDUP_GOAL: f64 = 100.0;
 const HEADER: &str = "group,case,seed,n_vehicles,disturbance_mps2,method,status,collisions_count,collision_pairs_count,\
 min_ellipsoid_distance_unitless,within_0_1_m_at_t_plus_2_s_count,max_goal_dist_at_t_plus_2_s_m,effort_mps,\
 effort_ratio_to_scp,compute_p50_us,compute_p99_us,compute_total_s,scp_solve_s,speedup_vs_scp_solve,\
-speedup_total_vs_scp_solve,run_dir";
+speedup_total_vs_scp_solve,filtered_vehicle_steps_count,vehicle_steps_count,run_dir";
 
 /// `cases.csv`.
 pub fn csv(rows: &[CaseResult]) -> String {
@@ -29,7 +29,7 @@ pub fn csv(rows: &[CaseResult]) -> String {
         let dir = r.run_dir.as_ref().and_then(|d| d.file_name()).map(|d| d.to_string_lossy().to_string());
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{:?},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{:?},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             r.group,
             r.case,
             r.seed,
@@ -50,6 +50,8 @@ pub fn csv(rows: &[CaseResult]) -> String {
             r.scp_solve_s,
             r.speedup(),
             r.speedup_total(),
+            r.filtered_steps,
+            r.vehicle_steps,
             dir.map_or(String::new(), |d| format!("runs/{d}"))
         );
     }
@@ -156,6 +158,7 @@ fn verdicts(rows: &[CaseResult]) -> String {
         verdict(!speed.is_empty() && speed.len() == nr.len() && slowest >= SPEEDUP_GOAL),
         median(speed.clone())
     );
+    s += &filter_work(&good);
     let totals: Vec<f64> = good.iter().map(|r| r.speedup_total()).filter(|x| x.is_finite()).collect();
     let _ = writeln!(
         s,
@@ -168,6 +171,26 @@ fn verdicts(rows: &[CaseResult]) -> String {
         fmt_sig(median(totals))
     );
     s
+}
+
+/// How often the safety filter had to act in the NR runs (no goal: the policy's own avoidance is
+/// the `deep-set` rows').
+fn filter_work(nr: &[&CaseResult]) -> String {
+    let filtered: f64 = nr.iter().map(|r| r.filtered_steps).filter(|x| x.is_finite()).sum();
+    let steps: f64 = nr.iter().map(|r| r.vehicle_steps).filter(|x| x.is_finite()).sum();
+    let acted = nr.iter().filter(|r| r.filtered_steps > 0.0).count();
+    let most = fold(nr.iter().map(|r| r.filtered_steps / r.vehicle_steps), f64::max, f64::NEG_INFINITY);
+    format!(
+        "- The safety filter's work (NR, no goal): it changed the command at {filtered} of {steps} vehicle-steps \
+         ({}), in {acted} of {} cases; at most {} of one case's vehicle-steps.\n",
+        pct(filtered / steps),
+        nr.len(),
+        pct(most)
+    )
+}
+
+fn pct(x: f64) -> String {
+    if x.is_finite() { format!("{:.2} %", 100.0 * x) } else { "—".into() }
 }
 
 /// Three significant digits.
@@ -261,6 +284,8 @@ mod tests {
             compute_p99_s: p50_s,
             compute_total_s: p50_s * 8.0 * 100.0,
             scp_solve_s: 0.1,
+            filtered_steps: if method == CampaignMethod::Nr { 12.0 } else { 0.0 },
+            vehicle_steps: 800.0,
             run_dir: None,
         }
     }
@@ -273,6 +298,8 @@ mod tests {
         assert!(v.contains("1 of 1 NR cases collision-free") && v.contains("0 of 1 cases, 1 collisions"), "{v}");
         // 8 vehicles × 100 steps × 10 µs = 8 ms in all against a 0.1 s solve: 12.5×.
         assert!(v.contains("took 0.00800 s") && v.contains("12.5× (least)"), "{v}");
+        // The filter acted at 12 of 800 vehicle-steps of the one NR case.
+        assert!(v.contains("at 12 of 800 vehicle-steps (1.50 %), in 1 of 1 cases; at most 1.50 %"), "{v}");
         let bad = [row(CampaignMethod::Nr, 2.0, 1.4, 1e-2)];
         let v = verdicts(&bad);
         assert!(v.contains("every case: NOT MET") && v.contains("SCP's (NR): NOT MET"), "{v}");

@@ -43,6 +43,12 @@ pub struct SwarmTrainArgs {
     /// Epochs of each DAgger round (reference 8).
     #[arg(long)]
     pub dagger_epochs: Option<usize>,
+    /// Extra copies of each near-conflict sample (reference 0; `swarm::train::avoidance`).
+    #[arg(long)]
+    pub near_copies: Option<usize>,
+    /// Weight λ of the collision-aware loss term (reference 0: off).
+    #[arg(long)]
+    pub collision_weight: Option<f64>,
 }
 
 impl SwarmTrainArgs {
@@ -74,6 +80,18 @@ impl SwarmTrainArgs {
             }
             o.dagger_epochs = e;
         }
+        if let Some(k) = self.near_copies {
+            if k > 20 {
+                return Err(CommandError::invalid(format!("--near-copies {k}: at most 20")));
+            }
+            o.near_copies = k;
+        }
+        if let Some(w) = self.collision_weight {
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(CommandError::invalid(format!("--collision-weight {w}: a finite weight ≥ 0")));
+            }
+            o.collision.weight = w;
+        }
         Ok(o)
     }
 
@@ -91,6 +109,12 @@ impl SwarmTrainArgs {
         }
         if let Some(e) = self.dagger_epochs {
             c += &format!(" --dagger-epochs {e}");
+        }
+        if let Some(k) = self.near_copies {
+            c += &format!(" --near-copies {k}");
+        }
+        if let Some(w) = self.collision_weight {
+            c += &format!(" --collision-weight {w}");
         }
         c
     }

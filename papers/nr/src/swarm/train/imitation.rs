@@ -32,6 +32,7 @@ use crate::iso::train::imitation::TrainError;
 use crate::nn::sn_mlp::SnMlp;
 use crate::swarm::control::obs::{MAX_NEIGHBOURS, SwarmPolicy};
 use crate::swarm::control::policy::{DeepSetPolicy, OWN_IN, PHI_IN, own_input, phi_input, phi_scales, rho_scales};
+use crate::swarm::train::avoidance::{self, CollisionLoss};
 use crate::swarm::train::data::{self as swarm_data, CaseOutcome, Expert, SwarmDataOptions, SwarmSample};
 use crate::swarm::train::problem::A_MAX_MPS2;
 
@@ -55,6 +56,10 @@ pub struct SwarmTrainOptions {
     pub dagger_rounds: usize,
     /// Epochs of each DAgger round.
     pub dagger_epochs: usize,
+    /// Extra copies of each near-conflict training sample ([`crate::swarm::train::avoidance`]).
+    pub near_copies: usize,
+    /// The collision-aware loss term (weight 0: off).
+    pub collision: CollisionLoss,
 }
 
 impl SwarmTrainOptions {
@@ -77,6 +82,8 @@ impl SwarmTrainOptions {
             lr_end: 3e-5,
             dagger_rounds: 0,
             dagger_epochs: 8,
+            near_copies: 0,
+            collision: CollisionLoss::off(),
         }
     }
 }
@@ -105,6 +112,10 @@ pub struct SwarmTrainReport {
     pub epochs: usize,
     pub dagger_rounds: usize,
     pub dagger_epochs: usize,
+    /// Of `train_samples`, the near-conflict copies.
+    pub near_samples: usize,
+    pub near_copies: usize,
+    pub collision: CollisionLoss,
 }
 
 impl SwarmTrainReport {
@@ -152,6 +163,24 @@ impl SwarmTrainReport {
             l1 = self.last_loss,
             rt = self.rms_train_mps2,
             rv = self.rms_validation_mps2,
+        ) + &self.avoidance_line()
+    }
+
+    /// What the avoidance levers added (nothing when both are off, as in the reference run).
+    fn avoidance_line(&self) -> String {
+        let c = &self.collision;
+        if self.near_copies == 0 && c.weight == 0.0 {
+            return String::new();
+        }
+        format!(
+            "\nAvoidance: {} near-conflict copies ({} extra of each sample with a neighbour nearer than {}), \
+             collision-aware loss λ = {} (horizon {} s, margin {}).\n",
+            self.near_samples,
+            self.near_copies,
+            avoidance::NEAR_DISTANCE,
+            c.weight,
+            c.horizon_s,
+            c.margin
         )
     }
 
@@ -271,8 +300,12 @@ impl Fitter {
                 let idx = &order[bi * o.batch..((bi + 1) * o.batch).min(n)];
                 let b = t.select(idx)?;
                 let (wp, wr) = (self.net.phi.weights()?, self.net.rho.weights()?);
-                let err = (self.net.forward(&wp, &wr, &b)? - &b.y)?;
-                let loss = (err.sqr()?.sum_all()? / idx.len() as f64)?;
+                let pred = self.net.forward(&wp, &wr, &b)?;
+                let mut loss = ((&pred - &b.y)?.sqr()?.sum_all()? / idx.len() as f64)?;
+                if o.collision.weight > 0.0 {
+                    let pen = avoidance::collision_penalty(&o.collision, &b.nb, &b.mask, &pred)?;
+                    loss = (loss + (pen * o.collision.weight)?)?;
+                }
                 self.opt.backward_step(&loss)?;
                 sum += f64::from(loss.to_scalar::<f32>()?) / nb as f64;
             }
@@ -326,6 +359,7 @@ pub fn train(o: &SwarmTrainOptions) -> Result<SwarmTrainReport, TrainError> {
     if train_set.is_empty() {
         return Err(TrainError::Data("no training case has a collision-free global solution".into()));
     }
+    let near_samples = avoidance::oversample(&mut train_set, o.near_copies);
     let started = Instant::now();
     let dev = Device::Cpu;
     let mut fitter = Fitter::new(o, &dev)?;
@@ -345,6 +379,8 @@ pub fn train(o: &SwarmTrainOptions) -> Result<SwarmTrainReport, TrainError> {
         "activation": "tanh (every layer of φ and ρ, the outputs included)",
         "training": {
             "seed": o.seed, "epochs": o.epochs, "dagger_rounds": o.dagger_rounds, "dagger_epochs": o.dagger_epochs,
+            "near_copies": o.near_copies, "collision_weight": o.collision.weight,
+            "collision_horizon_s": o.collision.horizon_s, "collision_margin": o.collision.margin,
             "batch": o.batch, "phi_hidden": o.phi_hidden,
             "rho_hidden": o.rho_hidden, "lr": [o.lr_start, o.lr_end], "validation_cases": o.validation_cases,
             "data": d,
@@ -375,6 +411,9 @@ pub fn train(o: &SwarmTrainOptions) -> Result<SwarmTrainReport, TrainError> {
         epochs: o.epochs,
         dagger_rounds: o.dagger_rounds,
         dagger_epochs: o.dagger_epochs,
+        near_samples,
+        near_copies: o.near_copies,
+        collision: o.collision,
     })
 }
 
