@@ -64,6 +64,24 @@ fn sec7_multi_process_is_bit_identical_to_the_reference() {
     assert_eq!(metric(&a, "formation_reached"), 0.0);
 }
 
+/// The follower's fusing filter (its state in the agent, its columns in the telemetry) flies as
+/// processes bit for bit as in one process.
+#[test]
+fn sec7_with_the_fusing_filter_multi_process_is_bit_identical_to_the_reference() {
+    let (_g, dir) = heavy_scratch("vtxo-sec7-filter");
+    let (mp, rf) = both("topologies/vtxo-sec7-sat-filter.toml", &["--duration", "20"], &dir);
+    same_telemetry(&mp, &rf, "vtxo-sec7-sat-filter");
+    let (a, b) = (summary(&mp), summary(&rf));
+    assert_eq!(a["steps_completed"], 2000);
+    assert_eq!(a["labels"]["relative_law"], "smc-sat");
+    assert_eq!(a["metrics"], b["metrics"]);
+    // The filter's columns are in the follower's telemetry (the parquet footer names them).
+    let bytes = std::fs::read(mp.join("telemetry").join("agent-2.parquet")).unwrap();
+    let has = |name: &str| bytes.windows(name.len()).any(|w| w == name.as_bytes());
+    assert!(has("accel_bias_hat_eci_x_mps2") && has("v_rel_sigma_eci_z_mps"), "no filter columns");
+    assert!(metric(&a, "follower_v_rel_hat_error_end_mps").is_finite());
+}
+
 #[test]
 fn science_phase_multi_process_is_bit_identical_to_the_reference_over_0_2_h() {
     let (_g, dir) = heavy_scratch("vtxo-science");

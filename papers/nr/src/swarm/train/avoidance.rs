@@ -105,12 +105,19 @@ mod tests {
         let c = CollisionLoss { weight: 1.0, horizon_s: 0.5, margin: 1.25 };
         let dev = Device::Cpu;
         let nb = Tensor::from_vec(
-            (0..MAX_NEIGHBOURS).flat_map(|j| if j == 0 { [0.15 / DP_SCALE_M as f32, 0.0, 0.0, 0.0, 0.0, 0.0] } else { [0.0; 6] }).collect::<Vec<f32>>(),
+            (0..MAX_NEIGHBOURS)
+                .flat_map(|j| if j == 0 { [0.15 / DP_SCALE_M as f32, 0.0, 0.0, 0.0, 0.0, 0.0] } else { [0.0; 6] })
+                .collect::<Vec<f32>>(),
             (1, MAX_NEIGHBOURS, 6),
             &dev,
         )
         .unwrap();
-        let mask = Tensor::from_vec((0..MAX_NEIGHBOURS).map(|j| f32::from(u8::from(j == 0))).collect::<Vec<f32>>(), (1, MAX_NEIGHBOURS, 1), &dev).unwrap();
+        let mask = Tensor::from_vec(
+            (0..MAX_NEIGHBOURS).map(|j| f32::from(u8::from(j == 0))).collect::<Vec<f32>>(),
+            (1, MAX_NEIGHBOURS, 1),
+            &dev,
+        )
+        .unwrap();
         let pen = |ux: f32| {
             let pred = Tensor::from_vec(vec![ux, 0.0, 0.0], (1, 3), &dev).unwrap();
             collision_penalty(&c, &nb, &mask, &pred).unwrap().to_scalar::<f32>().unwrap()
