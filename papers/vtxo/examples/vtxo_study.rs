@@ -461,6 +461,19 @@ fn p99(v: &mut [f64]) -> f64 {
     cohort_report::stats::quantile(v, 0.99)
 }
 
+/// The science phase of Table 5 in the full plant: both spacecraft at the formation, relative
+/// control off, the attitude drawn per (84) from `seed`, law `sci`, 0.2 h at `dt_s`.
+fn science_run(sci: ScienceAttitude, dt_s: f64, seed: u64) -> Run {
+    let mut p = VtxoPlantConfig::default();
+    p.attitude.draw = AttitudeDraw::Science;
+    p.orbit.r_rel0_eci_m = p.metrics.r_target_eci_m;
+    p.orbit.v_rel0_eci_mps = [0.0; 3];
+    let mut a = VtxoAlgorithmConfig::default();
+    a.attitude.science = sci;
+    a.relative.controller = RelativeController::Off;
+    run(&p, &a, dt_s, 720.0, seed)
+}
+
 fn science() {
     println!("\n### Science phase Monte Carlo (Table 5 analogue): 100 seeds, 0.2 h at dt 10 ms, Table 4 gains\n");
     println!("Initial attitude and rate drawn per (84) around q_f; relative control off and r_rel(0) = r_f");
@@ -475,14 +488,7 @@ fn science() {
         let mut e = [Vec::new(), Vec::new()];
         let mut en = [Vec::new(), Vec::new()];
         for seed in 1..=100 {
-            let mut p = VtxoPlantConfig::default();
-            p.attitude.draw = AttitudeDraw::Science;
-            p.orbit.r_rel0_eci_m = p.metrics.r_target_eci_m;
-            p.orbit.v_rel0_eci_mps = [0.0; 3];
-            let mut a = VtxoAlgorithmConfig::default();
-            a.attitude.science = sci;
-            a.relative.controller = RelativeController::Off;
-            let r = run(&p, &a, 0.01, 720.0, seed);
+            let r = science_run(sci, 0.01, seed);
             for (i, who) in ["leader", "follower"].iter().enumerate() {
                 e[i].push(metric(&r.metrics, &format!("{who}_attitude_error_mean_deg")));
                 en[i].push(metric(&r.metrics, &format!("{who}_energy_j")));
@@ -573,14 +579,7 @@ fn table5() {
     let cells = on_two_threads(&jobs, |&(dt, sci)| {
         let (mut e, mut en) = (Vec::new(), Vec::new());
         for seed in 1..=100 {
-            let mut p = VtxoPlantConfig::default();
-            p.attitude.draw = AttitudeDraw::Science;
-            p.orbit.r_rel0_eci_m = p.metrics.r_target_eci_m;
-            p.orbit.v_rel0_eci_mps = [0.0; 3];
-            let mut a = VtxoAlgorithmConfig::default();
-            a.attitude.science = sci;
-            a.relative.controller = RelativeController::Off;
-            let r = run(&p, &a, dt, 720.0, seed);
+            let r = science_run(sci, dt, seed);
             let (em, jm) =
                 (metric(&r.metrics, "leader_attitude_error_mean_deg"), metric(&r.metrics, "leader_energy_j"));
             // Lost: an error past 10° or a non-finite number (the plant has no end-rate metric).
