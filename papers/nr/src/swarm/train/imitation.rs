@@ -338,6 +338,19 @@ pub fn rms_error(p: &DeepSetPolicy, samples: &[SwarmSample]) -> f64 {
     (se / samples.len().max(1) as f64).sqrt()
 }
 
+/// The avoidance levers in the weights' metadata when used (a reference run's file keeps the
+/// bytes it had before they existed).
+fn with_avoidance(mut meta: serde_json::Value, o: &SwarmTrainOptions) -> serde_json::Value {
+    let c = &o.collision;
+    if o.near_copies > 0 || c.weight > 0.0 {
+        meta["training"]["avoidance"] = serde_json::json!({
+            "near_copies": o.near_copies, "collision_weight": c.weight,
+            "collision_horizon_s": c.horizon_s, "collision_margin": c.margin,
+        });
+    }
+    meta
+}
+
 /// Generate the data, train, write the weights file, report.
 pub fn train(o: &SwarmTrainOptions) -> Result<SwarmTrainReport, TrainError> {
     let d = &o.data;
@@ -379,14 +392,12 @@ pub fn train(o: &SwarmTrainOptions) -> Result<SwarmTrainReport, TrainError> {
         "activation": "tanh (every layer of φ and ρ, the outputs included)",
         "training": {
             "seed": o.seed, "epochs": o.epochs, "dagger_rounds": o.dagger_rounds, "dagger_epochs": o.dagger_epochs,
-            "near_copies": o.near_copies, "collision_weight": o.collision.weight,
-            "collision_horizon_s": o.collision.horizon_s, "collision_margin": o.collision.margin,
             "batch": o.batch, "phi_hidden": o.phi_hidden,
             "rho_hidden": o.rho_hidden, "lr": [o.lr_start, o.lr_end], "validation_cases": o.validation_cases,
             "data": d,
         },
     });
-    let policy = mlp.export(meta).map_err(TrainError::Options)?;
+    let policy = mlp.export(with_avoidance(meta, o)).map_err(TrainError::Options)?;
     let write_err = |reason: String| TrainError::Write { path: o.out.clone(), reason };
     if let Some(dir) = o.out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| write_err(e.to_string()))?;
