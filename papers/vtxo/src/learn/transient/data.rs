@@ -131,7 +131,29 @@ pub enum DataError {
     Options(String),
 }
 
-/// The rows already in `path` that a run with `o` may continue from (complete lines only).
+/// Take the table for this run: an exclusive lock on the file (created empty if absent) for the
+/// run's life — released by the system however the process ends — so that two runs continuing one
+/// table cannot interleave their rows (they did: a second run appended the points the first was
+/// computing).
+fn lock(path: &Path) -> Result<std::fs::File, DataError> {
+    let io = |source| DataError::Io { path: path.to_path_buf(), source };
+    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).map_err(io)?;
+    }
+    let f = std::fs::OpenOptions::new().read(true).append(true).create(true).open(path).map_err(io)?;
+    match f.try_lock() {
+        Ok(()) => Ok(f),
+        Err(std::fs::TryLockError::WouldBlock) => Err(DataError::Existing {
+            path: path.to_path_buf(),
+            reason: "another run is writing this table (it holds the file's lock): wait for it, or use another --out"
+                .into(),
+        }),
+        Err(std::fs::TryLockError::Error(e)) => Err(io(e)),
+    }
+}
+
+/// The rows already in `path` that a run with `o` may continue from (complete lines only; an empty
+/// file, as [`lock`] creates it, has none).
 fn existing_rows(o: &Options) -> Result<usize, DataError> {
     let path = &o.out;
     let text = match std::fs::read_to_string(path) {
@@ -139,6 +161,9 @@ fn existing_rows(o: &Options) -> Result<usize, DataError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
         Err(source) => return Err(DataError::Io { path: path.clone(), source }),
     };
+    if text.is_empty() {
+        return Ok(0);
+    }
     let bad = |reason: String| DataError::Existing { path: path.clone(), reason };
     let mut lines = text.split_inclusive('\n');
     let first = lines.next().unwrap_or("");
@@ -199,12 +224,10 @@ pub fn run(o: &Options) -> Result<Summary, DataError> {
     if !(divides(4.0) && divides(7.2)) {
         return Err(DataError::Options(format!("step {} s must divide 4 s and 7.2 s", o.dt_s)));
     }
+    let _lock = lock(&o.out)?;
     let have = existing_rows(o)?;
     let io = |source| DataError::Io { path: o.out.clone(), source };
     if have == 0 {
-        if let Some(d) = o.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(d).map_err(io)?;
-        }
         std::fs::write(&o.out, format!("{}\n{HEADER}\n", o.provenance())).map_err(io)?;
     } else {
         truncate_to_rows(&o.out, have)?;
@@ -251,6 +274,12 @@ mod tests {
         let text = std::fs::read_to_string(&full).expect("text");
         assert_eq!(text.lines().count(), 42);
         assert!(text.lines().nth(1) == Some(HEADER));
+        // A second run on a table another run holds: refused, naming the file, the table untouched.
+        let held = lock(&full).expect("the first lock");
+        let e = run(&tiny(full.clone(), 41, 1)).expect_err("the table is held");
+        assert!(e.to_string().contains("another run is writing") && e.to_string().contains("full.csv"), "{e}");
+        drop(held);
+        assert_eq!(std::fs::read_to_string(&full).expect("text").lines().count(), 42);
         // Other options on the same file: refused, naming the file.
         let e = run(&Options { iterations: 5, ..tiny(full.clone(), 40, 2) }).expect_err("other options");
         assert!(matches!(e, DataError::Existing { .. }) && e.to_string().contains("full.csv"), "{e}");
