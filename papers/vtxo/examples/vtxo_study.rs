@@ -16,6 +16,7 @@
 
 use std::time::Instant;
 
+use cohort_host::campaign::Campaign;
 use cohort_paper_vtxo::flight::config::{
     LeaderControl, RelativeController, RelativeNavigation, ScienceAttitude, VtxoAlgorithmConfig,
 };
@@ -286,10 +287,7 @@ fn sources() {
         let r = run(&only(source), &a, dt, 9300.0, 1);
         format!("{:.3e} / {:.3e}", metric(&r.metrics, "transverse_rms_mm"), metric(&r.metrics, "transverse_max_mm"))
     });
-    println!(
-        "| source | {} |",
-        [0.01, 0.001].map(|dt| Law::ALL.map(|l| format!("{} {} ms", l.name(), dt * 1e3)).join(" | ")).join(" | ")
-    );
+    println!("| source | {} |", law_columns());
     println!("|---|{}", "---|".repeat(6));
     for (k, source) in SOURCES.iter().enumerate() {
         let cells: Vec<String> = (0..6).map(|c| results[c * SOURCES.len() + k].clone()).collect();
@@ -297,24 +295,14 @@ fn sources() {
     }
 }
 
-/// `f` of every job on two threads, in the jobs' order.
+/// The six column heads "law dt" of the Sec. 7 tables (10 ms first).
+fn law_columns() -> String {
+    [0.01, 0.001].map(|dt| Law::ALL.map(|l| format!("{} {} ms", l.name(), dt * 1e3)).join(" | ")).join(" | ")
+}
+
+/// `f` of every job on two threads (the campaign runner), in the jobs' order.
 fn on_two_threads<J: Sync, R: Send>(jobs: &[J], f: impl Fn(&J) -> R + Sync) -> Vec<R> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    let next = AtomicUsize::new(0);
-    let results = std::sync::Mutex::new((0..jobs.len()).map(|_| None).collect::<Vec<Option<R>>>());
-    std::thread::scope(|sc| {
-        for _ in 0..2 {
-            sc.spawn(|| {
-                loop {
-                    let j = next.fetch_add(1, Ordering::SeqCst);
-                    let Some(job) = jobs.get(j) else { return };
-                    let r = f(job);
-                    results.lock().expect("no worker panicked")[j] = Some(r);
-                }
-            });
-        }
-    });
-    results.into_inner().expect("no worker panicked").into_iter().map(|r| r.expect("every job ran")).collect()
+    Campaign::new(jobs.len()).workers(2).map(|k| f(&jobs[k]))
 }
 
 /// Sec. 7 at the paper's conditions with the follower's relative navigation as the paper has it
@@ -342,8 +330,7 @@ fn fused() {
             format!("{:.3}", g("range_error_end_m")),
         )
     });
-    let head =
-        [0.01, 0.001].map(|dt| Law::ALL.map(|l| format!("{} {} ms", l.name(), dt * 1e3)).join(" | ")).join(" | ");
+    let head = law_columns();
     for (title, pick) in [("transverse RMS / max over the last 15 s (mm)", 0), ("range error at the end (m)", 1)] {
         println!("\n### Sec. 7 by navigation and noise set: {title}, seed 1, 9 300 s\n");
         println!("| navigation | noise | {head} |");

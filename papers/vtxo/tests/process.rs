@@ -47,17 +47,24 @@ fn both(file: &str, extra: &[&str], dir: &Path) -> (PathBuf, PathBuf) {
     (mp, rf)
 }
 
+/// A Sec. 7 scenario for 20 s multi-process and `--reference`: identical telemetry (all three
+/// files) and every metric, the plant's and the join's, with 2 000 steps and relative law `law`;
+/// the multi-process run's directory and summary.
+fn sec7_20_s_bit_identical(name: &str, law: &str, dir: &Path) -> (PathBuf, serde_json::Value) {
+    let (mp, rf) = both(&format!("topologies/{name}.toml"), &["--duration", "20"], dir);
+    same_telemetry(&mp, &rf, name);
+    let (a, b) = (summary(&mp), summary(&rf));
+    assert_eq!(a["steps_completed"], 2000);
+    assert_eq!(a["labels"]["relative_law"], law);
+    assert_eq!(a["metrics"], b["metrics"]);
+    (mp, a)
+}
+
 #[test]
 fn sec7_multi_process_is_bit_identical_to_the_reference() {
     let (_g, dir) = heavy_scratch("vtxo-sec7");
-    let (mp, rf) = both("topologies/vtxo-sec7.toml", &["--duration", "20"], &dir);
-    same_telemetry(&mp, &rf, "vtxo-sec7");
-    let (a, b) = (summary(&mp), summary(&rf));
-    assert_eq!(a["steps_completed"], 2000);
-    assert_eq!(a["labels"]["relative_law"], "smc-sign");
+    let (_, a) = sec7_20_s_bit_identical("vtxo-sec7", "smc-sign", &dir);
     assert_eq!(a["labels"]["leader_control"], "drift");
-    // Every metric, the plant's and the join's, is the same in both modes.
-    assert_eq!(a["metrics"], b["metrics"]);
     // One row every 10 steps (k = 0, 10, …, 1990) and the last step (1999).
     assert_eq!(metric(&a, "telemetry_rows"), 201.0);
     // The SMC is in its reaching phase: 20 s of 9 001.
@@ -69,12 +76,7 @@ fn sec7_multi_process_is_bit_identical_to_the_reference() {
 #[test]
 fn sec7_with_the_fusing_filter_multi_process_is_bit_identical_to_the_reference() {
     let (_g, dir) = heavy_scratch("vtxo-sec7-filter");
-    let (mp, rf) = both("topologies/vtxo-sec7-sat-filter.toml", &["--duration", "20"], &dir);
-    same_telemetry(&mp, &rf, "vtxo-sec7-sat-filter");
-    let (a, b) = (summary(&mp), summary(&rf));
-    assert_eq!(a["steps_completed"], 2000);
-    assert_eq!(a["labels"]["relative_law"], "smc-sat");
-    assert_eq!(a["metrics"], b["metrics"]);
+    let (mp, a) = sec7_20_s_bit_identical("vtxo-sec7-sat-filter", "smc-sat", &dir);
     // The filter's columns are in the follower's telemetry (the parquet footer names them).
     let bytes = std::fs::read(mp.join("telemetry").join("agent-2.parquet")).unwrap();
     let has = |name: &str| bytes.windows(name.len()).any(|w| w == name.as_bytes());

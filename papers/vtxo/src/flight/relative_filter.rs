@@ -33,6 +33,7 @@
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::model::config::SensorsConfig;
 use crate::model::quaternion::V3;
 
 /// The filter's assumed statistics (3σ; `[algorithm.relative.filter]`).
@@ -54,13 +55,15 @@ pub struct RelativeFilterConfig {
 }
 
 impl Default for RelativeFilterConfig {
+    /// The sensor tables' values (the plant's defaults), as the MEKF's statistics are.
     fn default() -> Self {
-        const G0: f64 = 9.80665;
+        let s = SensorsConfig::default();
+        let (i, r, a) = (&s.interferometer, &s.ranging, &s.accelerometer);
         Self {
-            position_noise_3sigma_m: [2e-4, 2e-4, 1.0],
-            accel_noise_3sigma_mps2: 1e-9 * G0,
-            accel_bias_3sigma_mps2: 1e-6 * G0,
-            accel_bias_tau_s: 3600.0,
+            position_noise_3sigma_m: [i.noise_3sigma_m, i.noise_3sigma_m, r.noise_3sigma_m],
+            accel_noise_3sigma_mps2: a.noise_3sigma_mps2,
+            accel_bias_3sigma_mps2: a.bias_3sigma_mps2,
+            accel_bias_tau_s: a.bias_tau_s,
             unmodelled_accel_3sigma_mps2: 1.4e-4,
             initial_velocity_3sigma_mps: 1e-3,
         }

@@ -16,13 +16,13 @@
 //! the vehicle is, [`crate::swarm::train::dagger`]) made the closed loop worse, and a re-solve per
 //! visited state is ≈ 100 SCP solves per case per round (see the README).
 
-use candle_core::{Device, Tensor};
+use candle_core::Tensor;
 
 use crate::swarm::control::obs::MAX_NEIGHBOURS;
 use crate::swarm::control::policy::{DP_SCALE_M, DV_SCALE_MPS};
 use crate::swarm::dynamics::setup::ELLIPSOID_RADII_M;
 use crate::swarm::train::data::SwarmSample;
-use crate::swarm::train::problem::A_MAX_MPS2;
+use crate::swarm::train::problem::{A_MAX_MPS2, ellipsoid_distance};
 
 /// A sample is near a conflict when an observed neighbour is nearer than this (ellipsoid
 /// distance; 1 is contact, the data's starts and goals are ≥ 1.25 apart).
@@ -32,7 +32,7 @@ pub const NEAR_DISTANCE: f64 = 2.0;
 pub fn least_distance(s: &SwarmSample) -> f64 {
     s.obs.neighbours[..s.obs.n_neighbours]
         .iter()
-        .map(|n| (0..3).map(|k| (n.dp_m[k] / ELLIPSOID_RADII_M[k]).powi(2)).sum::<f64>().sqrt())
+        .map(|n| ellipsoid_distance(n.dp_m, [0.0; 3]))
         .fold(f64::INFINITY, f64::min)
 }
 
@@ -72,7 +72,7 @@ pub fn collision_penalty(c: &CollisionLoss, nb: &Tensor, mask: &Tensor, pred: &T
     let dv = (nb.narrow(2, 3, 3)? * DV_SCALE_MPS)?;
     let u = (pred * (0.5 * h * h * A_MAX_MPS2))?.reshape((b, 1, 3))?;
     let ahead = ((dp + (dv * h)?)?.broadcast_sub(&u))?;
-    let inv_radii = Tensor::from_vec(ELLIPSOID_RADII_M.map(|r| (1.0 / r) as f32).to_vec(), (1, 1, 3), &Device::Cpu)?;
+    let inv_radii = Tensor::from_vec(ELLIPSOID_RADII_M.map(|r| (1.0 / r) as f32).to_vec(), (1, 1, 3), nb.device())?;
     let d = (ahead.broadcast_mul(&inv_radii)?.sqr()?.sum_keepdim(2)? + 1e-9)?.sqrt()?;
     let short = (d.affine(-1.0, c.margin)?.relu()?.sqr()? * mask)?;
     short.sum_all()? / b as f64
@@ -82,6 +82,7 @@ pub fn collision_penalty(c: &CollisionLoss, nb: &Tensor, mask: &Tensor, pred: &T
 mod tests {
     use super::*;
     use crate::swarm::control::obs::{Neighbour, SwarmObservation};
+    use candle_core::Device;
 
     fn sample(dp: [f64; 3], dv: [f64; 3]) -> SwarmSample {
         let mut obs = SwarmObservation::default();
