@@ -9,7 +9,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Bumped whenever a payload's layout or meaning changes.
-pub const SCHEMA_VERSION: u32 = 4;
+pub const SCHEMA_VERSION: u32 = 5;
 
 /// Sender id of the plant. Agents are numbered 1..=N as in the scenario; the orchestrator is
 /// [`ORCHESTRATOR_ID`].
@@ -23,7 +23,8 @@ pub const MAX_COMMAND: usize = 8;
 /// Most values one share can carry for the neighbours (e.g. gᵢuᵢ and θ̂ᵢ, or Uᵢ and Xᵢ).
 pub const MAX_SHARE_VALUES: usize = 512;
 /// Most agents in one scenario (service limits and ids are sized from the scenario below this).
-pub const MAX_AGENTS: usize = 256;
+/// A roster is a bit per agent in every measurement and run-control notice (2 × 128 bytes).
+pub const MAX_AGENTS: usize = 1024;
 /// Most neighbours whose links one measurement describes (`[links]` model `geometric`).
 pub const MAX_LINKS_IN: usize = 64;
 /// A link code of [`Measurement::links`]: below [`LINK_BLOCKED`], the whole steps the share the
