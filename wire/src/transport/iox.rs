@@ -5,7 +5,10 @@
 //! directory, so two runs on one machine never see each other):
 //! - `meas/<i>`   pub/sub [`Measurement`], plant → agent i.
 //! - `share/<i>`  pub/sub [`Share`], agent i → plant and every agent that has i as neighbour.
-//! - `wake/<p>`   event, one per process: whoever sends p a message notifies it afterwards.
+//! - `wake/<p>`   event, one per process: whoever sends p a message notifies it afterwards, with
+//!   its sender id as the event id, so a process with many subscriptions (the plant) drains only
+//!   the senders that woke it ([`Marks`]); a 1 000-agent plant that looked at every subscriber on
+//!   every wakeup spent O(N²) per step in `drain`.
 //! - `control`    pub/sub [`RunControl`], orchestrator → all (history 1, so a late reader sees stop).
 //! - `status`     pub/sub [`Status`], all → orchestrator.
 //!
@@ -54,6 +57,9 @@ type Svc = ipc::Service;
 const SHARE_BUFFER: usize = 8;
 const MEAS_BUFFER: usize = 2;
 const STATUS_BUFFER: usize = 64;
+/// Connections of departed publishers a subscriber keeps readable (see [`IoxRun::config`]); at
+/// least iceoryx2's borrowed-sample limit (2).
+const EXPIRED_CONNECTIONS: usize = 8;
 /// In the user's base directory: a run's lock file is `<run id>.lock` beside its root `<run id>/`.
 const LOCK_SUFFIX: &str = ".lock";
 
@@ -330,6 +336,11 @@ impl IoxRun {
         // and start-up CPU grew as N². A relaunched agent finds its dead predecessor's ports
         // still registered: every limit has spare places for that (`IoxServices::create`).
         cfg.global.service.cleanup_dead_nodes_on_open = false;
+        // A subscriber keeps room for this many connections of publishers that left with samples
+        // unread (iceoryx2's default, 128, made each subscriber allocate 460 kB: a 1 000-agent
+        // plant spent 441 MB on them). A share service has one publisher and its relaunched
+        // successors; every drain reads a departed one's samples at once.
+        cfg.defaults.publish_subscribe.subscriber_expired_connection_buffer = EXPIRED_CONNECTIONS;
         Ok(cfg)
     }
     fn service(&self, what: &str) -> Result<ServiceName, TransportError> {
@@ -559,6 +570,8 @@ impl IoxServices {
             wake.push(
                 node.service_builder(&run.service(&format!("wake/{}", p.name()))?)
                     .event()
+                    // Event ids are sender ids: the plant's 0, agents' 1..=N.
+                    .event_id_max_value(n.max(1))
                     .max_notifiers(topo.senders_to(p) + 1 + spare)
                     .max_listeners(1 + spare)
                     // The orchestrator, the listener, its senders.
@@ -793,6 +806,61 @@ pub struct IoxData {
     /// Plant: notifier of agent i at index i-1. Agent: plant first, then its readers.
     notifiers: Vec<Notifier<Svc>>,
     listener: Listener<Svc>,
+    /// The share subscribers the next drain looks at.
+    marks: Marks,
+}
+
+/// Which share subscribers a drain looks at: those whose owner notified this process since the
+/// last drain (a wakeup's event id is its sender's id), or every one when a wait ended without
+/// any wakeup (a lost one costs at most that wait's poll, as before). A process with few
+/// subscriptions looks at all of them every time: the bookkeeping would cost more.
+struct Marks {
+    /// Subscriber index of each sender id (`usize::MAX`: none); empty when every drain sweeps.
+    slot: Vec<usize>,
+    all: bool,
+    /// Marked subscriber indices, each once (`marked` says which).
+    list: Vec<usize>,
+    marked: Vec<bool>,
+}
+
+/// Below this many share subscriptions every drain looks at all of them.
+const MARK_FROM_SUBSCRIPTIONS: usize = 8;
+
+impl Marks {
+    fn new(owners: impl Iterator<Item = u32> + Clone) -> Self {
+        let n = owners.clone().count();
+        if n < MARK_FROM_SUBSCRIPTIONS {
+            return Marks { slot: Vec::new(), all: true, list: Vec::new(), marked: Vec::new() };
+        }
+        let top = owners.clone().max().unwrap_or(0) as usize;
+        let mut slot = vec![usize::MAX; top + 1];
+        for (k, id) in owners.enumerate() {
+            slot[id as usize] = k;
+        }
+        Marks { slot, all: true, list: Vec::with_capacity(n), marked: vec![false; n] }
+    }
+    /// A wakeup from sender `id` (an id of no subscription, e.g. the plant's own measurement
+    /// sender for an agent, marks nothing).
+    fn mark(&mut self, id: usize) {
+        if let Some(&k) = self.slot.get(id)
+            && k != usize::MAX
+            && !self.marked[k]
+        {
+            self.marked[k] = true;
+            self.list.push(k);
+        }
+    }
+    /// Whether every subscriber must be looked at; the marked ones otherwise (then cleared).
+    fn sweep_all(&self) -> bool {
+        self.all || self.slot.is_empty()
+    }
+    fn clear(&mut self) {
+        self.all = false;
+        for &k in &self.list {
+            self.marked[k] = false;
+        }
+        self.list.clear();
+    }
 }
 
 impl IoxData {
@@ -875,11 +943,22 @@ impl IoxData {
         // Ports hold their own references to the node's shared state; the node moves into the
         // control part, which is dropped after the data ports (field order of `Split`).
         let control = IoxControl::with_node(run, node)?;
-        Ok(Split { data: Self { me, meas_pubs, meas_sub, share_pub, share_subs, notifiers, listener }, control })
+        let marks = Marks::new(share_subs.iter().map(|(id, _)| *id));
+        Ok(Split { data: Self { me, meas_pubs, meas_sub, share_pub, share_subs, notifiers, listener, marks }, control })
     }
 
-    fn notify(n: &Notifier<Svc>) -> Result<(), TransportError> {
-        n.notify().map(|_| ()).map_err(|e| TransportError::iox("notify", e))
+    fn notify(&self, n: &Notifier<Svc>) -> Result<(), TransportError> {
+        n.notify_with_custom_event_id(EventId::new(self.me.sender_id() as usize))
+            .map(|_| ())
+            .map_err(|e| TransportError::iox("notify", e))
+    }
+
+    fn drain_share(&self, k: usize, f: &mut dyn FnMut(Incoming<'_>)) -> Result<(), TransportError> {
+        let (from, sub) = &self.share_subs[k];
+        while let Some(s) = sub.receive().map_err(|e| TransportError::iox("receive share", e))? {
+            f(Incoming::Share { from: *from, share: s.payload() });
+        }
+        Ok(())
     }
 }
 
@@ -893,7 +972,7 @@ impl DataPath for IoxData {
         let mut m = *m;
         m.header.sent_wall_ns = monotonic_ns();
         sample.write_payload(m).send().map_err(|e| TransportError::iox("send measurement", e))?;
-        Self::notify(&self.notifiers[idx])
+        self.notify(&self.notifiers[idx])
     }
 
     fn send_share(&mut self, s: &Share) -> Result<(), TransportError> {
@@ -905,7 +984,7 @@ impl DataPath for IoxData {
         s.header.sent_wall_ns = monotonic_ns();
         sample.write_payload(s).send().map_err(|e| TransportError::iox("send share", e))?;
         for n in &self.notifiers {
-            Self::notify(n)?;
+            self.notify(n)?;
         }
         Ok(())
     }
@@ -916,20 +995,39 @@ impl DataPath for IoxData {
                 f(Incoming::Measurement(s.payload()));
             }
         }
-        for (from, sub) in &self.share_subs {
-            while let Some(s) = sub.receive().map_err(|e| TransportError::iox("receive share", e))? {
-                f(Incoming::Share { from: *from, share: s.payload() });
+        if !self.marks.slot.is_empty() {
+            let marks = &mut self.marks;
+            self.listener.try_wait(|a| marks.mark(a.id.as_value())).map_err(|e| TransportError::iox("wakeups", e))?;
+        }
+        if self.marks.sweep_all() {
+            for k in 0..self.share_subs.len() {
+                self.drain_share(k, f)?;
+            }
+        } else {
+            for &k in &self.marks.list {
+                self.drain_share(k, f)?;
             }
         }
+        self.marks.clear();
         Ok(())
     }
 
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError> {
-        match self.listener.timed_wait(|_| {}, timeout) {
+        let marks = &mut self.marks;
+        match self.listener.timed_wait(|a| marks.mark(a.id.as_value()), timeout) {
+            // No wakeup: the next drain looks at every subscriber (one may have been lost).
+            Ok(0) => {
+                marks.all = true;
+                Ok(())
+            }
+            Ok(_) => Ok(()),
             // A signal (SIGTERM, or SIGCONT after a freeze) cut the wait short: callers re-poll
             // and look at the stop flags after every return anyway.
-            Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => Ok(()),
-            r => r.map(|_| ()).map_err(|e| TransportError::iox("wait", e)),
+            Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => {
+                marks.all = true;
+                Ok(())
+            }
+            Err(e) => Err(TransportError::iox("wait", e)),
         }
     }
     fn keeps_ports_until_stopped(&self) -> bool {
