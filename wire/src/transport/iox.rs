@@ -320,6 +320,8 @@ impl IoxRun {
         }
         Ok(())
     }
+    /// The iceoryx2 configuration of this run's plant and agent nodes (the orchestrator's
+    /// differs in [`Self::orchestrator_config`]).
     pub fn config(&self) -> Result<Config, TransportError> {
         let mut cfg = Config::default();
         cfg.global.prefix = FileName::new(self.prefix().as_bytes()).map_err(|e| TransportError::iox("prefix", e))?;
@@ -343,16 +345,27 @@ impl IoxRun {
         cfg.defaults.publish_subscribe.subscriber_expired_connection_buffer = EXPIRED_CONNECTIONS;
         Ok(cfg)
     }
+    /// The orchestrator's: its status subscriber hears every process of the run, and all of them
+    /// may leave at once with their last status unread (with room for 8, a 1 000-agent run's
+    /// end discarded statuses), so it keeps room for every publisher the service allows.
+    fn orchestrator_config(&self, status_publishers: usize) -> Result<Config, TransportError> {
+        let mut cfg = self.config()?;
+        cfg.defaults.publish_subscribe.subscriber_expired_connection_buffer =
+            status_publishers.max(EXPIRED_CONNECTIONS);
+        Ok(cfg)
+    }
     fn service(&self, what: &str) -> Result<ServiceName, TransportError> {
         ServiceName::new(&format!("cohort/{:016x}/{what}", self.run_id))
             .map_err(|e| TransportError::iox(format!("service name {what}"), e))
     }
     fn node(&self, name: &str) -> Result<Node<Svc>, TransportError> {
+        self.node_with(name, &self.config()?)
+    }
+    fn node_with(&self, name: &str, cfg: &Config) -> Result<Node<Svc>, TransportError> {
         ensure_user_base()?;
-        let cfg = self.config()?;
         NodeBuilder::new()
             .name(&NodeName::new(name).map_err(|e| TransportError::iox("node name", e))?)
-            .config(&cfg)
+            .config(cfg)
             // Signals stay ours: SIGTERM/SIGINT handling is done by the processes themselves.
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<Svc>()
@@ -528,9 +541,9 @@ impl IoxServices {
     /// ports stay registered (dead-node scans are off, see `IoxRun::node`), so every limit gets
     /// that many spare places.
     pub fn create(run: &IoxRun, topo: &Topology, spare: usize) -> Result<Self, TransportError> {
-        let node = run.node("orchestrator")?;
-        run.secure_management_segment()?;
         let n = topo.n_agents() as usize;
+        let node = run.node_with("orchestrator", &run.orchestrator_config(n + 1 + spare)?)?;
+        run.secure_management_segment()?;
         // A service's node limit: the processes that open it (the orchestrator among them), room
         // for the relaunched ones (a killed process's node stays registered) and two to spare.
         // Sized per service, not from N: every process that opens a service maps state sized by
