@@ -80,11 +80,18 @@ pub(super) fn cases(
     for wait in ["event", "adaptive"] {
         push("loaded", 6, wait, "loaded", ring(6, steps, RingRun { wait, ..RING })?, false);
     }
-    // Scale: N = 200 and 256 agent processes at the machine's own open-file limit (the
-    // orchestrator raises its soft limit to the hard one); start-up against N, 200 steps.
+    // Scale: N = 200, 256 and 1 000 agent processes at the machine's own open-file limit (the
+    // orchestrator raises its soft limit to the hard one); start-up, steps/s and PSS against N,
+    // 200 steps. A thousand-agent run takes minutes on two cores: only when asked for by name
+    // (`--only scale/N=1000`).
     if !quick {
         for n in [200, 256] {
             push("scale", n, "adaptive", "scale", ring(n, 200, RING)?, false);
+        }
+        if only.is_some_and(|o| o.starts_with("scale/N=1000")) {
+            for wait in ["adaptive", "event"] {
+                push("scale", 1000, wait, "scale", ring(1000, 200, RingRun { wait, ..RING })?, false);
+            }
         }
     }
     let (n_long, steps_long) = if quick { (20, 1000) } else { (100, 10_000) };

@@ -175,22 +175,27 @@ fn long_scale_idle_sections(md: &mut String, a: &[Aggregate]) {
     let scale: Vec<&Aggregate> = a.iter().filter(|x| x.group == "scale").collect();
     if !scale.is_empty() {
         md.push_str(
-            "\n## Scale: start-up against N (consensus ring, adaptive)\n\nStart-up: launch until every \
+            "\n## Scale: start-up against N (consensus ring)\n\nStart-up: launch until every \
              process is ready (the summary's `startup_s`); medians with [min–max]. N ≤ 100 from the ring \
-             rows above.\n\n| N | start-up s | start-up s per agent | steps/s |\n|---|---|---|---|\n",
+             rows above; PSS of the whole run (`pss_total_kb`) and of the median agent, MB.\n\n| N | waiting | start-up s | \
+             start-up s per agent | steps/s | PSS all | PSS agent |\n|---|---|---|---|---|---|---|\n",
         );
         for x in scale {
+            let pss = |f: &dyn Fn(&Sample) -> f64| median(&mut x.samples.iter().map(f).collect::<Vec<_>>());
             let mut up: Vec<f64> = x.samples.iter().filter_map(|s| s.startup_s).collect();
             let (lo, hi) = up.iter().fold((f64::INFINITY, 0.0_f64), |(l, h), &v| (l.min(v), h.max(v)));
             let m = median(&mut up);
             let _ = writeln!(
                 md,
-                "| {} | {m:.2} [{lo:.2}–{hi:.2}] | {:.3} | {} [{}–{}] |",
+                "| {} | {} | {m:.2} [{lo:.2}–{hi:.2}] | {:.3} | {} [{}–{}] | {} | {:.1} |",
                 x.n,
+                x.variant,
                 m / f64::from(x.n),
                 f0(x.steps_per_s_median),
                 f0(x.steps_per_s_min),
-                f0(x.steps_per_s_max)
+                f0(x.steps_per_s_max),
+                f0(pss(&|s| s.total_pss_mb)),
+                pss(&|s| s.agent_pss_mb)
             );
         }
     }
