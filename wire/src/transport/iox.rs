@@ -1052,6 +1052,28 @@ impl DataPath for IoxData {
 mod tests {
     use super::*;
 
+    /// A drain after wakeups looks at exactly the senders that woke it, each once, in the order
+    /// they woke it; after a wait with none, or with few subscriptions, at all of them.
+    #[test]
+    fn a_drain_looks_at_the_senders_that_woke_it() {
+        let mut m = Marks::new(1..=20u32);
+        assert!(m.sweep_all(), "the first drain looks at everything");
+        m.clear();
+        for id in [7, 3, 7, 0, 99] {
+            m.mark(id);
+        }
+        assert!(!m.sweep_all());
+        assert_eq!(m.list, vec![6, 2], "agents 7 and 3, once each; ids of no subscription ignored");
+        m.clear();
+        assert!(m.list.is_empty() && m.marked.iter().all(|&b| !b));
+        m.all = true;
+        assert!(m.sweep_all(), "a wait that ended with no wakeup sweeps");
+        let mut few = Marks::new([4u32, 9].into_iter());
+        few.clear();
+        few.mark(4);
+        assert!(few.sweep_all(), "below {MARK_FROM_SUBSCRIPTIONS} subscriptions every drain sweeps");
+    }
+
     /// iceoryx2's dead-node scans cost O(nodes) on every node creation, node drop and service
     /// open, so O(N²) for a run's start-up (a 256-agent ring took 20 s to start with them, 3.4 s
     /// without); the orchestrator cleans up instead. A default that comes back is caught here.
