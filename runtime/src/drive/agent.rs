@@ -123,6 +123,11 @@ struct AgentDriver<'a, T: Transport + ?Sized> {
     delay: u64,
     hold_steps: Vec<u64>,
     meas_limit: Duration,
+    /// Whether the first measurement has come: before it, the wait also covers the rest of the
+    /// run's start-up (the plant sends step 0 only once every process is ready, up to
+    /// `run.startup_timeout_s` after the launch). With the step timeout alone, the first 64
+    /// agents of a 200-vehicle swarm, ready early, timed out at step 0 while the others started.
+    measured: bool,
     share_limit: Duration,
     /// Delayed shares and the step they go out at.
     pending: Vec<(u64, Box<Share>)>,
@@ -182,6 +187,7 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
             delay,
             hold_steps,
             meas_limit,
+            measured: false,
             share_limit: degrade_limit,
             pending: Vec::new(),
             last_live: None,
@@ -283,7 +289,9 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
 
     /// Wait for the measurement of step k; when it names a later step, catch up to it first.
     fn await_measurement(&mut self, report: &mut ProcessReport) -> Result<Box<Measurement>, RunError> {
-        self.w.until(self.k, "measurement", &mut self.inbox, self.meas_limit)?;
+        let limit = if self.measured { self.meas_limit } else { self.meas_limit + self.p.hold_timeout };
+        self.w.until(self.k, "measurement", &mut self.inbox, limit)?;
+        self.measured = true;
         let m = self.inbox.meas.take().expect("the wait completed");
         if m.header.step > self.k {
             self.catch_up(m.header.step, report)?;
