@@ -62,6 +62,9 @@ pub fn run(matches: &clap::ArgMatches) -> Result<String, CommandError> {
         }
         None => committed_weights(),
     };
+    if !weights.is_file() {
+        return Err(CommandError::invalid(format!("--weights {}: no such file", weights.display())));
+    }
     scenario_text(a.agents, a.seed, &weights).map_err(CommandError::invalid)
 }
 
