@@ -17,8 +17,9 @@ fn generate(args: &[&str], out: &Path) -> std::process::Output {
 }
 
 fn launch(file: &Path, out: &Path, extra: &[&str]) {
-    let o = orchestrator_command().arg("launch").arg(file).arg("--out").arg(out).arg("--no-plots").args(extra);
-    let o = o.output().expect("orchestrator");
+    let mut cmd = orchestrator_command();
+    let o =
+        cmd.arg("launch").arg(file).arg("--out").arg(out).arg("--no-plots").args(extra).output().expect("orchestrator");
     assert!(o.status.success(), "{} {extra:?}: {}", file.display(), describe_output(&o));
 }
 
@@ -30,7 +31,7 @@ fn bad_generate_arguments_exit_2_naming_the_flag() {
         (&["--agents", "1"][..], "--agents"),
         (&["--agents", "1001"][..], "--agents"),
         (&["--agents", "ten"][..], "--agents"),
-        (&["--agents", "20", "--seed", "-1"][..], "--seed"),
+        (&["--agents", "20", "--seed", "9223372036854775808"][..], "--seed"),
         (&["--agents", "20", "--weights", "/nonexistent/w.safetensors"][..], "--weights"),
     ] {
         let o = generate(args, &out);

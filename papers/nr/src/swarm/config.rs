@@ -277,8 +277,8 @@ mod tests {
             "plant.a_max_mps2",
             "plant.disturbance_mps2",
             "plant.substeps",
-            "plant.cuboid_m[1]: [2, -2]",
-            "plant.cuboid_m[2]: [0.5, NaN]",
+            "plant.cuboid_m[1] = [2, -2]",
+            "plant.cuboid_m[2] = [0.5, NaN]",
         ] {
             assert!(paths.iter().any(|p| p.contains(want)), "{want} not in {paths:?}");
         }
