@@ -1,7 +1,8 @@
 //! The host side of a paper: what it adds to the orchestrator, and what the orchestrator offers it.
 //! A paper implements [`PaperHost`] (on the same value that implements the runtime's `Paper`) to
 //! declare the hooks of its runs on its kinds ([`hooks`]: summary metrics computed from a run's
-//! telemetry, a verdict, figures, a live scene), its trainers and its own subcommand
+//! telemetry, a verdict, figures, a live scene), its trainers, its scenario generators
+//! (`orchestrator generate <shape>`) and its own subcommand
 //! (`orchestrator <paper> …`: comparison tables, training, campaigns). Paper crates never import
 //! the orchestrator: a command gets a [`Launcher`] that validates and runs scenarios for it.
 
@@ -73,6 +74,18 @@ pub trait PaperHost: Paper {
     /// to print on stdout.
     fn run_trainer(&self, name: &str, _matches: &clap::ArgMatches) -> Result<String, CommandError> {
         Err(CommandError::invalid(format!("{} has no trainer {name:?}", self.name())))
+    }
+    /// Scenario generators, `orchestrator generate <shape> …`: each a subcommand named for the
+    /// shape it writes (unique across papers and apart from the orchestrator's own `ring`; the
+    /// registry's test checks). The orchestrator adds `--out` to each.
+    fn generators(&self) -> Vec<clap::Command> {
+        Vec::new()
+    }
+    /// The scenario text of generator `name` (one of [`PaperHost::generators`]) with its own
+    /// `matches`; the orchestrator validates it before it writes it. A relative path in it is
+    /// read against the directory of `--out`.
+    fn run_generator(&self, name: &str, _matches: &clap::ArgMatches) -> Result<String, CommandError> {
+        Err(CommandError::invalid(format!("{} has no generator {name:?}", self.name())))
     }
     /// Scenario files (relative to the repository root) that `orchestrator bench` measures
     /// multi-process against the in-process reference: the paper's headline case.

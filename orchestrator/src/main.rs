@@ -25,6 +25,7 @@ macro_rules! errln {
 
 mod bench;
 mod campaign;
+mod generate;
 mod launcher;
 mod links_study;
 mod live;
@@ -174,23 +175,6 @@ enum Cmd {
         /// results.json).
         #[arg(long, value_name = "PREFIX")]
         only: Option<String>,
-    },
-    /// Write a scenario of any size: `ring`, the consensus ring (each agent hears its two
-    /// neighbours, so the subscription graph stays sparse at any N; the bench's ring rows run the
-    /// same text). Validated before it is written; to --out or stdout.
-    Generate {
-        /// What to generate.
-        #[arg(value_enum)]
-        shape: Shape,
-        /// Agents (3 to 100 000).
-        #[arg(long, value_parser = clap::value_parser!(u32).range(3..=100_000))]
-        agents: u32,
-        /// Lockstep steps of 0.01 s.
-        #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..))]
-        steps: u64,
-        /// The scenario file to write (default: stdout).
-        #[arg(long)]
-        out: Option<PathBuf>,
     },
     /// Serve this machine to multi-host runs: a long-lived daemon that starts, signals and
     /// watches this machine's plant and agent processes for an orchestrator (see the README's
@@ -412,8 +396,8 @@ fn seed_arg(s: &str) -> Result<u64, String> {
     }
 }
 
-/// The full command line: the generic subcommands, `train` with every paper's trainers, and each
-/// paper's own subcommand.
+/// The full command line: the generic subcommands, `generate` with the ring and every paper's
+/// shapes, `train` with every paper's trainers, and each paper's own subcommand.
 fn command_line() -> clap::Command {
     let trainers: Vec<clap::Command> = HOSTS.iter().flat_map(|h| h.trainers()).collect();
     let train = clap::Command::new("train")
@@ -422,7 +406,7 @@ fn command_line() -> clap::Command {
         .arg_required_else_help(true)
         .subcommands(trainers);
     let papers = HOSTS.iter().filter_map(|h| h.command().map(|c| c.name(h.name())));
-    Cli::command().version(version()).subcommand(train).subcommands(papers)
+    Cli::command().version(version()).subcommand(generate::command()).subcommand(train).subcommands(papers)
 }
 
 /// `orchestrator man --out DIR`: the top page and one per command, subcommands included.
@@ -493,6 +477,10 @@ fn main() -> ExitCode {
                 None => fail(CommandError::invalid(format!("no trainer {name:?}"))),
             }
         }
+        Some(("generate", m)) => match m.subcommand() {
+            Some((shape, sub)) => generate::run(shape, sub),
+            None => ExitCode::from(EXIT_INVALID),
+        },
         Some((name, sub)) if HOSTS.iter().any(|h| h.name() == name) => {
             let host: &dyn PaperHost = *HOSTS.iter().find(|h| h.name() == name).expect("checked by the guard");
             finish(host.run_command(sub, &launcher::Orchestrator))
@@ -536,7 +524,6 @@ fn generic(command: Cmd) -> ExitCode {
             soak_command(file, &wall, realtime, rate, faults.as_deref(), out, seed)
         }
         Cmd::Bench { quick, reps, out, only } => bench_command(quick, reps, &out, only.as_deref()),
-        Cmd::Generate { shape: Shape::Ring, agents, steps, out } => generate_ring(agents, steps, out.as_deref()),
         Cmd::Completions { shell } => {
             let mut cmd = command_line();
             let mut buf = Vec::new();
@@ -634,35 +621,6 @@ fn bench_command(quick: bool, reps: Option<u32>, out: &Path, only: Option<&str>)
             ExitCode::SUCCESS
         }
         Err(e) => fail(e),
-    }
-}
-
-/// What `orchestrator generate` writes.
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum Shape {
-    /// The consensus ring of the generic kinds.
-    Ring,
-}
-
-fn generate_ring(agents: u32, steps: u64, out: Option<&Path>) -> ExitCode {
-    let ring = bench::RING;
-    if let Err(e) = bench::ring(agents, steps, ring) {
-        return fail(CommandError::failed(format!("the generated ring does not validate: {e}")));
-    }
-    let (_, text) = bench::ring_text(agents, steps, ring);
-    let text = text.replacen("name = \"bench-ring", "name = \"ring", 1);
-    match out {
-        None => {
-            outln!("{}", text.trim_end());
-            ExitCode::SUCCESS
-        }
-        Some(path) => match std::fs::write(path, &text) {
-            Ok(()) => {
-                outln!("written: {} ({agents} agents, {steps} steps)", path.display());
-                ExitCode::SUCCESS
-            }
-            Err(e) => fail(CommandError::invalid(format!("--out {}: {e}", path.display()))),
-        },
     }
 }
 

@@ -1,5 +1,6 @@
 //! Seed 003's host side: the hooks of its runs (each sub-system's `host::hooks`, declared on its
-//! plant kind), the trainers `orchestrator train nr-iso|nr-swarm` and the commands
+//! plant kind), the trainers `orchestrator train nr-iso|nr-swarm`, the generator
+//! `orchestrator generate swarm` and the commands
 //! `orchestrator nr campaign|swarm-campaign`.
 
 use clap::{FromArgMatches, Parser, Subcommand};
@@ -47,6 +48,15 @@ impl PaperHost for Nr {
             iso::train::command::NAME => iso::train::command::run(matches),
             swarm::train::command::NAME => swarm::train::command::run(matches),
             _ => Err(CommandError::invalid(format!("nr has no trainer {name:?}"))),
+        }
+    }
+    fn generators(&self) -> Vec<clap::Command> {
+        vec![swarm::generate::command()]
+    }
+    fn run_generator(&self, name: &str, matches: &clap::ArgMatches) -> Result<String, CommandError> {
+        match name {
+            swarm::generate::NAME => swarm::generate::run(matches),
+            _ => Err(CommandError::invalid(format!("nr has no generator {name:?}"))),
         }
     }
     fn command(&self) -> Option<clap::Command> {

@@ -79,6 +79,14 @@ mod tests {
         trainers.sort();
         trainers.dedup();
         assert_eq!(trainers.len(), n, "two papers register a trainer of the same name: {trainers:?}");
+        // `ring` is the orchestrator's own shape of `orchestrator generate`.
+        let mut shapes: Vec<String> =
+            HOSTS.iter().flat_map(|h| h.generators()).map(|g| g.get_name().to_string()).collect();
+        shapes.push("ring".to_string());
+        let n = shapes.len();
+        shapes.sort();
+        shapes.dedup();
+        assert_eq!(shapes.len(), n, "two generators of the same shape: {shapes:?}");
     }
 
     /// Every run-hooks entry names kinds that exist (in its own paper) and at least one of them.

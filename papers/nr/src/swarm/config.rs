@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use crate::iso::config::{non_negative, positive};
 use crate::swarm::control::nav::EstimatorConfig;
 use crate::swarm::control::safety::SafetyConfig;
-use crate::swarm::dynamics::setup::{A_MAX_MPS2, R_COMM_M, T_RECONFIG_S};
+use crate::swarm::dynamics::setup::{A_MAX_MPS2, CUBOID_M, Cuboid, R_COMM_M, T_RECONFIG_S};
 
 fn d_a_max() -> f64 {
     A_MAX_MPS2
@@ -27,6 +27,9 @@ fn d_substeps() -> u32 {
 }
 fn d_t_reconfig() -> f64 {
     T_RECONFIG_S
+}
+fn d_cuboid() -> Cuboid {
+    CUBOID_M.map(|(lo, hi)| [lo, hi])
 }
 fn d_r_comm() -> f64 {
     R_COMM_M
@@ -71,6 +74,12 @@ pub struct SwarmConfig {
     /// and at the end of the run.
     #[serde(default = "d_t_reconfig")]
     pub t_reconfig_s: f64,
+    /// The cuboid starts and goals are drawn in, `[[x_min, x_max], [y_min, y_max], [z_min,
+    /// z_max]]`, m (default the paper's [−2, 2] × [−2, 2] × [0.5, 2]; `orchestrator generate
+    /// swarm` scales it with N at swarm-20's density). Only the sampling and the
+    /// `outside_cuboid_substeps` count read it: nothing keeps a vehicle inside.
+    #[serde(default = "d_cuboid")]
+    pub cuboid_m: Cuboid,
 }
 
 impl Default for SwarmConfig {
@@ -95,6 +104,15 @@ impl SwarmConfig {
         positive(&mut p, "plant.t_reconfig_s", self.t_reconfig_s);
         if !(1..=1000).contains(&self.substeps) {
             p.push(Problem::new("plant.substeps", Some(self.substeps.to_string()), "must be 1 to 1000"));
+        }
+        for (a, [lo, hi]) in self.cuboid_m.iter().enumerate() {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                p.push(Problem::new(
+                    format!("plant.cuboid_m[{a}]"),
+                    Some(format!("[{lo}, {hi}]")),
+                    "must be [min, max] in m, both finite, min < max",
+                ));
+            }
         }
         p
     }
@@ -249,9 +267,19 @@ mod tests {
         let a: SwarmAlgorithmConfig = toml::from_str("method = \"nr\"\npolicy = \"pd\"").unwrap();
         assert!(a.validate().is_empty() && a.validate_dt(0.1).is_empty());
         assert_eq!(a.steps(0.1), (20, 5));
-        let bad = SwarmConfig { a_max_mps2: 0.0, disturbance_mps2: -1.0, substeps: 0, ..SwarmConfig::default() };
+        assert_eq!(SwarmConfig::default().cuboid_m, [[-2.0, 2.0], [-2.0, 2.0], [0.5, 2.0]]);
+        let cuboid_m = [[-2.0, 2.0], [2.0, -2.0], [0.5, f64::NAN]];
+        let bad =
+            SwarmConfig { a_max_mps2: 0.0, disturbance_mps2: -1.0, substeps: 0, cuboid_m, ..SwarmConfig::default() };
         let paths: Vec<String> = bad.validate().iter().map(|p| p.to_string()).collect();
-        for want in ["plant.a_max_mps2", "plant.disturbance_mps2", "plant.substeps"] {
+        assert!(!paths.iter().any(|p| p.contains("plant.cuboid_m[0]")), "{paths:?}");
+        for want in [
+            "plant.a_max_mps2",
+            "plant.disturbance_mps2",
+            "plant.substeps",
+            "plant.cuboid_m[1] = [2, -2]",
+            "plant.cuboid_m[2] = [0.5, NaN]",
+        ] {
             assert!(paths.iter().any(|p| p.contains(want)), "{want} not in {paths:?}");
         }
         let b = SwarmAlgorithmConfig { rebuild_every_s: 3.0, horizon_s: 0.25, ..a };

@@ -8,6 +8,7 @@
 //! - [`train`]: the global solution (centralised SCP, Sec. 7.2.1), the training data, DAgger,
 //!   the in-process evaluation and the trainer `orchestrator train nr-swarm`;
 //! - [`campaign`]: `orchestrator nr swarm-campaign`, its cases and outputs;
+//! - [`generate`]: `orchestrator generate swarm`, a swarm of any size with sparse neighbours;
 //! - [`host`]: the kinds in the registry, the run's analysis and figures;
 //! - [`config`]: the scenario sections.
 
@@ -16,5 +17,7 @@ pub(crate) mod campaign;
 pub(crate) mod config;
 pub mod control;
 pub(crate) mod dynamics;
+#[cfg(feature = "host")]
+pub(crate) mod generate;
 pub(crate) mod host;
 pub mod train;

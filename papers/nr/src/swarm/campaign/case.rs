@@ -226,7 +226,7 @@ fn scp_command(plan: &SwarmPlan, i: usize, k: usize, reading: &SwarmReading, fee
 /// Solve the global SCP for the plant's problem of (`plant`, n, `seed`) and fly it in that plant
 /// for `steps` intervals of `dt_s` (module docs); fills `row`.
 pub fn fly_scp(plant_cfg: &SwarmConfig, n: usize, seed: u64, dt_s: f64, steps: u64, row: &mut CaseResult) {
-    let (starts_m, goals_m) = match crate::swarm::dynamics::setup::draw(n, seed) {
+    let (starts_m, goals_m) = match crate::swarm::dynamics::setup::draw_in(n, seed, &plant_cfg.cuboid_m) {
         Ok(x) => x,
         Err(e) => {
             row.status = format!("draw: {e}");

@@ -19,7 +19,8 @@
 //! the policy's own, unfiltered).
 //!
 //! What a vehicle knows of the others: the shares ([`crate::swarm::dynamics::messages`]) every vehicle
-//! publishes each step, all-to-all. The runtime hands an agent its neighbours' shares of step k
+//! publishes each step, to every vehicle that lists it (all-to-all in the shipped scenarios; the
+//! vehicles it could meet within R_comm in generated ones, [`crate::swarm::dynamics::neighbours`]). The runtime hands an agent its neighbours' shares of step k
 //! only after its own command of step k is out, so the command of step k uses the shares of step
 //! k − 1, propagated over the interval with their shared command (a one-interval link latency,
 //! ours; the paper's radio latency is not given). A share whose propagated position is at or

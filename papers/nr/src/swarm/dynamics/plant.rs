@@ -31,7 +31,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
 use crate::swarm::dynamics::messages::SwarmReading;
-use crate::swarm::dynamics::setup::{CUBOID_M, DrawError, distance_m, draw, ellipsoid_distance};
+use crate::swarm::dynamics::setup::{Cuboid, DrawError, distance_m, draw_in, ellipsoid_distance};
 
 type V3 = [f64; 3];
 
@@ -44,6 +44,8 @@ pub struct SwarmParams {
     pub vel_noise_mps: f64,
     pub substeps: u32,
     pub t_reconfig_s: f64,
+    /// Where starts and goals are drawn (and outside of which sub-steps are counted), m.
+    pub cuboid_m: Cuboid,
 }
 
 /// Collision bookkeeping over every pair i < j.
@@ -116,7 +118,7 @@ pub struct SwarmPlant {
 impl SwarmPlant {
     /// `n` vehicles on the problem of `problem_seed`; the disturbance stream of `seed`.
     pub fn new(prm: SwarmParams, n: usize, problem_seed: u64, seed: u64) -> Result<Self, DrawError> {
-        let (starts, goals) = draw(n, problem_seed)?;
+        let (starts, goals) = draw_in(n, problem_seed, &prm.cuboid_m)?;
         Ok(Self::with_problem(prm, starts, goals, seed))
     }
 
@@ -177,8 +179,8 @@ impl SwarmPlant {
         if n == 0.0 { [0.0; 3] } else { g.map(|x| self.prm.disturbance_mps2 * x / n) }
     }
 
-    fn outside(p: &V3) -> bool {
-        (0..3).any(|a| p[a] < CUBOID_M[a].0 || p[a] > CUBOID_M[a].1)
+    fn outside(&self, p: &V3) -> bool {
+        (0..3).any(|a| p[a] < self.prm.cuboid_m[a][0] || p[a] > self.prm.cuboid_m[a][1])
     }
 }
 
@@ -232,7 +234,7 @@ impl PlantModel for SwarmPlant {
                     self.p[i][a] += self.v[i][a] * h + 0.5 * acc[a] * h * h;
                     self.v[i][a] += acc[a] * h;
                 }
-                self.outside_substeps += u64::from(Self::outside(&self.p[i]));
+                self.outside_substeps += u64::from(self.outside(&self.p[i]));
             }
             let least = self.coll.check(&self.p);
             self.interval_min = self.interval_min.min(least);
@@ -331,6 +333,7 @@ mod tests {
             vel_noise_mps: 0.0,
             substeps: 10,
             t_reconfig_s: 8.0,
+            cuboid_m: [[-2.0, 2.0], [-2.0, 2.0], [0.5, 2.0]],
         }
     }
 

@@ -23,6 +23,8 @@ use rand::Rng;
 pub const ELLIPSOID_RADII_M: [f64; 3] = [0.12, 0.12, 0.30];
 /// The cuboid starts and goals are sampled in: (min, max) per axis, m.
 pub const CUBOID_M: [(f64, f64); 3] = [(-2.0, 2.0), (-2.0, 2.0), (0.5, 2.0)];
+/// A cuboid as `[[x_min, x_max], [y_min, y_max], [z_min, z_max]]`, m (the plant's `cuboid_m`).
+pub type Cuboid = [[f64; 2]; 3];
 /// Least start–target distance of one vehicle, m (Euclidean).
 pub const MIN_TRAVEL_M: f64 = 1.0;
 /// Least ellipsoid distance between any two sampled points.
@@ -80,12 +82,14 @@ pub enum DrawError {
     Crowded { what: &'static str, vehicle: usize, n: usize },
 }
 
-/// Starts and goals of `n` vehicles for `seed` (see the module docs), vehicle i at index i − 1.
+/// Starts and goals of `n` vehicles for `seed` in the paper's cuboid [`CUBOID_M`] (see the
+/// module docs), vehicle i at index i − 1.
 pub fn draw(n: usize, seed: u64) -> Result<(Points, Points), DrawError> {
-    draw_in(n, seed, &CUBOID_M)
+    draw_in(n, seed, &CUBOID_M.map(|(lo, hi)| [lo, hi]))
 }
 
-fn draw_in(n: usize, seed: u64, cuboid: &[(f64, f64); 3]) -> Result<(Points, Points), DrawError> {
+/// [`draw`] in `cuboid` (the plant's `cuboid_m`): the same sampler, the same stream.
+pub fn draw_in(n: usize, seed: u64, cuboid: &Cuboid) -> Result<(Points, Points), DrawError> {
     if n == 0 {
         return Err(DrawError::Empty);
     }
@@ -95,7 +99,7 @@ fn draw_in(n: usize, seed: u64, cuboid: &[(f64, f64); 3]) -> Result<(Points, Poi
         let (what, vehicle) = if k < n { ("the start", k + 1) } else { ("the goal", k - n + 1) };
         let own_start = (k >= n).then(|| placed[k - n]);
         let point = (0..MAX_TRIES)
-            .map(|_| cuboid.map(|(lo, hi)| rng.random_range(lo..hi)))
+            .map(|_| cuboid.map(|[lo, hi]| rng.random_range(lo..hi)))
             .find(|p| {
                 placed.iter().all(|q| ellipsoid_distance(diff(*p, *q)) >= MIN_SAMPLE_SEPARATION)
                     && own_start.is_none_or(|s| distance_m(*p, s) >= MIN_TRAVEL_M)
@@ -146,7 +150,7 @@ mod tests {
     fn an_impossible_crowd_is_an_error_not_a_hang() {
         // In a 0.1 m cube no two points are 1.25 apart in the metric (its diagonal is 1.22), nor
         // 1 m apart.
-        let tiny = [(0.0, 0.1); 3];
+        let tiny = [[0.0, 0.1]; 3];
         assert_eq!(draw_in(1, 1, &tiny), Err(DrawError::Crowded { what: "the goal", vehicle: 1, n: 1 }));
         assert_eq!(draw_in(2, 1, &tiny), Err(DrawError::Crowded { what: "the start", vehicle: 2, n: 2 }));
         // 20 vehicles, the most the scenarios fly, fit easily: every seed of a range draws.

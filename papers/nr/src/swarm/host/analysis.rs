@@ -13,7 +13,9 @@
 //!   command, of all vehicle-steps), `max_observed` (most neighbours a vehicle observed),
 //!   `clipped_steps` and `bad_readings` (summed over the vehicles), `filtered_steps` (steps the
 //!   safety filter changed a command) and `filter_failures` (its solver failed, the nominal was
-//!   flown), summed over the vehicles (0 without a filter).
+//!   flown), summed over the vehicles (0 without a filter);
+//! - from the plant's rows: `max_stray_m` and `unlisted_pairs_within_r_comm`, whether the run kept
+//!   the neighbour rule's assumption ([`crate::swarm::host::stray`]).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -95,6 +97,9 @@ pub fn analyse(s: &Setup, dirs: &RunDirs) -> Result<BTreeMap<String, f64>, Strin
     let (vehicles, swarm) = read_end(&dirs.root, n)?;
     let mut m: BTreeMap<String, f64> = swarm.into_iter().filter(|(k, _)| k != "t_reconfig_s").collect();
     vehicle_metrics(&vehicles, &mut m);
+    let r_comm_m =
+        s.algorithm_as::<SwarmSetup>().map_or(crate::swarm::dynamics::setup::R_COMM_M, |a| a.config.r_comm_m);
+    crate::swarm::host::stray::metrics(s, dirs, &vehicles, r_comm_m, &mut m)?;
     let (mut active, mut steps, mut observed, mut clipped, mut bad) = (0usize, 0usize, 0.0f64, 0.0, 0usize);
     let (mut filtered, mut failures) = (0.0, 0.0);
     for j in 1..=n {

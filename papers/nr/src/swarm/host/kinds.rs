@@ -6,9 +6,10 @@
 //! - the agents carry no per-agent keys: the plant draws every start and goal from
 //!   `plant.problem_seed` (absent: the scenario's seed, written into the resolved scenario), and a
 //!   seed whose problem cannot be drawn for N vehicles is refused;
-//! - `nr-swarm` flies only the `swarm` plant, and every agent must list every other as a
-//!   neighbour (all-to-all): who is within R_comm changes as the vehicles move, so each vehicle
-//!   subscribes to all and drops the shares from beyond R_comm itself;
+//! - `nr-swarm` flies only the `swarm` plant, and every agent must list at least the vehicles it
+//!   could meet within R_comm (the rule of [`crate::swarm::dynamics::neighbours`] on the plant's
+//!   problem; all-to-all passes): who is within R_comm changes as the vehicles move, so each vehicle
+//!   subscribes to all it may meet and drops the shares from beyond R_comm itself;
 //! - the roll-out horizon and the rebuild period are whole numbers of control intervals;
 //! - a_max comes from the plant section (the policy clips to the plant's limit);
 //! - `algorithm.weights` (policy `deep-set`), relative to the scenario file, is resolved while
@@ -33,7 +34,9 @@ use crate::swarm::control::obs::SwarmPolicy;
 use crate::swarm::control::pd::PdPolicy;
 use crate::swarm::control::policy::DeepSetPolicy;
 use crate::swarm::dynamics::messages::{COMMAND_LEN, READINGS_LEN, SHARE_LEN};
+use crate::swarm::dynamics::neighbours::{ESTIMATE_MARGIN_M, STRAY_M, neighbour_lists, reach_m};
 use crate::swarm::dynamics::plant::{SwarmParams, SwarmPlant};
+use crate::swarm::dynamics::setup::draw_in;
 
 /// The plant kind's name.
 pub const PLANT_KIND: &str = "swarm";
@@ -54,7 +57,9 @@ impl PlantKind for SwarmKind {
         agents?;
         let s = ctx.scenario;
         let seed = p.problem_seed(s.scenario.seed);
-        if let Err(e) = crate::swarm::dynamics::setup::draw(s.n_agents() as usize, seed) {
+        // A bad cuboid is already a problem at plant.cuboid_m[a]; nothing to draw in.
+        let drawable = p.cuboid_m.iter().all(|[lo, hi]| lo.is_finite() && hi.is_finite() && lo < hi);
+        if drawable && let Err(e) = draw_in(s.n_agents() as usize, seed, &p.cuboid_m) {
             let path = if p.problem_seed.is_some() { "plant.problem_seed" } else { "scenario.seed" };
             c.fail(path, seed, format!("no swarm problem for {} agents: {e}", s.n_agents()));
         }
@@ -72,6 +77,7 @@ impl SwarmConfig {
             vel_noise_mps: self.vel_noise_mps,
             substeps: self.substeps,
             t_reconfig_s: self.t_reconfig_s,
+            cuboid_m: self.cuboid_m,
         }
     }
 }
@@ -161,27 +167,14 @@ impl AlgorithmKind for NrSwarmKind {
                 format!("needs plant.kind = {PLANT_KIND:?} (its readings and limits)"),
             );
         }
-        let ids: Vec<u32> = s.agents.iter().map(|a| a.id).collect();
-        for (k, agent) in s.agents.iter().enumerate() {
-            let mut want: Vec<u32> = ids.iter().copied().filter(|id| *id != agent.id).collect();
-            let mut got = agent.neighbours.clone();
-            want.sort_unstable();
-            got.sort_unstable();
-            if got != want {
-                c.fail(
-                    format!("agents[{k}].neighbours"),
-                    format!("{:?}", agent.neighbours),
-                    format!(
-                        "must list every other agent ({want:?}): nr-swarm vehicles hear all and keep the shares \
-                         from within algorithm.r_comm_m themselves"
-                    ),
-                );
-            }
+        let swarm = plant.and_then(|p| p.downcast_ref::<SwarmConfig>());
+        let r_comm_m = a.as_ref().map_or(crate::swarm::dynamics::setup::R_COMM_M, |a| a.r_comm_m);
+        if let Some(p) = swarm {
+            check_neighbours(s, p, r_comm_m, c);
         }
         let mut config = a?;
         c.problems.extend(config.validate());
         c.problems.extend(config.validate_dt(s.scenario.dt_s));
-        let swarm = plant.and_then(|p| p.downcast_ref::<SwarmConfig>());
         let a_max_mps2 = swarm.map_or(crate::swarm::dynamics::setup::A_MAX_MPS2, |p| p.a_max_mps2);
         let t_reconfig_s = swarm.map_or(crate::swarm::dynamics::setup::T_RECONFIG_S, |p| p.t_reconfig_s);
         if let Some(safety) = &config.safety {
@@ -202,6 +195,34 @@ impl AlgorithmKind for NrSwarmKind {
             _ => None,
         };
         Some(Arc::new(SwarmSetup { config, a_max_mps2, t_reconfig_s, deep_set }))
+    }
+}
+
+/// Every agent must list (at least) the vehicles the neighbour rule pairs it with on the plant's
+/// problem ([`neighbour_lists`]): the others it could meet within R_comm. All-to-all lists pass.
+/// Nothing to check when the problem cannot be drawn (the plant's problem already).
+fn check_neighbours(s: &Scenario, plant: &SwarmConfig, r_comm_m: f64, c: &mut Checker) {
+    let seed = plant.problem_seed(s.scenario.seed);
+    let Ok((starts, goals)) = draw_in(s.n_agents() as usize, seed, &plant.cuboid_m) else { return };
+    if !(r_comm_m.is_finite() && r_comm_m > 0.0) {
+        return;
+    }
+    let need = neighbour_lists(&starts, &goals, r_comm_m);
+    for (k, agent) in s.agents.iter().enumerate() {
+        let Some(want) = need.get((agent.id as usize).wrapping_sub(1)) else { continue };
+        let missing: Vec<u32> = want.iter().copied().filter(|j| !agent.neighbours.contains(j)).collect();
+        if !missing.is_empty() {
+            c.fail(
+                format!("agents[{k}].neighbours"),
+                format!("{:?}", agent.neighbours),
+                format!(
+                    "must also list {missing:?}: their start→goal segments come within {:.2} m of this one's \
+                     (r_comm_m + 2 × {STRAY_M} m stray + {ESTIMATE_MARGIN_M} m), so they may meet within R_comm \
+                     (problem seed {seed}; papers/nr/README.md, \"Neighbours\")",
+                    reach_m(r_comm_m)
+                ),
+            );
+        }
     }
 }
 
@@ -253,7 +274,8 @@ mod tests {
     fn every_bad_key_is_reported_with_its_path() {
         let base = file("swarm-8.toml");
         let e = configured(&base.replace("neighbours = [1, 2, 3, 4, 5, 6, 7]", "neighbours = [1, 2]")).unwrap_err();
-        assert!(e.contains("agents[7].neighbours") && e.contains("every other agent"), "{e}");
+        assert!(e.contains("agents[7].neighbours") && e.contains("must also list [3, 4, 5, 6, 7]"), "{e}");
+        assert!(e.contains("3.05 m") && e.contains("problem seed 1"), "{e}");
         let e = configured(&base.replace("rebuild_every_s = 0.5", "rebuild_every_s = 0.55")).unwrap_err();
         assert!(e.contains("algorithm.rebuild_every_s"), "{e}");
         let weights = "weights = \"../papers/nr/weights/swarm.safetensors\"\n";
