@@ -34,7 +34,7 @@ mod mac;
 mod python;
 mod report;
 mod ring;
-pub(crate) use ring::{RING, ring, ring_text};
+pub(crate) use ring::{RING, ring_text};
 mod run;
 mod sample;
 mod types;

@@ -29,7 +29,7 @@ fn d_t_reconfig() -> f64 {
     T_RECONFIG_S
 }
 fn d_cuboid() -> Cuboid {
-    CUBOID_M.map(|(lo, hi)| [lo, hi])
+    CUBOID_M
 }
 fn d_r_comm() -> f64 {
     R_COMM_M

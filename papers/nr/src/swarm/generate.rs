@@ -71,8 +71,8 @@ pub fn run(matches: &clap::ArgMatches) -> Result<String, CommandError> {
 /// The cuboid of `n` vehicles at swarm-20's density (module docs), m.
 pub fn cuboid_for(n: u32) -> Cuboid {
     let scale = (f64::from(n) / DENSITY_AGENTS).cbrt();
-    let [x, y, z] = CUBOID_M;
-    [[x.0 * scale, x.1 * scale], [y.0 * scale, y.1 * scale], [z.0, z.0 + (z.1 - z.0) * scale]]
+    let [[x0, x1], [y0, y1], [z0, z1]] = CUBOID_M;
+    [[x0 * scale, x1 * scale], [y0 * scale, y1 * scale], [z0, z0 + (z1 - z0) * scale]]
 }
 
 /// The scenario of `n` vehicles and `seed`, flying the policy of `weights` (an absolute path).

@@ -21,10 +21,10 @@ use rand::Rng;
 
 /// Ellipsoid radii (x, y, z) of the collision metric, m.
 pub const ELLIPSOID_RADII_M: [f64; 3] = [0.12, 0.12, 0.30];
-/// The cuboid starts and goals are sampled in: (min, max) per axis, m.
-pub const CUBOID_M: [(f64, f64); 3] = [(-2.0, 2.0), (-2.0, 2.0), (0.5, 2.0)];
 /// A cuboid as `[[x_min, x_max], [y_min, y_max], [z_min, z_max]]`, m (the plant's `cuboid_m`).
 pub type Cuboid = [[f64; 2]; 3];
+/// The paper's cuboid starts and goals are sampled in, m (the plant's default `cuboid_m`).
+pub const CUBOID_M: Cuboid = [[-2.0, 2.0], [-2.0, 2.0], [0.5, 2.0]];
 /// Least start–target distance of one vehicle, m (Euclidean).
 pub const MIN_TRAVEL_M: f64 = 1.0;
 /// Least ellipsoid distance between any two sampled points.
@@ -85,7 +85,7 @@ pub enum DrawError {
 /// Starts and goals of `n` vehicles for `seed` in the paper's cuboid [`CUBOID_M`] (see the
 /// module docs), vehicle i at index i − 1.
 pub fn draw(n: usize, seed: u64) -> Result<(Points, Points), DrawError> {
-    draw_in(n, seed, &CUBOID_M.map(|(lo, hi)| [lo, hi]))
+    draw_in(n, seed, &CUBOID_M)
 }
 
 /// [`draw`] in `cuboid` (the plant's `cuboid_m`): the same sampler, the same stream.
@@ -123,7 +123,7 @@ mod tests {
             let all: Vec<[f64; 3]> = s.iter().chain(&g).copied().collect();
             for (i, p) in all.iter().enumerate() {
                 for a in 0..3 {
-                    assert!(p[a] >= CUBOID_M[a].0 && p[a] < CUBOID_M[a].1, "point {i} outside: {p:?}");
+                    assert!(p[a] >= CUBOID_M[a][0] && p[a] < CUBOID_M[a][1], "point {i} outside: {p:?}");
                 }
                 for q in &all[i + 1..] {
                     assert!(ellipsoid_distance(diff(*p, *q)) >= MIN_SAMPLE_SEPARATION);

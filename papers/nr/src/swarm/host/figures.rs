@@ -73,7 +73,7 @@ impl PaperFigure for Trajectories {
     fn draw(&self, path: &Path) -> DrawResult {
         ensure_font()?;
         let all = self.paths.iter().flatten().chain(&self.goals);
-        let mut r = CUBOID_M;
+        let mut r = CUBOID_M.map(|[lo, hi]| (lo, hi));
         for p in all.filter(|p| p.iter().all(|x| x.is_finite())) {
             for a in 0..3 {
                 r[a] = (r[a].0.min(p[a]), r[a].1.max(p[a]));

@@ -169,7 +169,11 @@ impl AlgorithmKind for NrSwarmKind {
         }
         let swarm = plant.and_then(|p| p.downcast_ref::<SwarmConfig>());
         let r_comm_m = a.as_ref().map_or(crate::swarm::dynamics::setup::R_COMM_M, |a| a.r_comm_m);
-        if let Some(p) = swarm {
+        // O(N²) draws and segment distances: the orchestrator's check before it spawns anything,
+        // not every child's again at start-up (200 processes of a 200-vehicle swarm).
+        if let Some(p) = swarm
+            && cohort_runtime::paper::deep_checks()
+        {
             check_neighbours(s, p, r_comm_m, c);
         }
         let mut config = a?;

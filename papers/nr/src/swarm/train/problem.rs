@@ -39,12 +39,8 @@ pub const STEPS: usize = 80;
 pub fn t_to_go_s(k: usize) -> f64 {
     STEPS.saturating_sub(k) as f64 * DT_S
 }
-/// The cuboid [lo, hi] per axis, m (the plant's [`crate::swarm::dynamics::setup::CUBOID_M`] as arrays).
 #[cfg(test)] // used by the unit tests only
-pub const CUBOID_M: [[f64; 2]; 3] = {
-    let c = crate::swarm::dynamics::setup::CUBOID_M;
-    [[c[0].0, c[0].1], [c[1].0, c[1].1], [c[2].0, c[2].1]]
-};
+pub use crate::swarm::dynamics::setup::CUBOID_M;
 
 /// ‖E⁻¹(a − b)‖: below 1 is a collision.
 pub fn ellipsoid_distance(a: [f64; 3], b: [f64; 3]) -> f64 {
