@@ -194,6 +194,10 @@ enum Cmd {
         #[command(flatten)]
         security: security_args::SecurityArgs,
     },
+    /// (internal) A host's gateway of a run with `run.zenoh_links = "gateway"`: started by the
+    /// orchestrator and the host daemons, never by hand.
+    #[command(hide = true)]
+    Gateway(cohort_supervisor::gateway::GatewayArgs),
     /// (bench) Echo zenoh pings, listening on an endpoint.
     #[command(hide = true)]
     ZenohEcho {
@@ -299,6 +303,10 @@ struct LaunchArgs {
     /// Override run.transport: iceoryx2, udp or zenoh.
     #[arg(long)]
     transport: Option<String>,
+    /// With zenoh: gateway (one gateway process per host carries what crosses hosts; the
+    /// default) or peers (every process its own zenoh peer). Sets run.zenoh_links.
+    #[arg(long, value_name = "gateway|peers")]
+    zenoh_links: Option<String>,
     /// Machines of a multi-host run: a TOML file of [[hosts]] (name, endpoint, and optionally
     /// plant = true / agents = [ids] placing the processes), replacing the scenario's.
     #[arg(long, value_name = "FILE")]
@@ -548,6 +556,7 @@ fn generic(command: Cmd) -> ExitCode {
                 Err(e) => fail(e),
             }
         }
+        Cmd::Gateway(args) => cohort_supervisor::gateway::main(args, cohort_registry::PAPERS),
         Cmd::ZenohEcho { listen } => match zping::echo(&listen) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => fail(e),
@@ -677,6 +686,7 @@ fn launch_command(a: LaunchArgs) -> ExitCode {
         spin_us: a.spin_us,
         link_delay_steps: a.link_delay,
         transport: a.transport,
+        zenoh_links: a.zenoh_links,
         realtime_rate: a.realtime.then_some(a.rate),
         faults,
         on_agent_loss: a.on_agent_loss,

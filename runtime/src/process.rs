@@ -251,6 +251,13 @@ fn start_child(spec: &ChildSpec, papers: &[&'static dyn Paper], start: Instant) 
             udp::open(&iox_run, &topo, me, &spec.run_dir.join("udp"), timeout).map(|t| Box::new(t) as _)
         }
         TransportKind::Iceoryx2 => IoxData::open(&iox_run, &topo, me).map(|t| Box::new(t) as _),
+        // Through this host's gateway: iceoryx2 in the host's domain, which the gateway created
+        // before this process was started.
+        TransportKind::Zenoh if scenario.uses_gateways() => {
+            let placement = Arc::new(scenario.placement());
+            let here = placement.host(me);
+            IoxData::open(&iox_run.clone().in_domain(placement, here), &topo, me).map(|t| Box::new(t) as _)
+        }
         TransportKind::Zenoh => {
             let timeout = Duration::from_secs_f64(scenario.run.startup_timeout_s);
             let run = ZenohRun::new(run_id).with_key(key);

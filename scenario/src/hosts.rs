@@ -211,6 +211,13 @@ pub fn check(c: &mut Checker, s: &Scenario) {
             "the scenario places processes on [[hosts]], which needs \"zenoh\" (--transport zenoh)",
         );
     }
+    if s.run.zenoh_links == crate::schema::ZenohLinks::Peers && s.run.transport != TransportKind::Zenoh {
+        c.fail(
+            "run.zenoh_links",
+            "\"peers\"",
+            "says how zenoh runs link their processes; this run's transport is not zenoh",
+        );
+    }
     let known = |n: &str| names.contains(&n);
     for (k, a) in s.agents.iter().enumerate() {
         match &a.host {

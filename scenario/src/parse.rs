@@ -23,6 +23,8 @@ pub struct Overrides {
     pub spin_us: Option<f64>,
     pub link_delay_steps: Option<u32>,
     pub transport: Option<String>,
+    /// `--zenoh-links`: run.zenoh_links (gateway or peers).
+    pub zenoh_links: Option<String>,
     pub realtime_rate: Option<f64>,
     /// `--fault` entries, appended to the file's `[[faults]]`.
     pub faults: Vec<crate::faults::FaultSpec>,
@@ -47,6 +49,7 @@ impl Overrides {
             (self.spin_us.is_some(), "run.spin_us", "--spin-us"),
             (self.link_delay_steps.is_some(), "run.link_delay_steps", "--link-delay"),
             (self.transport.is_some(), "run.transport", "--transport"),
+            (self.zenoh_links.is_some(), "run.zenoh_links", "--zenoh-links"),
             (self.realtime_rate.is_some(), "run.realtime_rate", "--rate"),
             (self.on_agent_loss.is_some(), "run.on_agent_loss", "--on-agent-loss"),
             (self.authenticate.is_some(), "run.authenticate", "--authenticate"),
@@ -216,6 +219,9 @@ fn apply_overrides(table: &mut toml::Table, o: &Overrides) {
     }
     if let Some(t) = &o.transport {
         set("run", "transport", Value::String(t.clone()));
+    }
+    if let Some(l) = &o.zenoh_links {
+        set("run", "zenoh_links", Value::String(l.clone()));
     }
     if let Some(r) = o.realtime_rate {
         set("run", "realtime_rate", Value::Float(r));

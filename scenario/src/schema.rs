@@ -103,6 +103,18 @@ pub enum TransportKind {
     Zenoh,
 }
 
+/// How the processes of a zenoh run reach each other (`run.zenoh_links`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ZenohLinks {
+    /// iceoryx2 inside each host, one gateway process per host carrying everything that crosses
+    /// hosts over one zenoh session, a step's messages for one host batched together.
+    #[default]
+    Gateway,
+    /// Every process its own zenoh peer, connected to every process it talks to.
+    Peers,
+}
+
 /// One machine of a multi-host run (`[[hosts]]`).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -168,6 +180,10 @@ pub struct RunSettings {
     /// Data path between processes; see [`TransportKind`].
     #[serde(default = "default_transport")]
     pub transport: TransportKind,
+    /// With `transport = "zenoh"`: per-host gateways (default) or every process a peer; see
+    /// [`ZenohLinks`].
+    #[serde(default, skip_serializing_if = "is_gateway")]
+    pub zenoh_links: ZenohLinks,
     /// Wall-clock pacing: the plant starts step k no earlier than k·dt_s/rate after step 0
     /// (1.0 = real time). Lockstep still waits for every share; absent = as fast as possible.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -203,6 +219,10 @@ pub struct RunSettings {
     /// Format of the telemetry files: `parquet` (default) or `csv`.
     #[serde(default, skip_serializing_if = "is_parquet")]
     pub telemetry: TelemetryFormat,
+}
+
+fn is_gateway(l: &ZenohLinks) -> bool {
+    *l == ZenohLinks::Gateway
 }
 
 fn is_parquet(f: &TelemetryFormat) -> bool {
@@ -249,6 +269,7 @@ impl Default for RunSettings {
             spin_us: None,
             link_delay_steps: 0,
             transport: default_transport(),
+            zenoh_links: ZenohLinks::Gateway,
             realtime_rate: None,
             on_agent_loss: default_on_agent_loss(),
             checkpoint_every_steps: default_checkpoint_every_steps(),
@@ -299,6 +320,21 @@ impl Scenario {
             cohort_wire::transport::Proc::Agent(id) => self.agents.iter().find(|a| a.id == id)?.host.as_deref(),
         };
         name.and_then(|n| self.hosts.iter().find(|h| h.name == n))
+    }
+    /// Where each process runs, as host indices (0: the orchestrator's machine, k: `hosts[k-1]`).
+    pub fn placement(&self) -> cohort_wire::transport::gateway::Placement {
+        let index = |name: Option<&str>| {
+            name.and_then(|n| self.hosts.iter().position(|h| h.name == n)).map_or(0, |k| k as u16 + 1)
+        };
+        let agents = (1..=self.n_agents())
+            .map(|i| index(self.agents.iter().find(|a| a.id == i).and_then(|a| a.host.as_deref())));
+        cohort_wire::transport::gateway::Placement::new(
+            std::iter::once(index(self.run.plant_host.as_deref())).chain(agents).collect(),
+        )
+    }
+    /// Whether this run's processes talk through per-host gateways.
+    pub fn uses_gateways(&self) -> bool {
+        self.run.transport == TransportKind::Zenoh && self.run.zenoh_links == ZenohLinks::Gateway
     }
     /// The messaging graph.
     pub fn topology(&self) -> cohort_wire::transport::Topology {

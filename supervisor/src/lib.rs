@@ -29,6 +29,7 @@
 
 pub mod daemon;
 pub mod farm;
+pub mod gateway;
 mod hostproto;
 pub use hostproto::ProcRows;
 pub mod linkemu;

@@ -49,7 +49,7 @@ pub fn remote_rows(every: u64, max_rows: usize, timeout: Duration) -> Vec<ProcRo
         return Vec::new();
     };
     let mut rows = Vec::new();
-    for host in remote.hosts.iter().filter(|h| !h.is_lost()) {
+    for host in remote.hosts.iter().filter(|h| !h.daemon_lost()) {
         match remote.rows(host, every, max_rows, timeout) {
             Ok(r) => rows.extend(r),
             Err(e) => tracing::debug!("live rows: {e}"),

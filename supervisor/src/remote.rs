@@ -167,11 +167,26 @@ pub struct HostLink {
     lost: AtomicBool,
     /// Its token was seen at least once.
     seen: AtomicBool,
+    /// Its gateway ended during the run (runs with gateways): its processes can reach no one.
+    gateway_gone: AtomicBool,
 }
 
 impl HostLink {
+    /// Lost to the run: its daemon disappeared, or its gateway ended.
     pub fn is_lost(&self) -> bool {
+        self.daemon_lost() || self.gateway_gone.load(Ordering::SeqCst)
+    }
+    /// Its daemon disappeared (liveliness token withdrawn): nothing more can be asked of it.
+    pub fn daemon_lost(&self) -> bool {
         self.lost.load(Ordering::SeqCst)
+    }
+    /// Its gateway ended: the host is lost to the run, its daemon still answers.
+    pub fn gateway_ended(&self) {
+        self.gateway_gone.store(true, Ordering::SeqCst);
+    }
+    /// Why it is lost, for the timeline.
+    pub fn loss(&self) -> &'static str {
+        if self.daemon_lost() { "its daemon disappeared (liveliness token withdrawn)" } else { "its gateway ended" }
     }
     /// The raw wait status of `proc_name` with pid `pid`, once reported.
     pub fn exit_of(&self, proc_name: &str, pid: u32) -> Option<i32> {
@@ -245,6 +260,7 @@ impl Remote {
                 exits: Mutex::new(HashMap::new()),
                 lost: AtomicBool::new(false),
                 seen: AtomicBool::new(false),
+                gateway_gone: AtomicBool::new(false),
             }));
         }
         let mut subs = Vec::new();
@@ -321,7 +337,7 @@ impl Remote {
                         }
                     };
                 }
-                Err(_) if unrouted(asked, deadline) && !host.is_lost() => std::thread::sleep(ROUTE_RETRY),
+                Err(_) if unrouted(asked, deadline) && !host.daemon_lost() => std::thread::sleep(ROUTE_RETRY),
                 Err(_) => {
                     return Err(format!("host {} ({}) did not answer its {verb} request", host.name, host.endpoint));
                 }
@@ -421,11 +437,11 @@ impl Remote {
 /// Append one line of a remote child's output to its log (`cohort/<run>/host/<h>/log/<proc>`).
 fn append_log(logs: &std::path::Path, key: &str, line: &[u8]) {
     use std::io::Write;
-    let Some(name) = key
-        .rsplit('/')
-        .next()
-        .filter(|n| *n == "plant" || n.strip_prefix("agent-").is_some_and(|i| i.parse::<u32>().is_ok()))
-    else {
+    let Some(name) = key.rsplit('/').next().filter(|n| {
+        *n == "plant"
+            || n.strip_prefix("agent-").is_some_and(|i| i.parse::<u32>().is_ok())
+            || crate::gateway::host_of_name(n).is_some()
+    }) else {
         return;
     };
     let path = logs.join(format!("{name}.log"));

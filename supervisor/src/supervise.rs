@@ -42,6 +42,7 @@ use cohort_wire::transport::zenoh::{ZenohHub, ZenohRun};
 use cohort_wire::transport::{ControlHub, Proc};
 use cohort_wire::validate::Rejection;
 
+use crate::gateway::Gateways;
 use crate::hostproto::SpawnRequest;
 use crate::remote::{HostLink, Remote};
 
@@ -88,27 +89,27 @@ impl Handle {
         }
     }
     /// Its end, once known (`waitpid` here, or the daemon's report).
-    fn try_wait(&mut self) -> Option<ExitStatus> {
+    pub(crate) fn try_wait(&mut self) -> Option<ExitStatus> {
         match self {
             Handle::Local(c) => c.try_wait().ok().flatten(),
             Handle::Remote { link, proc_name, pid, .. } => link.exit_of(proc_name, *pid).map(ExitStatus::from_raw),
         }
     }
-    fn signal(&self, sig: i32) {
+    pub(crate) fn signal(&self, sig: i32) {
         match self {
             // SAFETY: kill(2) on a pid we spawned and have not reaped.
             Handle::Local(c) => unsafe {
                 libc::kill(c.id() as libc::pid_t, sig);
             },
             Handle::Remote { remote, link, proc_name, .. } => {
-                if !link.is_lost() {
+                if !link.daemon_lost() {
                     let _ = remote.signal(link, proc_name, sig);
                 }
             }
         }
     }
     /// SIGKILL and reap (a remote one: until its daemon reports it, or its host is lost).
-    fn kill_wait(&mut self) -> Option<ExitStatus> {
+    pub(crate) fn kill_wait(&mut self) -> Option<ExitStatus> {
         if let Handle::Local(c) = self {
             let _ = c.kill();
             return c.wait().ok();
@@ -128,6 +129,13 @@ impl Handle {
         match self {
             Handle::Remote { link, .. } if link.is_lost() => Some(&link.name),
             _ => None,
+        }
+    }
+    /// Why its host was lost (see [`Self::lost_host`]).
+    fn loss(&self) -> &'static str {
+        match self {
+            Handle::Remote { link, .. } => link.loss(),
+            Handle::Local(_) => "",
         }
     }
     /// " on host b" for a remote process.
@@ -189,7 +197,7 @@ impl Kid {
     fn describe(&self) -> String {
         let head = format!("{} (pid {}{})", self.proc_.name(), self.child.id(), self.child.on_host());
         match (&self.lost_with, self.exit) {
-            (Some(h), _) => format!("{head} was lost with host {h} (its daemon disappeared)"),
+            (Some(h), _) => format!("{head} was lost with host {h} ({})", self.child.loss()),
             (None, Some(st)) => format!("{head} {}", describe_exit(st)),
             (None, None) => format!("{head} is running"),
         }
@@ -356,8 +364,9 @@ fn check_descriptors(n_agents: u32, spare: usize) -> Result<(), String> {
 enum Resources {
     /// iceoryx2 (also run control of the UDP baseline): the services and the run's claim.
     Iox { services: IoxServices, claim: RunClaim },
-    /// zenoh: the run-control hub on the run's session, with the host daemons' links.
-    Zenoh { hub: ZenohHub, remote: Arc<Remote> },
+    /// zenoh: the run-control hub on the run's session, with the host daemons' links, and each
+    /// host's gateway (`run.zenoh_links = "gateway"`).
+    Zenoh { hub: ZenohHub, remote: Arc<Remote>, gateways: Option<Gateways> },
 }
 
 impl Resources {
@@ -373,6 +382,12 @@ impl Resources {
             Resources::Zenoh { remote, .. } => Some(remote),
         }
     }
+    fn gateways(&self) -> Option<&Gateways> {
+        match self {
+            Resources::Zenoh { gateways, .. } => gateways.as_ref(),
+            Resources::Iox { .. } => None,
+        }
+    }
     /// Create them; `spare`: agent relaunches the fault plan needs.
     fn create(s: &Setup, dirs: &RunDirs, run: &IoxRun, spare: usize) -> Result<Self, String> {
         if s.run.transport == TransportKind::Zenoh {
@@ -380,10 +395,17 @@ impl Resources {
             let zrun = ZenohRun::new(run.run_id).with_key(run.key);
             let hub = ZenohHub::create(&zrun, &remote.session).map_err(|e| e.to_string())?;
             let remote = Arc::new(remote);
+            let gateways = if s.uses_gateways() {
+                let toml = std::fs::read_to_string(dirs.root.join("scenario.toml"))
+                    .map_err(|e| format!("{}: {e}", dirs.root.join("scenario.toml").display()))?;
+                Some(Gateways::start(s, dirs, run, &remote, &toml)?)
+            } else {
+                None
+            };
             if !remote.hosts.is_empty() {
                 crate::observe::hosts(Some(&remote));
             }
-            return Ok(Resources::Zenoh { hub, remote });
+            return Ok(Resources::Zenoh { hub, remote, gateways });
         }
         check_descriptors(s.n_agents(), spare)?;
         for id in IoxRun::sweep_stale() {
@@ -413,11 +435,15 @@ impl Resources {
                 run.remove_all_resources();
                 drop(claim);
             }
-            Resources::Zenoh { hub, remote } => {
+            Resources::Zenoh { hub, remote, gateways } => {
                 crate::observe::hosts(None);
+                // Every process is gone by now: the gateways go next, before the files are fetched.
+                if let Some(g) = &gateways {
+                    g.stop();
+                }
                 for link in &remote.hosts {
                     let host = link.name.clone();
-                    if link.is_lost() {
+                    if link.daemon_lost() {
                         warnings.push(CleanupWarning::HostLost { host });
                         continue;
                     }
@@ -476,7 +502,9 @@ impl Spawner<'_> {
             return spawn(bin, p, self.dirs, self.run, step_timeout_s, restore_at, None).map(Handle::Local);
         };
         let Some(host) = self.s.host_of(p) else {
-            let zenoh = Some((remote.local_connect.as_str(), remote.local_listen.as_str()));
+            // Through this machine's gateway a local process needs no zenoh session of its own.
+            let zenoh =
+                (!self.s.uses_gateways()).then_some((remote.local_connect.as_str(), remote.local_listen.as_str()));
             return spawn(bin, p, self.dirs, self.run, step_timeout_s, restore_at, zenoh).map(Handle::Local);
         };
         let link = remote.host(&host.name).ok_or_else(|| format!("host {} has no link", host.name))?;
@@ -531,6 +559,7 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) ->
         s,
         dirs,
         services: resources.hub(),
+        gateways: resources.gateways(),
         spawner: &spawner,
         plan,
         started,
@@ -626,6 +655,8 @@ struct Supervisor<'a> {
     s: &'a Setup,
     dirs: &'a RunDirs,
     services: &'a dyn ControlHub,
+    /// The run's gateways, watched every tick.
+    gateways: Option<&'a Gateways>,
     spawner: &'a Spawner<'a>,
     plan: FaultPlan,
     started: Instant,
@@ -825,6 +856,9 @@ impl Supervisor<'_> {
                 return (None, Some(sig));
             }
             let mismatch = self.poll(&mut w, kids);
+            if let Some(e) = self.gateways.and_then(Gateways::check) {
+                return (Some(e), None);
+            }
             if let Err(e) = self.handshake(&mut w, kids, mismatch, startup_s) {
                 return (Some(e), None);
             }
@@ -1050,13 +1084,11 @@ impl Supervisor<'_> {
             if self.hosts_lost.contains(&h) {
                 continue;
             }
-            let on: Vec<String> =
-                kids.iter().filter(|k| k.lost_with.as_deref() == Some(h.as_str())).map(|k| k.proc_.name()).collect();
-            let msg = format!(
-                "host {h} lost at or after step {plant_step}: its daemon disappeared (liveliness token withdrawn), \
-                 taking {} with it",
-                on.join(", ")
-            );
+            let on: Vec<&Kid> = kids.iter().filter(|k| k.lost_with.as_deref() == Some(h.as_str())).collect();
+            let why = on.first().map_or("", |k| k.child.loss());
+            let names: Vec<String> = on.iter().map(|k| k.proc_.name()).collect();
+            let msg =
+                format!("host {h} lost at or after step {plant_step}: {why}, taking {} with it", names.join(", "));
             tracing::warn!("{msg}");
             self.event(plant_step, 0, "host-lost", msg);
             self.hosts_lost.push(h);

@@ -250,6 +250,19 @@ fn assert_nothing_left(run: &Path, killed: &[&str]) {
         assert!(Instant::now() < deadline, "left running: {:?}", processes_mentioning(&id));
         std::thread::sleep(Duration::from_millis(50));
     }
+    // No host's iceoryx2 domain (gateways) left in /dev/shm or the user's base: the namespaces
+    // share this machine's file system.
+    let shm: Vec<String> = std::fs::read_dir("/dev/shm")
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .filter(|n| n.starts_with(&format!("cohort_{id}")))
+        .collect();
+    assert!(shm.is_empty(), "left in /dev/shm: {shm:?}");
+    let roots: Vec<String> = std::fs::read_dir(cohort_wire::transport::iox::user_base())
+        .map(|rd| rd.flatten().map(|e| e.file_name().to_string_lossy().to_string()).collect())
+        .unwrap_or_default();
+    assert!(!roots.iter().any(|n| n.starts_with(&id)), "iceoryx2 roots left: {roots:?}");
     let base = cohort_wire::transport::iox::ensure_user_files_base().unwrap();
     for x in NAMES {
         let left = base.join(x).join(&id);
@@ -380,14 +393,73 @@ fn fig1_across_three_hosts_is_bit_identical_survives_kills_and_host_loss_and_net
 #[test]
 fn fig1_over_zenoh_on_one_host_is_bit_identical_to_the_reference() {
     let (_g, dir) = heavy_scratch("zenoh-one-host");
-    let (zenoh, reference) = (dir.join("zenoh"), dir.join("reference"));
-    let o = launch_here(&zenoh, &["--transport", "zenoh"]);
-    assert!(o.status.success(), "{}", describe_output(&o));
+    let reference = dir.join("reference");
     let o = launch_here(&reference, &["--reference"]);
     assert!(o.status.success(), "{}", describe_output(&o));
-    assert_eq!(telemetry_bits(&zenoh), telemetry_bits(&reference));
-    let id = summary(&zenoh)["run_id"].as_str().unwrap().to_string();
-    assert!(processes_mentioning(&id).is_empty(), "{:?}", processes_mentioning(&id));
+    // Through this machine's gateway (the default), and with every process a zenoh peer.
+    for links in ["gateway", "peers"] {
+        let zenoh = dir.join(links);
+        let o = launch_here(&zenoh, &["--transport", "zenoh", "--zenoh-links", links]);
+        assert!(o.status.success(), "{links}: {}", describe_output(&o));
+        assert_eq!(telemetry_bits(&zenoh), telemetry_bits(&reference), "{links}");
+        assert_eq!(zenoh.join("logs/gateway-0.log").is_file(), links == "gateway", "{links}");
+        let id = summary(&zenoh)["run_id"].as_str().unwrap().to_string();
+        assert!(processes_mentioning(&id).is_empty(), "{links}: {:?}", processes_mentioning(&id));
+    }
+}
+
+/// Issue 31: a 60-agent consensus ring across the three hosts through their gateways (plant and
+/// agents 1–20 on a, 21–40 on b, 41–60 on c; each ring boundary crosses hosts) is bit-identical
+/// to `--reference`, every gateway carried batches both ways, and nothing is left anywhere.
+#[test]
+fn a_sixty_agent_ring_across_three_hosts_through_gateways_is_bit_identical() {
+    let _g = heavy();
+    let net = Net::make();
+    let daemons = Daemons::start(&net);
+    let dir = scratch_dir("multihost-ring60");
+    let ring = dir.join("ring60.toml");
+    let o = Command::new(bin_path("orchestrator"))
+        .args(["generate", "ring", "--agents", "60", "--steps", "200", "--out"])
+        .arg(&ring)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let mut text = String::new();
+    for (k, (x, place)) in NAMES.iter().zip(["plant = true\nagents = [", "agents = [", "agents = ["]).enumerate() {
+        let ids: Vec<String> = (1..=20).map(|i| (20 * k + i).to_string()).collect();
+        text.push_str(&format!(
+            "[[hosts]]\nname = \"{x}\"\nendpoint = \"{}\"\n{place}{}]\n\n",
+            net.endpoint(k),
+            ids.join(", ")
+        ));
+    }
+    let hosts = dir.join("hosts.toml");
+    std::fs::write(&hosts, text).unwrap();
+    let (run, reference) = (dir.join("run"), dir.join("reference"));
+    let o = cohort::launch_scenario(&ring, &reference, &["--reference"]);
+    assert!(o.status.success(), "{}", describe_output(&o));
+    let mut c = net.command("a", &bin_path("orchestrator"));
+    c.current_dir(repo_root())
+        .args(["launch", "--no-plots", "--transport", "zenoh", "--hosts", hosts.to_str().unwrap(), "--out"])
+        .arg(&run)
+        .arg(&ring);
+    let o = c.output_within(cohort::RUN_LIMIT, "a 60-agent ring across three hosts");
+    assert!(o.status.success(), "{}", describe_output(&o));
+    assert_eq!(summary(&run)["status"], "ok");
+    assert_eq!(telemetry_bits(&run), telemetry_bits(&reference), "the ring through gateways differs from --reference");
+    for k in 1..=3 {
+        let log = std::fs::read_to_string(run.join(format!("logs/gateway-{k}.log"))).unwrap_or_default();
+        let done = log.lines().find(|l| l.contains("done: out:")).unwrap_or_else(|| panic!("gateway-{k}: {log}"));
+        println!("gateway-{k} {done}");
+        let count = |what: &str| -> u64 {
+            let after = done.split(what).nth(1).unwrap_or_else(|| panic!("{done}"));
+            after.split_whitespace().next().unwrap().parse().unwrap()
+        };
+        assert!(count("out: ") > 0 && count("in: ") > 0, "gateway-{k} carried nothing: {done}");
+        assert!(done.ends_with("0 batches refused"), "{done}");
+    }
+    assert_nothing_left(&run, &[]);
+    drop(daemons);
 }
 
 /// A launch refused before anything starts: exit 2, its message, no process of the run.
@@ -452,13 +524,13 @@ fn fig1_across_three_loopback_daemons_is_bit_identical_to_the_reference() {
     drop(daemons);
 }
 
-/// A 20-agent consensus ring over zenoh on one host, as text: many sessions connecting at once
-/// is what deadlocked zenoh's `lowlatency` transport at start-up.
+/// A 20-agent consensus ring over zenoh on one host, every process a zenoh peer, as text: many
+/// sessions connecting at once is what deadlocked zenoh's `lowlatency` transport at start-up.
 fn ring20_over_zenoh() -> String {
     let n = 20u32;
     let mut t = String::from(
         "[scenario]\nname = \"ring20-zenoh\"\nseed = 7\ndt_s = 0.01\nduration_s = 0.5\n\n[run]\n\
-         transport = \"zenoh\"\nstartup_timeout_s = 90.0\nstep_timeout_s = 30.0\n\n[plant]\n\
+         transport = \"zenoh\"\nzenoh_links = \"peers\"\nstartup_timeout_s = 90.0\nstep_timeout_s = 30.0\n\n[plant]\n\
          kind = \"double-integrator\"\nposition_noise_std_m = 0.05\n\n[algorithm]\n\
          kind = \"consensus-formation\"\nformation_radius_m = 40.0\nkp_per_s2 = 0.5\nkd_per_s = 1.5\n\
          observer_l1_per_s = 6.0\nobserver_l2_per_s2 = 9.0\n",

@@ -31,6 +31,7 @@ use std::time::{Duration, Instant};
 
 use cohort_runtime::record::RunDirs;
 use cohort_runtime::tail::{Journal, journals_in};
+use cohort_wire::transport::iox::IoxRun;
 use cohort_wire::transport::zenoh::open_session;
 use cohort_wire::transport::zenoh_security::SecurityConfigError;
 use zenoh::handlers::FifoChannelHandler;
@@ -275,10 +276,14 @@ impl Daemon {
                 r.build_id
             ));
         }
+        let gateway = crate::gateway::host_of_name(&r.proc_name);
         let bin_name = if r.proc_name == "plant" {
             "plant"
         } else if r.proc_name.strip_prefix("agent-").and_then(|i| i.parse::<u32>().ok()).is_some_and(|i| i > 0) {
             "agent"
+        } else if gateway.is_some() {
+            // A host's gateway is this binary's `gateway` command.
+            "orchestrator"
         } else {
             return Err(format!("no process {:?}", r.proc_name));
         };
@@ -302,6 +307,9 @@ impl Daemon {
         let mut cmd = Command::new(&bin);
         // The child's sessions use this daemon's TLS and authentication settings.
         cmd.envs(cohort_wire::transport::zenoh_security::current().map_err(|e| e.to_string())?.to_env());
+        if let Some(k) = gateway {
+            cmd.arg("gateway").arg("--host-index").arg(k.to_string());
+        }
         if let Some(id) = r.proc_name.strip_prefix("agent-") {
             cmd.arg("--id").arg(id);
         }
@@ -322,12 +330,11 @@ impl Daemon {
             .arg("--run-id")
             .arg(format!("{run_id:016x}"))
             .arg("--build-id")
-            .arg(cohort_wire::build_id())
-            .arg("--step-timeout-s")
-            .arg(format!("{:?}", r.step_timeout_s))
-            .stdin(Stdio::null())
-            .stdout(Stdio::from(writer))
-            .stderr(Stdio::from(writer2));
+            .arg(cohort_wire::build_id());
+        if gateway.is_none() {
+            cmd.arg("--step-timeout-s").arg(format!("{:?}", r.step_timeout_s));
+        }
+        cmd.stdin(Stdio::null()).stdout(Stdio::from(writer)).stderr(Stdio::from(writer2));
         if let Some(log) = &r.log {
             log.apply(&mut cmd);
         }
@@ -355,7 +362,10 @@ impl Daemon {
                 }
             });
         }
-        state.kids.insert(r.proc_name.clone(), Kid { pid, done });
+        state.kids.insert(r.proc_name.clone(), Kid { pid, done: Arc::clone(&done) });
+        if let Some(k) = gateway {
+            wait_until_ready(run_id, k, &done, &r.proc_name)?;
+        }
         serde_json::to_vec(&Spawned { pid }).map_err(|e| e.to_string())
     }
 
@@ -465,7 +475,30 @@ impl Daemon {
             std::thread::sleep(Duration::from_millis(5));
         }
         let _ = std::fs::remove_dir_all(&state.dir);
+        // What a gateway killed above left of its host's iceoryx2 domain.
+        for k in state.kids.keys().filter_map(|n| crate::gateway::host_of_name(n)) {
+            IoxRun::new(run_id).in_domain(Default::default(), k).remove_all_resources();
+        }
     }
+}
+
+/// How long a daemon waits for a gateway it started to make its domain's services.
+const GATEWAY_READY: Duration = Duration::from_secs(15);
+
+/// Wait until host `k`'s gateway of run `run_id` is ready (see `gateway::READY_MARKER`).
+fn wait_until_ready(run_id: u64, k: u16, done: &AtomicBool, name: &str) -> Result<(), String> {
+    let marker = cohort_wire::transport::gateway::ready_marker(&IoxRun::new(run_id).in_domain(Default::default(), k));
+    let until = Instant::now() + GATEWAY_READY;
+    while !marker.exists() {
+        if done.load(Ordering::SeqCst) {
+            return Err(format!("{name} ended before it was ready (see its log)"));
+        }
+        if Instant::now() > until {
+            return Err(format!("{name} was not ready within {} s", GATEWAY_READY.as_secs()));
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    Ok(())
 }
 
 fn parse_key(hex: &str) -> Result<cohort_wire::auth::MacKey, String> {

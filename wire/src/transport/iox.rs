@@ -49,13 +49,16 @@ use crate::msg::{
     Status,
 };
 
-type Svc = ipc::Service;
+pub(crate) type Svc = ipc::Service;
+
+/// The wakeup service of a host's gateway (runs with gateways only).
+pub(crate) const GATEWAY_WAKE: &str = "wake/gateway";
 
 /// Subscriber queue depth for shares: a neighbour can be one step ahead, so two suffice; four
 /// leave room without ever making a sender wait (safe overflow is on, and in lockstep the queue
 /// never fills).
-const SHARE_BUFFER: usize = 8;
-const MEAS_BUFFER: usize = 2;
+pub(crate) const SHARE_BUFFER: usize = 8;
+pub(crate) const MEAS_BUFFER: usize = 2;
 const STATUS_BUFFER: usize = 64;
 /// Connections of departed publishers a subscriber keeps readable (see [`IoxRun::config`]); at
 /// least iceoryx2's borrowed-sample limit (2).
@@ -284,27 +287,63 @@ fn remove_user_base_if_empty() {
 pub struct IoxRun {
     pub run_id: u64,
     pub key: Option<crate::auth::MacKey>,
+    /// A run with gateways (`run.zenoh_links = "gateway"`): this host's share of it, one
+    /// iceoryx2 domain per host (its own prefix and root, as namespaces on one machine share
+    /// /dev/shm), and where every process runs, so a message for a process of another host wakes
+    /// the gateway instead ([`super::gateway`]).
+    pub domain: Option<Domain>,
+}
+
+/// One host's iceoryx2 domain of a run with gateways.
+#[derive(Debug, Clone)]
+pub struct Domain {
+    /// The host's index in the placement (0: the orchestrator's machine, k: `hosts[k-1]`).
+    pub here: u16,
+    pub placement: std::sync::Arc<super::gateway::Placement>,
+}
+
+impl Domain {
+    /// Whether `p` runs on this host.
+    pub fn is_local(&self, p: Proc) -> bool {
+        self.placement.host(p) == self.here
+    }
 }
 
 impl IoxRun {
     pub fn new(run_id: u64) -> Self {
-        Self { run_id, key: None }
+        Self { run_id, key: None, domain: None }
     }
     pub fn with_key(mut self, key: Option<crate::auth::MacKey>) -> Self {
         self.key = key;
         self
     }
-    /// File prefix of every shared-memory segment and file of this run.
+    /// This host's domain of a run with gateways.
+    pub fn in_domain(mut self, placement: std::sync::Arc<super::gateway::Placement>, here: u16) -> Self {
+        self.domain = Some(Domain { here, placement });
+        self
+    }
+    /// The run id, and the domain's host index when it has one: `<run id>` or `<run id>-<k>`
+    /// (hex), the name of its root directory and lock file.
+    fn stem(&self) -> String {
+        match &self.domain {
+            None => format!("{:016x}", self.run_id),
+            Some(d) => format!("{:016x}-{:x}", self.run_id, d.here),
+        }
+    }
+    /// File prefix of every shared-memory segment and file of this run (of its domain).
     pub fn prefix(&self) -> String {
-        format!("cohort_{:016x}_", self.run_id)
+        match &self.domain {
+            None => format!("cohort_{:016x}_", self.run_id),
+            Some(d) => format!("cohort_{:016x}_{:x}_", self.run_id, d.here),
+        }
     }
     /// The run's own iceoryx2 root directory (removed whole at the end of the run): the run id
-    /// alone, to keep socket paths short (see [`MAX_ROOT_DIR_LEN`]).
+    /// alone (and the domain's index), to keep socket paths short (see [`MAX_ROOT_DIR_LEN`]).
     pub fn root_dir(&self) -> PathBuf {
-        user_base().join(format!("{:016x}", self.run_id))
+        user_base().join(self.stem())
     }
     fn lock_path(&self) -> PathBuf {
-        user_base().join(format!("{:016x}{LOCK_SUFFIX}", self.run_id))
+        user_base().join(format!("{}{LOCK_SUFFIX}", self.stem()))
     }
     /// Refuse a root directory too long for iceoryx2's socket paths, naming it and the way out.
     pub fn check_root_len(&self) -> Result<(), TransportError> {
@@ -354,11 +393,11 @@ impl IoxRun {
             status_publishers.max(EXPIRED_CONNECTIONS);
         Ok(cfg)
     }
-    fn service(&self, what: &str) -> Result<ServiceName, TransportError> {
+    pub(crate) fn service(&self, what: &str) -> Result<ServiceName, TransportError> {
         ServiceName::new(&format!("cohort/{:016x}/{what}", self.run_id))
             .map_err(|e| TransportError::iox(format!("service name {what}"), e))
     }
-    fn node(&self, name: &str) -> Result<Node<Svc>, TransportError> {
+    pub(crate) fn node(&self, name: &str) -> Result<Node<Svc>, TransportError> {
         self.node_with(name, &self.config()?)
     }
     fn node_with(&self, name: &str, cfg: &Config) -> Result<Node<Svc>, TransportError> {
@@ -447,31 +486,51 @@ impl IoxRun {
         let mut roots = Vec::new();
         for e in rd.flatten() {
             let name = e.file_name().to_string_lossy().to_string();
-            // Run ids are 16 hex digits; anything else here (a daemon's `hosts/`, a claim being
-            // made) is not a run.
-            let is_id = |h: &str| h.len() == 16 && h.bytes().all(|b| b.is_ascii_hexdigit());
-            let rest = name.as_str();
-            if let Some(hex) = rest.strip_suffix(LOCK_SUFFIX).filter(|h| is_id(h)) {
-                let Ok(id) = u64::from_str_radix(hex, 16) else { continue };
+            // Anything else here (a daemon's `hosts/`, a claim being made) is not a run.
+            if let Some(run) = name.strip_suffix(LOCK_SUFFIX).and_then(Self::from_stem) {
                 let Ok(f) = std::fs::OpenOptions::new().read(true).write(true).open(e.path()) else { continue };
                 if try_lock(&f).unwrap_or(false) {
-                    IoxRun::new(id).remove_all_resources();
+                    run.remove_all_resources();
                     let _ = std::fs::remove_file(e.path());
-                    swept.push(id);
+                    swept.push(run.run_id);
                 } else {
-                    locked.insert(id);
+                    locked.insert(run.stem());
                 }
-            } else if let Some(id) = Some(rest).filter(|h| is_id(h)).and_then(|h| u64::from_str_radix(h, 16).ok()) {
-                roots.push(id);
+            } else if let Some(run) = Self::from_stem(&name) {
+                roots.push(run);
             }
         }
-        for id in roots {
-            if !locked.contains(&id) && !swept.contains(&id) && !IoxRun::new(id).lock_path().exists() {
-                IoxRun::new(id).remove_all_resources();
-                swept.push(id);
+        for run in roots {
+            if !locked.contains(&run.stem()) && !run.lock_path().exists() {
+                run.remove_all_resources();
+                if !swept.contains(&run.run_id) {
+                    swept.push(run.run_id);
+                }
             }
         }
         swept
+    }
+
+    /// The run (or a domain of it) a root directory or lock file is named for: 16 hex digits of
+    /// run id, then `-<host index>` (hex) for a domain; the placement is not needed to remove it.
+    fn from_stem(stem: &str) -> Option<IoxRun> {
+        let (id, here) = match stem.split_once('-') {
+            None => (stem, None),
+            Some((id, k)) => (id, Some(k)),
+        };
+        let hex = |h: &str, max: usize| !h.is_empty() && h.len() <= max && h.bytes().all(|b| b.is_ascii_hexdigit());
+        if id.len() != 16 || !hex(id, 16) {
+            return None;
+        }
+        let mut run = IoxRun::new(u64::from_str_radix(id, 16).ok()?);
+        if let Some(k) = here {
+            if !hex(k, 4) {
+                return None;
+            }
+            let here = u16::from_str_radix(k, 16).ok()?;
+            run = run.in_domain(std::sync::Arc::new(super::gateway::Placement::default()), here);
+        }
+        Some(run)
     }
 
     /// iceoryx2 0.10 creates its per-prefix management segment (`…global_mgmt`, a node counter)
@@ -549,7 +608,12 @@ impl IoxServices {
         // Sized per service, not from N: every process that opens a service maps state sized by
         // its node limit, so a limit of N on each of the plant's 3 N services grew the plant's
         // memory as N².
-        let nodes = |processes: usize| processes + 2 + 2 * spare;
+        // With gateways (`run.domain`), the host's gateway opens what the orchestrator would and
+        // more: two nodes of its own (one receiving for other hosts, one delivering from them),
+        // a subscriber on every service it reads for other hosts and a notifier on every wakeup
+        // service it delivers to.
+        let gw = usize::from(run.domain.is_some());
+        let nodes = |processes: usize| processes + 2 + 2 * spare + 2 * gw;
         let mut meas = Vec::with_capacity(n);
         let mut share = Vec::with_capacity(n);
         let mut wake = Vec::with_capacity(n + 1);
@@ -558,7 +622,7 @@ impl IoxServices {
                 node.service_builder(&run.service(&format!("meas/{i}"))?)
                     .publish_subscribe::<Measurement>()
                     .max_publishers(1)
-                    .max_subscribers(1 + spare)
+                    .max_subscribers(1 + spare + gw)
                     // The orchestrator, the plant, agent i.
                     .max_nodes(nodes(3))
                     .subscriber_max_buffer_size(MEAS_BUFFER)
@@ -570,7 +634,7 @@ impl IoxServices {
                 node.service_builder(&run.service(&format!("share/{i}"))?)
                     .publish_subscribe::<Share>()
                     .max_publishers(1 + spare)
-                    .max_subscribers(1 + topo.readers_of(i).len() + spare)
+                    .max_subscribers(1 + topo.readers_of(i).len() + spare + gw)
                     // The orchestrator, agent i, the plant, i's readers.
                     .max_nodes(nodes(3 + topo.readers_of(i).len()))
                     .subscriber_max_buffer_size(SHARE_BUFFER)
@@ -585,12 +649,26 @@ impl IoxServices {
                     .event()
                     // Event ids are sender ids: the plant's 0, agents' 1..=N.
                     .event_id_max_value(n.max(1))
-                    .max_notifiers(topo.senders_to(p) + 1 + spare)
+                    .max_notifiers(topo.senders_to(p) + 1 + spare + gw)
                     .max_listeners(1 + spare)
                     // The orchestrator, the listener, its senders.
                     .max_nodes(nodes(2 + topo.senders_to(p)))
                     .create()
                     .map_err(|e| TransportError::iox(format!("create wake/{}", p.name()), e))?,
+            );
+        }
+        if gw == 1 {
+            // The gateway's own wakeup: every local process that sends to a process of another
+            // host notifies it, with its sender id.
+            wake.push(
+                node.service_builder(&run.service(GATEWAY_WAKE)?)
+                    .event()
+                    .event_id_max_value(n.max(1))
+                    .max_notifiers(n + 2 + spare)
+                    .max_listeners(1)
+                    .max_nodes(nodes(n + 2))
+                    .create()
+                    .map_err(|e| TransportError::iox(format!("create {GATEWAY_WAKE}"), e))?,
             );
         }
         let control = node
@@ -660,6 +738,11 @@ impl IoxServices {
         let mut msg = RunControl::new(CONTROL_DEAD, self.run.run_id);
         msg.dead = dead;
         self.send_control(msg)
+    }
+
+    /// Pass on a request another hub sealed (a host's gateway relays the orchestrator's).
+    pub fn forward_control(&self, msg: &RunControl) -> Result<(), TransportError> {
+        self.control_pub.send_copy(*msg).map(|_| ()).map_err(|e| TransportError::iox("send control", e))
     }
 
     fn send_control(&self, mut msg: RunControl) -> Result<(), TransportError> {
@@ -816,8 +899,11 @@ pub struct IoxData {
     share_pub: Option<Publisher<Svc, Share, ()>>,
     /// (owner id, subscriber), in a fixed order.
     share_subs: Vec<(u32, Subscriber<Svc, Share, ()>)>,
-    /// Plant: notifier of agent i at index i-1. Agent: plant first, then its readers.
+    /// One per process this one wakes (with gateways, one for every process of other hosts:
+    /// their host's gateway); the plant's wakeup first for an agent.
     notifiers: Vec<Notifier<Svc>>,
+    /// Plant: the notifier of agent i at index i − 1.
+    wakes_agent: Vec<usize>,
     listener: Listener<Svc>,
     /// The share subscribers the next drain looks at.
     marks: Marks,
@@ -899,8 +985,29 @@ impl IoxData {
                 .open()
                 .map_err(|e| TransportError::iox(format!("open wake/{}", p.name()), e))
         };
-        let notifier = |p: Proc| -> Result<Notifier<Svc>, TransportError> {
-            open_wake(p)?.notifier_builder().create().map_err(|e| TransportError::iox("notifier", e))
+        // Who wakes for a message to `p`: p itself, or, when p runs on another host, this host's
+        // gateway (named None); each only once.
+        let mut woken: Vec<Option<Proc>> = Vec::new();
+        let mut notifiers = Vec::new();
+        let mut notifier = |p: Proc| -> Result<usize, TransportError> {
+            let target = match &run.domain {
+                Some(d) if !d.is_local(p) => None,
+                _ => Some(p),
+            };
+            if let Some(k) = woken.iter().position(|&w| w == target) {
+                return Ok(k);
+            }
+            let service = match target {
+                Some(p) => open_wake(p)?,
+                None => node
+                    .service_builder(&run.service(GATEWAY_WAKE)?)
+                    .event()
+                    .open()
+                    .map_err(|e| TransportError::iox(format!("open {GATEWAY_WAKE}"), e))?,
+            };
+            notifiers.push(service.notifier_builder().create().map_err(|e| TransportError::iox("notifier", e))?);
+            woken.push(target);
+            Ok(notifiers.len() - 1)
         };
         let share_sub = |i: u32| -> Result<(u32, Subscriber<Svc, Share, ()>), TransportError> {
             let s = open_share(i)?
@@ -915,7 +1022,7 @@ impl IoxData {
         let mut meas_sub = None;
         let mut share_pub = None;
         let mut share_subs = Vec::new();
-        let mut notifiers = Vec::new();
+        let mut wakes_agent = Vec::new();
         match me {
             Proc::Plant => {
                 for i in 1..=topo.n_agents() {
@@ -926,7 +1033,7 @@ impl IoxData {
                             .map_err(|e| TransportError::iox("meas publisher", e))?,
                     );
                     share_subs.push(share_sub(i)?);
-                    notifiers.push(notifier(Proc::Agent(i))?);
+                    wakes_agent.push(notifier(Proc::Agent(i))?);
                 }
             }
             Proc::Agent(id) => {
@@ -946,9 +1053,9 @@ impl IoxData {
                 for &j in topo.neighbours_of(id) {
                     share_subs.push(share_sub(j)?);
                 }
-                notifiers.push(notifier(Proc::Plant)?);
+                notifier(Proc::Plant)?;
                 for j in topo.readers_of(id) {
-                    notifiers.push(notifier(Proc::Agent(j))?);
+                    notifier(Proc::Agent(j))?;
                 }
             }
         }
@@ -957,7 +1064,10 @@ impl IoxData {
         // control part, which is dropped after the data ports (field order of `Split`).
         let control = IoxControl::with_node(run, node)?;
         let marks = Marks::new(share_subs.iter().map(|(id, _)| *id));
-        Ok(Split { data: Self { me, meas_pubs, meas_sub, share_pub, share_subs, notifiers, listener, marks }, control })
+        Ok(Split {
+            data: Self { me, meas_pubs, meas_sub, share_pub, share_subs, notifiers, wakes_agent, listener, marks },
+            control,
+        })
     }
 
     fn notify(&self, n: &Notifier<Svc>) -> Result<(), TransportError> {
@@ -985,7 +1095,7 @@ impl DataPath for IoxData {
         let mut m = *m;
         m.header.sent_wall_ns = monotonic_ns();
         sample.write_payload(m).send().map_err(|e| TransportError::iox("send measurement", e))?;
-        self.notify(&self.notifiers[idx])
+        self.notify(&self.notifiers[self.wakes_agent[idx]])
     }
 
     fn send_share(&mut self, s: &Share) -> Result<(), TransportError> {

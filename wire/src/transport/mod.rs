@@ -10,6 +10,7 @@
 //! generic over it, so the multi-process run and the in-process reference run execute the same
 //! code; `tests/conformance.rs` runs one suite against every implementation.
 
+pub mod gateway;
 pub mod iox;
 pub mod memory;
 pub mod udp;

@@ -171,10 +171,10 @@ impl ZenohRun {
     fn inbox_key(&self, me: Proc) -> String {
         format!("{}/d/{}/*", self.prefix(), me.name())
     }
-    fn control_key(&self) -> String {
+    pub(crate) fn control_key(&self) -> String {
         format!("{}/control", self.prefix())
     }
-    fn status_key(&self) -> String {
+    pub(crate) fn status_key(&self) -> String {
         format!("{}/status", self.prefix())
     }
     /// The orchestrator's liveliness token of this run.
@@ -195,7 +195,7 @@ fn sender_of(key: &str) -> u32 {
     }
 }
 
-fn publisher(session: &Session, key: String) -> Result<Publisher<'static>, TransportError> {
+pub(crate) fn publisher(session: &Session, key: String) -> Result<Publisher<'static>, TransportError> {
     session
         .declare_publisher(key.clone())
         .congestion_control(CongestionControl::Block)
@@ -204,7 +204,10 @@ fn publisher(session: &Session, key: String) -> Result<Publisher<'static>, Trans
         .map_err(err(format!("publisher {key}")))
 }
 
-fn subscriber(session: &Session, key: String) -> Result<Subscriber<FifoChannelHandler<Sample>>, TransportError> {
+pub(crate) fn subscriber(
+    session: &Session,
+    key: String,
+) -> Result<Subscriber<FifoChannelHandler<Sample>>, TransportError> {
     session
         .declare_subscriber(key.clone())
         .with(::zenoh::handlers::FifoChannel::new(INBOX_DEPTH))

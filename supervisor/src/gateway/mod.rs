@@ -1,0 +1,150 @@
+//! A host's gateway process (`orchestrator gateway`, started by the orchestrator on its own
+//! machine and by each host daemon on its own, before the host's plant and agents) and its
+//! supervision ([`Gateways`]). What a gateway does is `cohort_wire::transport::gateway`'s.
+//!
+//! Exit codes as a child's ([`cohort_runtime::exit`]): 0 when asked to stop (SIGTERM, the
+//! orchestrator gone), 1 failed, 2 bad input, 3 another build.
+
+mod kids;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+
+use cohort_runtime::exit::{BUILD_MISMATCH, FAILED, INVALID, OK};
+use cohort_runtime::paper::Paper;
+use cohort_scenario::faults::FaultPlan;
+use cohort_wire::auth::MacKey;
+use cohort_wire::transport::gateway::{self, GatewaySpec};
+use cohort_wire::transport::iox::IoxRun;
+
+pub(crate) use kids::Gateways;
+
+/// `orchestrator gateway`'s arguments (the orchestrator and the daemons give them).
+#[derive(clap::Args, Debug)]
+pub struct GatewayArgs {
+    /// Run directory holding the resolved scenario.toml.
+    #[arg(long)]
+    pub run_dir: PathBuf,
+    /// Run id, hexadecimal.
+    #[arg(long)]
+    pub run_id: String,
+    /// Build id of the orchestrator; must equal this binary's.
+    #[arg(long)]
+    pub build_id: String,
+    /// This host's index in the run's placement (0: the orchestrator's machine, k: hosts[k-1]).
+    #[arg(long)]
+    pub host_index: u16,
+    /// `run.authenticate`: the inherited descriptor to read the run's MAC key from.
+    #[arg(long)]
+    pub key_fd: Option<i32>,
+    /// The orchestrator's zenoh endpoint.
+    #[arg(long)]
+    pub zenoh_connect: Vec<String>,
+    /// Where this gateway listens for the other hosts' gateways.
+    #[arg(long)]
+    pub zenoh_listen: Vec<String>,
+}
+
+/// The name of host k's gateway process (its log file, its daemon's process name).
+pub fn proc_name(host: u16) -> String {
+    format!("gateway-{host}")
+}
+
+/// The host index a gateway's process name carries.
+pub fn host_of_name(name: &str) -> Option<u16> {
+    name.strip_prefix("gateway-")?.parse().ok()
+}
+
+/// Run one gateway to its end (see the module docs for the exit codes).
+pub fn main(args: GatewayArgs, papers: &[&'static dyn Paper]) -> ExitCode {
+    cohort_runtime::logging::init_child(&proc_name(args.host_index));
+    match start(&args, papers) {
+        Ok(spec) => {
+            let stop = Arc::new(AtomicBool::new(false));
+            for signal in [signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP, signal_hook::consts::SIGINT] {
+                if let Err(e) = signal_hook::flag::register(signal, Arc::clone(&stop)) {
+                    tracing::error!("cannot install the handler of signal {signal}: {e}");
+                    return ExitCode::from(FAILED);
+                }
+            }
+            match gateway::run(spec, &stop) {
+                Ok(end) => {
+                    let line = format!(
+                        "out: {} messages in {} batches; in: {} messages in {} batches; {} batches refused",
+                        end.messages_out, end.batches_out, end.messages_in, end.batches_in, end.rejected_batches
+                    );
+                    match end.failure {
+                        None => {
+                            tracing::info!("done: {line}");
+                            ExitCode::from(OK)
+                        }
+                        Some(f) => {
+                            tracing::error!("{f} ({line})");
+                            ExitCode::from(FAILED)
+                        }
+                    }
+                }
+                Err(e) => {
+                    tracing::error!("{e}");
+                    ExitCode::from(FAILED)
+                }
+            }
+        }
+        Err((code, e)) => {
+            tracing::error!("{e}");
+            ExitCode::from(code)
+        }
+    }
+}
+
+/// From the arguments to a gateway's specification: the handshake checks, the scenario, the key.
+fn start(args: &GatewayArgs, papers: &[&'static dyn Paper]) -> Result<GatewaySpec, (u8, String)> {
+    if args.build_id != cohort_wire::build_id() {
+        return Err((
+            BUILD_MISMATCH,
+            format!(
+                "refusing to run: built from {} but the orchestrator is {} — rebuild the workspace",
+                cohort_wire::build_id(),
+                args.build_id
+            ),
+        ));
+    }
+    let run_id = u64::from_str_radix(&args.run_id, 16)
+        .map_err(|_| (INVALID, format!("--run-id {:?}: not a hexadecimal run id", args.run_id)))?;
+    cohort_runtime::paper::skip_deep_checks();
+    let file = args.run_dir.join("scenario.toml");
+    let s = cohort_runtime::paper::load(&file, &Default::default(), papers).map_err(|e| (INVALID, e.to_string()))?;
+    let placement = s.placement();
+    if !placement.hosts().contains(&args.host_index) {
+        return Err((INVALID, format!("--host-index {}: no process of the run is placed there", args.host_index)));
+    }
+    let key = match (args.key_fd, s.run.authenticate) {
+        (Some(fd), _) => Some(
+            MacKey::read_from_fd(fd)
+                .map_err(|e| (INVALID, format!("--key-fd {fd}: cannot read the run's key: {e}")))?,
+        ),
+        (None, true) => return Err((INVALID, "run.authenticate is on but no --key-fd was given".into())),
+        (None, false) => None,
+    };
+    let spare = FaultPlan::from_scenario(&s).faults.iter().filter(|f| f.spec.kind == "restart").count();
+    Ok(GatewaySpec {
+        run: IoxRun::new(run_id).with_key(key).in_domain(Arc::new(placement), args.host_index),
+        topo: s.topology(),
+        spare,
+        connect: args.zenoh_connect.clone(),
+        listen: args.zenoh_listen.clone(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn gateway_names_carry_their_host() {
+        assert_eq!(super::proc_name(3), "gateway-3");
+        assert_eq!(super::host_of_name("gateway-3"), Some(3));
+        assert_eq!(super::host_of_name("agent-3"), None);
+        assert_eq!(super::host_of_name("gateway-x"), None);
+    }
+}

@@ -1,0 +1,385 @@
+//! The gateway's two data threads: out (local iceoryx2 services → one zenoh batch per remote
+//! host) and in (batches → local services, waking the readers). Each owns an iceoryx2 node of
+//! its own (iceoryx2's ports stay on the thread that made them).
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Duration;
+
+use ::zenoh::Wait;
+use ::zenoh::handlers::FifoChannelHandler;
+use ::zenoh::pubsub::{Publisher, Subscriber};
+use ::zenoh::sample::Sample;
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher as IoxPublisher;
+use iceoryx2::port::subscriber::Subscriber as IoxSubscriber;
+use iceoryx2::prelude::*;
+
+use super::batch::{Batch, Record, decode};
+use super::source_of;
+use crate::msg::{Measurement, PLANT_ID, Share};
+use crate::transport::iox::{Domain, GATEWAY_WAKE, IoxRun, MEAS_BUFFER, SHARE_BUFFER, Svc};
+use crate::transport::{Proc, Topology, TransportError};
+
+/// A wait with no wakeup ends after this and the out thread looks at every subscriber (a
+/// wakeup can be lost under heavy preemption, as the processes' waits assume).
+const SWEEP_EVERY: Duration = Duration::from_millis(10);
+/// How long the in thread waits for a batch before it looks at the quit flag again.
+const IN_POLL: Duration = Duration::from_millis(20);
+
+/// What the data threads counted, for the gateway's end line.
+#[derive(Debug, Default)]
+pub struct Counts {
+    pub batches_out: AtomicU64,
+    pub messages_out: AtomicU64,
+    pub batches_in: AtomicU64,
+    pub messages_in: AtomicU64,
+    pub rejected: AtomicU64,
+}
+
+/// What both threads are given.
+pub(super) struct Shared {
+    pub run: IoxRun,
+    pub topo: Topology,
+    pub quit: Arc<AtomicBool>,
+    pub counts: Arc<Counts>,
+    /// The first failure of either thread (it then sets `quit`).
+    pub failure: Arc<std::sync::Mutex<Option<String>>>,
+}
+
+impl Shared {
+    fn domain(&self) -> &Domain {
+        self.run.domain.as_ref().expect("a gateway's run has a domain")
+    }
+    fn fail(&self, e: impl std::fmt::Display) {
+        let mut f = self.failure.lock().unwrap_or_else(|p| p.into_inner());
+        f.get_or_insert_with(|| e.to_string());
+        self.quit.store(true, Ordering::SeqCst);
+    }
+}
+
+fn iox(what: &str) -> impl FnOnce(String) -> TransportError + '_ {
+    move |d| TransportError::Iox { what: what.into(), detail: d }
+}
+
+/// The hosts other than this one that this host's processes send to, ascending.
+pub(super) fn destinations(d: &Domain, topo: &Topology) -> Vec<u16> {
+    let mut out: Vec<u16> = Vec::new();
+    let mut add = |p: Proc| {
+        let h = d.placement.host(p);
+        if h != d.here && !out.contains(&h) {
+            out.push(h);
+        }
+    };
+    for p in d.placement.procs().filter(|&p| d.is_local(p)) {
+        match p {
+            Proc::Plant => (1..=topo.n_agents()).for_each(|i| add(Proc::Agent(i))),
+            Proc::Agent(j) => {
+                add(Proc::Plant);
+                topo.readers_of(j).into_iter().for_each(|r| add(Proc::Agent(r)));
+            }
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// A local agent's share subscriber and the destinations (indices) that read it.
+type ShareOut = (IoxSubscriber<Svc, Share, ()>, Vec<usize>);
+/// A remote agent's stand-in share publisher and its readers here (indices into the wakeups).
+type ShareIn = (IoxPublisher<Svc, Share, ()>, Vec<usize>);
+
+/// The out thread's ports: what it reads and where each goes.
+struct OutPorts {
+    listener: Listener<Svc>,
+    /// (agent, destination index, subscriber) for each remote agent's measurements.
+    meas: Vec<(u32, usize, IoxSubscriber<Svc, Measurement, ()>)>,
+    /// Indexed by agent id: the subscriber and destination indices of a local agent read elsewhere.
+    share: Vec<Option<ShareOut>>,
+    batches: Vec<Batch>,
+    pubs: Vec<Arc<Publisher<'static>>>,
+    _node: Node<Svc>,
+}
+
+impl OutPorts {
+    fn open(sh: &Shared, pubs: Vec<(u16, Arc<Publisher<'static>>)>) -> Result<Self, TransportError> {
+        let (run, d, topo) = (&sh.run, sh.domain(), &sh.topo);
+        let node = run.node("gateway-out")?;
+        let dest = |p: Proc| pubs.iter().position(|(h, _)| *h == d.placement.host(p));
+        let listener = node
+            .service_builder(&run.service(GATEWAY_WAKE)?)
+            .event()
+            .open()
+            .map_err(|e| iox("open wake/gateway")(format!("{e:?}")))?
+            .listener_builder()
+            .create()
+            .map_err(|e| iox("gateway listener")(format!("{e:?}")))?;
+        let mut meas = Vec::new();
+        let mut share: Vec<Option<_>> = (0..=topo.n_agents()).map(|_| None).collect();
+        for p in d.placement.procs().filter(|&p| d.is_local(p)) {
+            match p {
+                Proc::Plant => {
+                    for i in (1..=topo.n_agents()).filter(|&i| !d.is_local(Proc::Agent(i))) {
+                        let sub = node
+                            .service_builder(&run.service(&format!("meas/{i}"))?)
+                            .publish_subscribe::<Measurement>()
+                            .open()
+                            .map_err(|e| iox("open meas")(format!("{i}: {e:?}")))?
+                            .subscriber_builder()
+                            .buffer_size(MEAS_BUFFER)
+                            .create()
+                            .map_err(|e| iox("meas subscriber")(format!("{i}: {e:?}")))?;
+                        meas.push((i, dest(Proc::Agent(i)).expect("a remote agent's host is a destination"), sub));
+                    }
+                }
+                Proc::Agent(j) => {
+                    let mut to: Vec<usize> = std::iter::once(Proc::Plant)
+                        .chain(topo.readers_of(j).into_iter().map(Proc::Agent))
+                        .filter(|&r| !d.is_local(r))
+                        .filter_map(dest)
+                        .collect();
+                    to.sort_unstable();
+                    to.dedup();
+                    if to.is_empty() {
+                        continue;
+                    }
+                    let sub = node
+                        .service_builder(&run.service(&format!("share/{j}"))?)
+                        .publish_subscribe::<Share>()
+                        .open()
+                        .map_err(|e| iox("open share")(format!("{j}: {e:?}")))?
+                        .subscriber_builder()
+                        .buffer_size(SHARE_BUFFER)
+                        .create()
+                        .map_err(|e| iox("share subscriber")(format!("{j}: {e:?}")))?;
+                    share[j as usize] = Some((sub, to));
+                }
+            }
+        }
+        let batches = pubs.iter().map(|_| Batch::new(run.run_id)).collect();
+        let pubs = pubs.into_iter().map(|(_, p)| p).collect();
+        Ok(Self { listener, meas, share, batches, pubs, _node: node })
+    }
+
+    fn drain_meas(&mut self) -> Result<(), String> {
+        for (i, to, sub) in &self.meas {
+            while let Some(s) = sub.receive().map_err(|e| format!("receive meas/{i}: {e:?}"))? {
+                self.batches[*to].push_measurement(*i, s.payload());
+            }
+        }
+        Ok(())
+    }
+
+    fn drain_share(&mut self, j: usize) -> Result<(), String> {
+        let Some(Some((sub, to))) = self.share.get(j) else { return Ok(()) };
+        while let Some(s) = sub.receive().map_err(|e| format!("receive share/{j}: {e:?}"))? {
+            for &d in to {
+                self.batches[d].push_share(s.payload());
+            }
+        }
+        Ok(())
+    }
+
+    /// One wait and what it brought: drain the senders that woke it (every one after a wait
+    /// without wakeups), then one put per destination with anything for it.
+    fn once(&mut self, ids: &mut Vec<usize>, counts: &Counts) -> Result<(), String> {
+        ids.clear();
+        let woke = match self.listener.timed_wait(|a| ids.push(a.id.as_value()), SWEEP_EVERY) {
+            Ok(n) => n > 0,
+            Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => false,
+            Err(e) => return Err(format!("gateway wait: {e:?}")),
+        };
+        if woke {
+            for &id in ids.iter() {
+                if id == PLANT_ID as usize { self.drain_meas()? } else { self.drain_share(id)? }
+            }
+        } else {
+            self.drain_meas()?;
+            for j in 1..self.share.len() {
+                self.drain_share(j)?;
+            }
+        }
+        for (b, p) in self.batches.iter_mut().zip(&self.pubs) {
+            if b.is_empty() {
+                continue;
+            }
+            counts.messages_out.fetch_add(u64::from(b.len()), Ordering::Relaxed);
+            counts.batches_out.fetch_add(1, Ordering::Relaxed);
+            p.put(b.take()).wait().map_err(|e| format!("zenoh put {}: {e}", p.key_expr()))?;
+        }
+        Ok(())
+    }
+}
+
+/// The out thread: open its ports, say so on `ready`, carry until `quit`.
+pub(super) fn carry_out(
+    sh: Shared,
+    pubs: Vec<(u16, Arc<Publisher<'static>>)>,
+    ready: std::sync::mpsc::Sender<Result<(), TransportError>>,
+) {
+    let mut ports = match OutPorts::open(&sh, pubs) {
+        Ok(p) => {
+            let _ = ready.send(Ok(()));
+            p
+        }
+        Err(e) => {
+            let _ = ready.send(Err(e));
+            return;
+        }
+    };
+    let mut ids = Vec::new();
+    while !sh.quit.load(Ordering::SeqCst) {
+        if let Err(e) = ports.once(&mut ids, &sh.counts) {
+            sh.fail(e);
+        }
+    }
+}
+
+/// The in thread's ports: stand-in publishers of remote senders, and the local readers' wakeups.
+struct InPorts {
+    /// Indexed by agent id: the measurement publisher of a local agent whose plant is remote.
+    meas: Vec<Option<IoxPublisher<Svc, Measurement, ()>>>,
+    /// Indexed by agent id: the share publisher of a remote agent read here, and who reads it here
+    /// (indices into `wakes`).
+    share: Vec<Option<ShareIn>>,
+    /// Indexed like the placement (0 the plant, i agent i): the wakeup of a local reader.
+    wakes: Vec<Option<Notifier<Svc>>>,
+    _node: Node<Svc>,
+}
+
+impl InPorts {
+    fn open(sh: &Shared) -> Result<Self, TransportError> {
+        let (run, d, topo) = (&sh.run, sh.domain(), &sh.topo);
+        let node = run.node("gateway-in")?;
+        let n = topo.n_agents() as usize;
+        let mut wakes: Vec<Option<Notifier<Svc>>> = (0..=n).map(|_| None).collect();
+        let mut wake = |p: Proc| -> Result<usize, TransportError> {
+            let k = p.sender_id() as usize;
+            if wakes[k].is_none() {
+                let notifier = node
+                    .service_builder(&run.service(&format!("wake/{}", p.name()))?)
+                    .event()
+                    .open()
+                    .map_err(|e| iox("open wake")(format!("{}: {e:?}", p.name())))?
+                    .notifier_builder()
+                    .create()
+                    .map_err(|e| iox("notifier")(format!("{}: {e:?}", p.name())))?;
+                wakes[k] = Some(notifier);
+            }
+            Ok(k)
+        };
+        let mut meas: Vec<Option<_>> = (0..=n).map(|_| None).collect();
+        let mut share: Vec<Option<_>> = (0..=n).map(|_| None).collect();
+        let plant_here = d.is_local(Proc::Plant);
+        for i in 1..=topo.n_agents() {
+            let local = d.is_local(Proc::Agent(i));
+            if local && !plant_here {
+                let p = node
+                    .service_builder(&run.service(&format!("meas/{i}"))?)
+                    .publish_subscribe::<Measurement>()
+                    .open()
+                    .map_err(|e| iox("open meas")(format!("{i}: {e:?}")))?
+                    .publisher_builder()
+                    .create()
+                    .map_err(|e| iox("meas publisher")(format!("{i}: {e:?}")))?;
+                wake(Proc::Agent(i))?;
+                meas[i as usize] = Some(p);
+            }
+            if local {
+                continue;
+            }
+            let mut readers: Vec<Proc> =
+                topo.readers_of(i).into_iter().map(Proc::Agent).filter(|&r| d.is_local(r)).collect();
+            if plant_here {
+                readers.insert(0, Proc::Plant);
+            }
+            if readers.is_empty() {
+                continue;
+            }
+            let p = node
+                .service_builder(&run.service(&format!("share/{i}"))?)
+                .publish_subscribe::<Share>()
+                .open()
+                .map_err(|e| iox("open share")(format!("{i}: {e:?}")))?
+                .publisher_builder()
+                .create()
+                .map_err(|e| iox("share publisher")(format!("{i}: {e:?}")))?;
+            let woken = readers.into_iter().map(&mut wake).collect::<Result<Vec<_>, _>>()?;
+            share[i as usize] = Some((p, woken));
+        }
+        Ok(Self { meas, share, wakes, _node: node })
+    }
+
+    fn notify(&self, k: usize, sender: u32) -> Result<(), String> {
+        let Some(n) = &self.wakes[k] else { return Ok(()) };
+        n.notify_with_custom_event_id(EventId::new(sender as usize)).map(|_| ()).map_err(|e| format!("notify: {e:?}"))
+    }
+
+    /// Publish one checked message as its sender's stand-in and wake its readers here.
+    fn deliver(&self, r: &Record) -> Result<(), String> {
+        match r {
+            Record::Measurement { to, m } => {
+                let Some(Some(p)) = self.meas.get(*to as usize) else { return Ok(()) };
+                let sample = p.loan_uninit().map_err(|e| format!("loan measurement: {e:?}"))?;
+                sample.write_payload(**m).send().map_err(|e| format!("send measurement: {e:?}"))?;
+                self.notify(*to as usize, PLANT_ID)
+            }
+            Record::Share { from, s } => {
+                let Some(Some((p, readers))) = self.share.get(*from as usize) else { return Ok(()) };
+                let sample = p.loan_uninit().map_err(|e| format!("loan share: {e:?}"))?;
+                sample.write_payload(**s).send().map_err(|e| format!("send share: {e:?}"))?;
+                readers.iter().try_for_each(|&k| self.notify(k, *from))
+            }
+        }
+    }
+}
+
+/// The in thread: open its ports, say so on `ready`, deliver every batch that arrives until `quit`.
+pub(super) fn carry_in(
+    sh: Shared,
+    inbox: Subscriber<FifoChannelHandler<Sample>>,
+    ready: std::sync::mpsc::Sender<Result<(), TransportError>>,
+) {
+    let ports = match InPorts::open(&sh) {
+        Ok(p) => {
+            let _ = ready.send(Ok(()));
+            p
+        }
+        Err(e) => {
+            let _ = ready.send(Err(e));
+            return;
+        }
+    };
+    let (run_id, here) = (sh.run.run_id, sh.domain().here);
+    let placement = Arc::clone(&sh.domain().placement);
+    while !sh.quit.load(Ordering::SeqCst) {
+        let sample = match inbox.recv_timeout(IN_POLL) {
+            Ok(Some(s)) => s,
+            Ok(None) => continue,
+            Err(e) => {
+                sh.fail(format!("zenoh inbox: {e}"));
+                break;
+            }
+        };
+        let key = sample.key_expr().as_str().to_string();
+        let checked =
+            source_of(&key).ok_or_else(|| format!("a batch on {key}, which names no host")).and_then(|from| {
+                decode(&sample.payload().to_bytes(), run_id, &placement, from, here).map_err(|e| format!("{key}: {e}"))
+            });
+        let records = match checked {
+            Ok(r) => r,
+            Err(e) => {
+                if sh.counts.rejected.fetch_add(1, Ordering::Relaxed) < 10 {
+                    tracing::warn!("gateway: refused a batch: {e}");
+                }
+                continue;
+            }
+        };
+        sh.counts.batches_in.fetch_add(1, Ordering::Relaxed);
+        sh.counts.messages_in.fetch_add(records.len() as u64, Ordering::Relaxed);
+        if let Err(e) = records.iter().try_for_each(|r| ports.deliver(r)) {
+            sh.fail(e);
+        }
+    }
+}
