@@ -258,6 +258,15 @@ fn assert_nothing_left(run: &Path, killed: &[&str]) {
         .map(|e| e.file_name().to_string_lossy().to_string())
         .filter(|n| n.starts_with(&format!("cohort_{id}")))
         .collect();
+    // A killed daemon's gateway died with it (its next start sweeps what it left, as the run's
+    // lock is released); the test removes it, so runs do not pile up.
+    for (k, x) in NAMES.iter().enumerate().filter(|(_, x)| killed.contains(x)) {
+        let run_id = u64::from_str_radix(&id, 16).unwrap();
+        let domain = cohort_wire::transport::iox::IoxRun::new(run_id).in_domain(Default::default(), k as u16 + 1);
+        println!("host {x} was killed: removed {} entries of its domain", domain.remove_all_resources());
+        let _ = std::fs::remove_file(cohort_wire::transport::iox::user_base().join(format!("{id}-{:x}.lock", k + 1)));
+    }
+    let shm: Vec<&String> = shm.iter().filter(|n| !killed_domain(n, &id, killed)).collect();
     assert!(shm.is_empty(), "left in /dev/shm: {shm:?}");
     let roots: Vec<String> = std::fs::read_dir(cohort_wire::transport::iox::user_base())
         .map(|rd| rd.flatten().map(|e| e.file_name().to_string_lossy().to_string()).collect())
@@ -272,6 +281,11 @@ fn assert_nothing_left(run: &Path, killed: &[&str]) {
             let _ = std::fs::remove_dir_all(&left);
         }
     }
+}
+
+/// Whether a /dev/shm entry belongs to the domain of a killed host (index k + 1 for NAMES[k]).
+fn killed_domain(entry: &str, id: &str, killed: &[&str]) -> bool {
+    NAMES.iter().enumerate().any(|(k, x)| killed.contains(x) && entry.starts_with(&format!("cohort_{id}_{:x}_", k + 1)))
 }
 
 fn latency_p50_ns(s: &Value, agent: &str) -> f64 {
@@ -521,6 +535,60 @@ fn fig1_across_three_loopback_daemons_is_bit_identical_to_the_reference() {
     assert!(o.status.success(), "{}", describe_output(&o));
     assert_eq!(telemetry_bits(&run), telemetry_bits(&reference), "loopback multi-host telemetry differs");
     assert_nothing_left(&run, &[]);
+    drop(daemons);
+}
+
+/// Issue 31: a lost gateway is its host lost. Host b's gateway killed mid-run (its daemon alive):
+/// b's servicers are declared dead, the timeline's host-lost event names b and its gateway, the
+/// run goes on to its end on the live graph, and b's daemon still cleans up (nothing left).
+/// Three loopback daemons, so it runs on every machine.
+#[test]
+fn a_killed_gateway_is_its_host_lost() {
+    let _g = heavy();
+    let net = Net { tag: String::new(), namespaces: false, pumped: None };
+    let daemons = Daemons::start(&net);
+    let dir = scratch_dir("multihost-gateway-lost");
+    let hosts = hosts_file(&net, &dir);
+    let lost = dir.join("gateway-lost");
+    let run = Command::new(bin_path("orchestrator"))
+        .current_dir(repo_root())
+        .args(["launch", "topologies/fig1.toml", "--no-plots", "--duration", "20", "--transport", "zenoh"])
+        .args(["--step-timeout", "3", "--realtime", "--rate", "4", "--hosts", hosts.to_str().unwrap(), "--out"])
+        .arg(&lost)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("launch");
+    // Host b is hosts[1]: its gateway is `gateway --host-index 2`, started with the run.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let gateway = loop {
+        let found = processes_mentioning("gateway --host-index 2");
+        if let Some((pid, _)) = found.first() {
+            break *pid;
+        }
+        assert!(Instant::now() < deadline, "host b's gateway never started");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    std::thread::sleep(Duration::from_millis(2500));
+    // SAFETY: kill(2) on the gateway process this run started (found by its command line).
+    unsafe { libc::kill(gateway as i32, libc::SIGKILL) };
+    let o = cohort::finish_within(run, cohort::RUN_LIMIT, "fig1 in real time, host b's gateway killed");
+    assert_eq!(o.status.code(), Some(1), "a lost host is an unplanned loss:\n{}", describe_output(&o));
+    let s = summary(&lost);
+    assert_eq!(s["status"], "degraded", "{}", describe_output(&o));
+    let timeline = s["timeline"].as_array().unwrap();
+    let host_lost = timeline.iter().find(|e| e["event"] == "host-lost").unwrap_or_else(|| panic!("{}", s["timeline"]));
+    let detail = host_lost["detail"].as_str().unwrap();
+    assert!(detail.contains("host b") && detail.contains("its gateway ended"), "{host_lost}");
+    for a in [1, 3, 5] {
+        assert!(timeline.iter().any(|e| e["event"] == "dead" && e["agent"] == a), "agent {a}: {}", s["timeline"]);
+    }
+    for a in [2, 4, 6] {
+        assert!(!timeline.iter().any(|e| e["event"] == "dead" && e["agent"] == a), "agent {a}: {}", s["timeline"]);
+    }
+    assert_eq!(s["steps_completed"], 2000, "the run goes on to its end on the live graph");
+    // b's daemon is alive: it ended b's processes and removed b's domain itself.
+    assert_nothing_left(&lost, &[]);
     drop(daemons);
 }
 

@@ -562,7 +562,7 @@ fn sigterm_ends_a_zenoh_process_waiting_for_peers_that_never_come() {
     let (_g, dir) = heavy_scratch("zenoh-pending-term");
     let text = std::fs::read_to_string(ring()).unwrap().replace(
         "[run]\nstep_timeout_s = 10.0\n",
-        "[run]\nstep_timeout_s = 10.0\ntransport = \"zenoh\"\nstartup_timeout_s = 300.0\n",
+        "[run]\nstep_timeout_s = 10.0\ntransport = \"zenoh\"\nzenoh_links = \"peers\"\nstartup_timeout_s = 300.0\n",
     );
     assert!(text.contains("transport = \"zenoh\""), "the ring's [run] table moved: {text}");
     std::fs::write(dir.join("scenario.toml"), text).unwrap();

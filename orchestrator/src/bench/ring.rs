@@ -12,6 +12,8 @@ use cohort_scenario::Overrides;
 pub(crate) struct RingRun<'a> {
     pub(crate) wait: &'a str,
     pub(crate) transport: &'a str,
+    /// With zenoh: `gateway` (the default) or `peers` (run.zenoh_links).
+    pub(crate) zenoh_links: &'a str,
     pub(crate) link_delay_steps: u32,
     /// The null plant and algorithm: the same processes and message sizes, no computation.
     pub(crate) null: bool,
@@ -28,6 +30,7 @@ pub(crate) struct RingRun<'a> {
 pub(crate) const RING: RingRun<'static> = RingRun {
     wait: "adaptive",
     transport: "iceoryx2",
+    zenoh_links: "gateway",
     link_delay_steps: 0,
     null: false,
     dt_s: 0.01,
@@ -62,6 +65,9 @@ pub(crate) fn ring_text(n: u32, steps: u64, r: RingRun<'_>) -> (String, String) 
         r.transport,
         r.link_delay_steps
     );
+    if r.transport == "zenoh" && r.zenoh_links != "gateway" {
+        let _ = writeln!(t, "zenoh_links = \"{}\"", r.zenoh_links);
+    }
     if r.realtime {
         t.push_str("realtime_rate = 1.0\n");
     }

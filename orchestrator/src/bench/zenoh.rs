@@ -18,8 +18,8 @@ use super::types::{Aggregate, Case};
 /// The lab's "1 ms" rows: every namespace delays what it sends by 1 ms.
 const DELAY_1MS: Duration = Duration::from_millis(1);
 
-/// Loads a zenoh-row scenario: (transport, hosts file) → the setup.
-type LoadFn = dyn Fn(&str, Option<&Path>) -> Result<Setup, String>;
+/// Loads a zenoh-row scenario: (transport, zenoh links, hosts file) → the setup.
+type LoadFn = dyn Fn(&str, &str, Option<&Path>) -> Result<Setup, String>;
 
 /// The zenoh rows: the headline shortened to 2 000 steps and the ring at N = 6 and 20, over
 /// iceoryx2 and zenoh on one host, and over zenoh across the lab (when there is one), without and
@@ -50,11 +50,12 @@ pub(super) fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> R
         let path = repo.join(file);
         let probe = crate::load(&path, &Overrides::default()).map_err(|e| e.to_string())?;
         let duration = steps as f64 * probe.scenario.dt_s;
-        let load = move |transport: &str, hosts: Option<&Path>| {
+        let load = move |transport: &str, links: &str, hosts: Option<&Path>| {
             let hosts = hosts.map(cohort_scenario::hosts::HostsFile::load).transpose().map_err(|e| e.to_string())?;
             let o = Overrides {
                 duration_s: Some(duration),
                 transport: Some(transport.into()),
+                zenoh_links: (transport == "zenoh").then(|| links.to_string()),
                 hosts,
                 ..Default::default()
             };
@@ -64,19 +65,23 @@ pub(super) fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> R
     }
     for n in if quick { &[6u32][..] } else { &[6u32, 20][..] } {
         let n = *n;
-        let load = move |transport: &str, hosts: Option<&Path>| {
+        let load = move |transport: &str, links: &str, hosts: Option<&Path>| {
             let transport: &'static str = if transport == "zenoh" { "zenoh" } else { "iceoryx2" };
-            ring(n, steps, RingRun { transport, hosts, ..RING })
+            ring(n, steps, RingRun { transport, zenoh_links: links, hosts, ..RING })
         };
         sets.push(("ring".into(), n, Box::new(load)));
     }
     for (label, n, load) in &sets {
-        push(label.clone(), *n, "iceoryx2", load("iceoryx2", None)?, None);
-        push(label.clone(), *n, "zenoh", load("zenoh", None)?, None);
-        if let Some(dir) = lab_dir {
-            let hosts = Lab::hosts_file(dir, *n).map_err(|e| e.to_string())?;
-            push(label.clone(), *n, "zenoh-3ns", load("zenoh", Some(&hosts))?, Some(Duration::ZERO));
-            push(label.clone(), *n, "zenoh-3ns-1ms", load("zenoh", Some(&hosts))?, Some(DELAY_1MS));
+        push(label.clone(), *n, "iceoryx2", load("iceoryx2", "gateway", None)?, None);
+        // Each zenoh row through the hosts' gateways (the default), then with every process a peer.
+        for (links, suffix) in [("gateway", ""), ("peers", "-peers")] {
+            push(label.clone(), *n, &format!("zenoh{suffix}"), load("zenoh", links, None)?, None);
+            if let Some(dir) = lab_dir {
+                let hosts = Lab::hosts_file(dir, *n).map_err(|e| e.to_string())?;
+                let (plain, delayed) = (format!("zenoh-3ns{suffix}"), format!("zenoh-3ns-1ms{suffix}"));
+                push(label.clone(), *n, &plain, load("zenoh", links, Some(&hosts))?, Some(Duration::ZERO));
+                push(label.clone(), *n, &delayed, load("zenoh", links, Some(&hosts))?, Some(DELAY_1MS));
+            }
         }
     }
     Ok(out)
@@ -185,7 +190,11 @@ pub(super) fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt], links: Option<Links>
     for r in rtts {
         let _ = writeln!(md, "| {} | {:.0} | {:.0} | {:.2} |", r.place, r.p50_us, r.p99_us, r.max_ms);
     }
-    let rtt_of = |variant: &str| rtts.iter().find(|r| r.variant == Some(variant)).map(|r| r.p50_us);
+    // A peers row goes with the round trip of its place, as its gateway row does.
+    let rtt_of = |variant: &str| {
+        let place = variant.strip_suffix("-peers").unwrap_or(variant);
+        rtts.iter().find(|r| r.variant == Some(place)).map(|r| r.p50_us)
+    };
     if let (Some(veth), Some(pumped), Some(Links::Pumped)) =
         (rtts.iter().find(|r| r.variant.is_none()), rtt_of("zenoh-3ns"), links)
     {
@@ -201,11 +210,15 @@ pub(super) fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt], links: Option<Links>
     );
     let how = links.map_or("", Links::describe);
     for x in a.iter().filter(|x| x.group == "zenoh") {
-        let place = match x.variant.as_str() {
+        let (variant, links) = match x.variant.strip_suffix("-peers") {
+            Some(v) => (v, "every process a zenoh peer"),
+            None => (x.variant.as_str(), "through the hosts' gateways"),
+        };
+        let place = match variant {
             "iceoryx2" => "iceoryx2, one host".to_string(),
-            "zenoh" => "zenoh, one host (TCP loopback)".to_string(),
-            "zenoh-3ns" => format!("zenoh, plant on a, agents on b and c ({how}, no delay)"),
-            "zenoh-3ns-1ms" => format!("zenoh, a / b / c, 1 ms each way ({how})"),
+            "zenoh" => format!("zenoh, one host (TCP loopback), {links}"),
+            "zenoh-3ns" => format!("zenoh, plant on a, agents on b and c ({how}, no delay), {links}"),
+            "zenoh-3ns-1ms" => format!("zenoh, a / b / c, 1 ms each way ({how}), {links}"),
             other => other.to_string(),
         };
         let rtt = rtt_of(&x.variant);

@@ -29,7 +29,6 @@ struct Gateway {
 /// Every gateway of a run.
 pub(crate) struct Gateways {
     list: Mutex<Vec<Gateway>>,
-    run: IoxRun,
 }
 
 impl Gateways {
@@ -43,7 +42,7 @@ impl Gateways {
         scenario_toml: &str,
     ) -> Result<Self, String> {
         let placement = Arc::new(s.placement());
-        let gateways = Gateways { list: Mutex::new(Vec::new()), run: run.clone() };
+        let gateways = Gateways { list: Mutex::new(Vec::new()) };
         let timeout = Duration::from_secs_f64(s.run.startup_timeout_s);
         for host in placement.hosts() {
             let started = if host == 0 {
@@ -107,8 +106,8 @@ impl Gateways {
             g.exit = g.handle.kill_wait();
         }
         if list.iter().any(|g| g.host == 0) {
-            let local = IoxRun::new(self.run.run_id).in_domain(Default::default(), 0);
-            local.remove_all_resources();
+            // A killed gateway leaves its domain and lock file; its lock is released with it.
+            IoxRun::sweep_stale();
         }
     }
 }
