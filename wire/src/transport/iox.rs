@@ -16,6 +16,11 @@
 //! before it spawns anything, and holds them for the run; plant and agents only `open()` them, so
 //! there is no creation race and every limit is set in one place.
 //!
+//! A zenoh run with gateways ([`super::gateway`]) has one such layout per host, its *domain*
+//! ([`Domain`]: prefix `cohort_<run id>_<k>_`, root `<run id>-<k>`), made and held by the host's
+//! gateway instead of the orchestrator, plus `wake/gateway`, which a process notifies (with its
+//! sender id) instead of a reader on another host.
+//!
 //! Ownership (issue 18): a run's root directory lives in the user's own base directory
 //! ([`user_base`], 0700, checked before use), the orchestrator holds an `flock` on the run's lock
 //! file for the run's life ([`IoxRun::claim`]) so the stale-run sweep ([`IoxRun::sweep_stale`])
