@@ -34,8 +34,8 @@ use cohort_scenario::TransportKind;
 use cohort_scenario::faults::FaultPlan;
 use cohort_wire::auth::MacKey;
 use cohort_wire::msg::{
-    PLANT_ID, Roster, STATUS_ALIVE, STATUS_DEAD, STATUS_HOLDING, STATUS_IDLE, STATUS_PROGRESS, STATUS_READY,
-    STATUS_WAITING, Status,
+    PLANT_ID, Roster, STATUS_ALIVE, STATUS_DEAD, STATUS_DONE, STATUS_HOLDING, STATUS_IDLE, STATUS_PROGRESS,
+    STATUS_READY, STATUS_WAITING, Status,
 };
 use cohort_wire::transport::iox::{IoxRun, IoxServices, RunClaim};
 use cohort_wire::transport::zenoh::{ZenohHub, ZenohRun};
@@ -162,6 +162,8 @@ struct Kid {
     idle_at: Option<u64>,
     /// Reported to the plant as dead after an unplanned exit.
     reported_dead: bool,
+    /// Reported its last step done (it then keeps its ports open until the stop request).
+    finished: bool,
 }
 
 impl Kid {
@@ -176,6 +178,7 @@ impl Kid {
             frozen: false,
             idle_at: None,
             reported_dead: false,
+            finished: false,
         }
     }
     fn signal(&self, sig: i32) {
@@ -395,6 +398,10 @@ impl Resources {
             let zrun = ZenohRun::new(run.run_id).with_key(run.key);
             let hub = ZenohHub::create(&zrun, &remote.session).map_err(|e| e.to_string())?;
             let remote = Arc::new(remote);
+            if s.uses_gateways() && s.host_of(Proc::Plant).is_none() {
+                // This machine's plant opens iceoryx2 ports for every agent.
+                check_descriptors(s.n_agents(), spare)?;
+            }
             let gateways = if s.uses_gateways() {
                 let toml = std::fs::read_to_string(dirs.root.join("scenario.toml"))
                     .map_err(|e| format!("{}: {e}", dirs.root.join("scenario.toml").display()))?;
@@ -694,6 +701,8 @@ struct Watch {
     my_hash: u64,
     start_granted: bool,
     stop_sent: bool,
+    /// When the plant was first seen done.
+    plant_done_at: Option<Instant>,
     /// The plant's step, as it last reported it.
     plant_step: u64,
     /// Latest "waiting for X at step k" per sender.
@@ -715,6 +724,7 @@ impl Watch {
             my_hash: cohort_wire::build_id_hash(),
             start_granted: false,
             stop_sent: false,
+            plant_done_at: None,
             plant_step: 0,
             waiting: vec![None; s.n_agents() as usize + 1],
             failed_since: None,
@@ -897,6 +907,7 @@ impl Supervisor<'_> {
                     self.waiting = w.waiting.clone();
                 }
                 STATUS_IDLE => kids[idx].idle_at = Some(st.step),
+                STATUS_DONE => kids[idx].finished = true,
                 STATUS_HOLDING if st.sender == PLANT_ID => {
                     w.plant_step = st.step;
                     w.hold = Some(Hold {
@@ -1021,9 +1032,18 @@ impl Supervisor<'_> {
         let s = self.s;
         on_step(w.plant_step);
         let plant_ok = kids[0].exit.is_some_and(|st| st.success());
-        if plant_ok && !w.stop_sent {
-            // Every last share has been read: the agents keeping their ports open for it
-            // (see `keeps_ports_until_stopped`) may leave.
+        // Every last share the plant needed has been read; the agents' last shares to each other
+        // may still be on their way (behind a slower link than the plant's), so the stop that
+        // lets the agents keeping their ports open leave (see `keeps_ports_until_stopped`) waits
+        // until every agent on the roster has said it finished — or a step timeout, should a
+        // best-effort status be lost.
+        let since = plant_ok.then(|| *w.plant_done_at.get_or_insert_with(Instant::now));
+        let settled = |(i, k): (usize, &Kid)| k.finished || k.exit.is_some() || w.off_roster[i];
+        if let Some(since) = since
+            && !w.stop_sent
+            && (kids.iter().enumerate().skip(1).all(settled)
+                || since.elapsed() >= Duration::from_secs_f64(s.run.step_timeout_s))
+        {
             let _ = self.services.request_stop();
             w.stop_sent = true;
         }
@@ -1033,6 +1053,17 @@ impl Supervisor<'_> {
         if plant_ok && agents_done {
             on_step(s.n_steps());
             return Some((None, None));
+        }
+        // Stopped before its last step was done, after the plant's end: the run cannot complete.
+        if plant_ok && w.stop_sent && kids.iter().all(|k| k.exit.is_some()) {
+            let short: Vec<String> = kids
+                .iter()
+                .enumerate()
+                .skip(1)
+                .filter(|(i, k)| !w.off_roster[*i] && !k.exit.is_some_and(|st| st.success()))
+                .map(|(_, k)| k.describe())
+                .collect();
+            return Some((Some(format!("the run ended before every agent finished: {}", short.join("; "))), None));
         }
         let failed_kid = |k: &Kid| k.exit.is_some_and(|st| !st.success()) && !k.planned_exit;
         let failing =

@@ -100,7 +100,7 @@ pub(super) fn cases(
     let idle = ring(6, if quick { 20 } else { 50 }, RingRun { dt_s: 0.1, realtime: true, ..RING })?;
     push("idle", 6, "10Hz", "idle", idle, false);
     out.extend(live);
-    out.extend(zenoh::zenoh_cases(quick, repo, lab_dir)?);
+    out.extend(zenoh::zenoh_cases(quick, repo, lab_dir, only)?);
     if only.is_none_or(python::may_choose) {
         out.extend(python::cases(quick, repo, scratch)?);
     }

@@ -24,7 +24,12 @@ type LoadFn = dyn Fn(&str, &str, Option<&Path>) -> Result<Setup, String>;
 /// The zenoh rows: the headline shortened to 2 000 steps and the ring at N = 6 and 20, over
 /// iceoryx2 and zenoh on one host, and over zenoh across the lab (when there is one), without and
 /// with 1 ms delay.
-pub(super) fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> Result<Vec<Case>, String> {
+pub(super) fn zenoh_cases(
+    quick: bool,
+    repo: &Path,
+    lab_dir: Option<&Path>,
+    only: Option<&str>,
+) -> Result<Vec<Case>, String> {
     let steps: u64 = if quick { 500 } else { 2000 };
     let mut out = Vec::new();
     let mut push = |label: String, n: u32, variant: &str, scenario: Setup, lab: Option<Duration>| {
@@ -83,6 +88,13 @@ pub(super) fn zenoh_cases(quick: bool, repo: &Path, lab_dir: Option<&Path>) -> R
                 push(label.clone(), *n, &delayed, load("zenoh", links, Some(&hosts))?, Some(DELAY_1MS));
             }
         }
+    }
+    // A thousand agent processes across the lab through the gateways, 200 steps: minutes on two
+    // cores, so only when asked for by name (`--only zenoh/ring/N=1000`).
+    if let Some(dir) = lab_dir.filter(|_| only.is_some_and(|o| o.starts_with("zenoh/ring/N=1000"))) {
+        let hosts = Lab::hosts_file(dir, 1000).map_err(|e| e.to_string())?;
+        let s = ring(1000, 200, RingRun { transport: "zenoh", hosts: Some(&hosts), ..RING })?;
+        push("ring".into(), 1000, "zenoh-3ns", s, Some(Duration::ZERO));
     }
     Ok(out)
 }
