@@ -7,7 +7,6 @@
 
 mod kids;
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -21,30 +20,15 @@ use cohort_wire::transport::iox::IoxRun;
 
 pub(crate) use kids::Gateways;
 
-/// `orchestrator gateway`'s arguments (the orchestrator and the daemons give them).
+/// `orchestrator gateway`'s arguments (the orchestrator and the daemons give them): a child's
+/// (its `--step-timeout-s` unused: a gateway waits for no step) and the host it serves.
 #[derive(clap::Args, Debug)]
 pub struct GatewayArgs {
-    /// Run directory holding the resolved scenario.toml.
-    #[arg(long)]
-    pub run_dir: PathBuf,
-    /// Run id, hexadecimal.
-    #[arg(long)]
-    pub run_id: String,
-    /// Build id of the orchestrator; must equal this binary's.
-    #[arg(long)]
-    pub build_id: String,
+    #[command(flatten)]
+    pub common: cohort_runtime::process::CommonArgs,
     /// This host's index in the run's placement (0: the orchestrator's machine, k: hosts[k-1]).
     #[arg(long)]
     pub host_index: u16,
-    /// `run.authenticate`: the inherited descriptor to read the run's MAC key from.
-    #[arg(long)]
-    pub key_fd: Option<i32>,
-    /// The orchestrator's zenoh endpoint.
-    #[arg(long)]
-    pub zenoh_connect: Vec<String>,
-    /// Where this gateway listens for the other hosts' gateways.
-    #[arg(long)]
-    pub zenoh_listen: Vec<String>,
 }
 
 /// The name of host k's gateway process (its log file, its daemon's process name).
@@ -100,7 +84,8 @@ pub fn main(args: GatewayArgs, papers: &[&'static dyn Paper]) -> ExitCode {
 }
 
 /// From the arguments to a gateway's specification: the handshake checks, the scenario, the key.
-fn start(args: &GatewayArgs, papers: &[&'static dyn Paper]) -> Result<GatewaySpec, (u8, String)> {
+fn start(g: &GatewayArgs, papers: &[&'static dyn Paper]) -> Result<GatewaySpec, (u8, String)> {
+    let args = &g.common;
     if args.build_id != cohort_wire::build_id() {
         return Err((
             BUILD_MISMATCH,
@@ -117,8 +102,8 @@ fn start(args: &GatewayArgs, papers: &[&'static dyn Paper]) -> Result<GatewaySpe
     let file = args.run_dir.join("scenario.toml");
     let s = cohort_runtime::paper::load(&file, &Default::default(), papers).map_err(|e| (INVALID, e.to_string()))?;
     let placement = s.placement();
-    if !placement.hosts().contains(&args.host_index) {
-        return Err((INVALID, format!("--host-index {}: no process of the run is placed there", args.host_index)));
+    if !placement.hosts().contains(&g.host_index) {
+        return Err((INVALID, format!("--host-index {}: no process of the run is placed there", g.host_index)));
     }
     let key = match (args.key_fd, s.run.authenticate) {
         (Some(fd), _) => Some(
@@ -130,7 +115,7 @@ fn start(args: &GatewayArgs, papers: &[&'static dyn Paper]) -> Result<GatewaySpe
     };
     let spare = FaultPlan::from_scenario(&s).faults.iter().filter(|f| f.spec.kind == "restart").count();
     Ok(GatewaySpec {
-        run: IoxRun::new(run_id).with_key(key).in_domain(Arc::new(placement), args.host_index),
+        run: IoxRun::new(run_id).with_key(key).in_domain(Arc::new(placement), g.host_index),
         topo: s.topology(),
         spare,
         connect: args.zenoh_connect.clone(),
