@@ -326,11 +326,15 @@ impl Scenario {
         let index = |name: Option<&str>| {
             name.and_then(|n| self.hosts.iter().position(|h| h.name == n)).map_or(0, |k| k as u16 + 1)
         };
-        let agents = (1..=self.n_agents())
-            .map(|i| index(self.agents.iter().find(|a| a.id == i).and_then(|a| a.host.as_deref())));
-        cohort_wire::transport::gateway::Placement::new(
-            std::iter::once(index(self.run.plant_host.as_deref())).chain(agents).collect(),
-        )
+        // One pass over the agents (every child computes this at start-up: no search per id).
+        let mut host_of = vec![0; self.n_agents() as usize + 1];
+        host_of[0] = index(self.run.plant_host.as_deref());
+        for a in &self.agents {
+            if let Some(slot) = host_of.get_mut(a.id as usize) {
+                *slot = index(a.host.as_deref());
+            }
+        }
+        cohort_wire::transport::gateway::Placement::new(host_of)
     }
     /// Whether this run's processes talk through per-host gateways.
     pub fn uses_gateways(&self) -> bool {

@@ -301,26 +301,45 @@ fn spawn(
     restore_at: Option<u64>,
     zenoh: Option<(&str, &str)>,
 ) -> Result<Child, String> {
-    let restore = restore_at.is_some();
-    let log_path = dirs.logs().join(format!("{}.log", p.name()));
+    let mut args = Vec::new();
+    if let Proc::Agent(id) = p {
+        args.extend(["--id".to_string(), id.to_string()]);
+    }
+    if let Some(k) = restore_at {
+        args.extend(["--restore-at".to_string(), k.to_string()]);
+    }
+    let tail = ["--step-timeout-s".to_string(), format!("{step_timeout_s:?}")];
     // A relaunched agent's log goes on after its predecessor's.
+    spawn_child(bin, &p.name(), (&args, &tail), dirs, run, zenoh, restore_at.is_some())
+}
+
+/// Start `bin` on this machine as the run's process `name` with `args` (before and after the
+/// common ones, in the order the children have always been given them) and what every child of
+/// the run gets: the run directory, id and build id, the key pipe, the zenoh endpoints (`zenoh`:
+/// connect, listen) and security settings, its log (`logs/<name>.log`, appended to when
+/// `append_log`), its own process group and death with this process.
+pub(crate) fn spawn_child(
+    bin: &Path,
+    name: &str,
+    args: (&[String], &[String]),
+    dirs: &RunDirs,
+    run: &IoxRun,
+    zenoh: Option<(&str, &str)>,
+    append_log: bool,
+) -> Result<Child, String> {
+    let log_path = dirs.logs().join(format!("{name}.log"));
     let log = std::fs::OpenOptions::new()
         .create(true)
-        .append(restore)
+        .append(append_log)
         .write(true)
-        .truncate(!restore)
+        .truncate(!append_log)
         .open(&log_path)
         .map_err(|e| format!("{}: {e}", log_path.display()))?;
     let log2 = log.try_clone().map_err(|e| format!("{}: {e}", log_path.display()))?;
     let mut cmd = Command::new(bin);
     // Its zenoh sessions use this orchestrator's TLS and authentication settings.
     cmd.envs(cohort_wire::transport::zenoh_security::current().map_err(|e| e.to_string())?.to_env());
-    if let Proc::Agent(id) = p {
-        cmd.arg("--id").arg(id.to_string());
-    }
-    if let Some(k) = restore_at {
-        cmd.arg("--restore-at").arg(k.to_string());
-    }
+    cmd.args(args.0);
     let key_read = run.key.as_ref().map(key_pipe).transpose()?;
     if key_read.is_some() {
         cmd.arg("--key-fd").arg(KEY_FD.to_string());
@@ -335,8 +354,7 @@ fn spawn(
         .arg(format!("{:016x}", run.run_id))
         .arg("--build-id")
         .arg(cohort_wire::build_id())
-        .arg("--step-timeout-s")
-        .arg(format!("{step_timeout_s:?}"))
+        .args(args.1)
         .stdin(Stdio::null())
         .stdout(Stdio::from(log))
         .stderr(Stdio::from(log2));

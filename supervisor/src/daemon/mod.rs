@@ -369,7 +369,8 @@ impl Daemon {
         }
         state.kids.insert(r.proc_name.clone(), Kid { pid, done: Arc::clone(&done) });
         if let Some(k) = gateway {
-            wait_until_ready(run_id, k, &done, &r.proc_name)?;
+            let ended = || done.load(Ordering::SeqCst).then(|| "see its log".to_string());
+            crate::gateway::wait_until_ready(run_id, k, GATEWAY_READY, ended)?;
         }
         serde_json::to_vec(&Spawned { pid }).map_err(|e| e.to_string())
     }
@@ -490,22 +491,6 @@ impl Daemon {
 
 /// How long a daemon waits for a gateway it started to make its domain's services.
 const GATEWAY_READY: Duration = Duration::from_secs(15);
-
-/// Wait until host `k`'s gateway of run `run_id` is ready (see `gateway::READY_MARKER`).
-fn wait_until_ready(run_id: u64, k: u16, done: &AtomicBool, name: &str) -> Result<(), String> {
-    let marker = cohort_wire::transport::gateway::ready_marker(&IoxRun::new(run_id).in_domain(Default::default(), k));
-    let until = Instant::now() + GATEWAY_READY;
-    while !marker.exists() {
-        if done.load(Ordering::SeqCst) {
-            return Err(format!("{name} ended before it was ready (see its log)"));
-        }
-        if Instant::now() > until {
-            return Err(format!("{name} was not ready within {} s", GATEWAY_READY.as_secs()));
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    Ok(())
-}
 
 fn parse_key(hex: &str) -> Result<cohort_wire::auth::MacKey, String> {
     let bytes: Vec<u8> = (0..hex.len())

@@ -2,19 +2,18 @@
 //! watched while the run goes (a remote gateway's end is its host's loss; the local one's fails
 //! the run, whose local processes can then reach no one), stopped after the last process.
 
-use std::process::{Command, ExitStatus, Stdio};
+use std::process::ExitStatus;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use cohort_runtime::paper::Setup;
 use cohort_runtime::record::RunDirs;
-use cohort_wire::transport::gateway::READY_MARKER;
 use cohort_wire::transport::iox::IoxRun;
 
 use super::proc_name;
 use crate::hostproto::SpawnRequest;
 use crate::remote::{HostLink, Remote};
-use crate::supervise::{Handle, KEY_FD, child_setup, key_pipe, sibling_binary};
+use crate::supervise::{Handle, sibling_binary, spawn_child};
 
 /// How long a stopped gateway has to end before it is killed.
 const STOP_GRACE: Duration = Duration::from_secs(5);
@@ -124,48 +123,21 @@ fn start_local(dirs: &RunDirs, run: &IoxRun, remote: &Remote, timeout: Duration)
     let bin = sibling_binary("orchestrator")?;
     let name = proc_name(0);
     let log_path = dirs.logs().join(format!("{name}.log"));
-    let log = std::fs::File::create(&log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
-    let log2 = log.try_clone().map_err(|e| format!("{}: {e}", log_path.display()))?;
-    let mut cmd = Command::new(&bin);
-    cmd.envs(cohort_wire::transport::zenoh_security::current().map_err(|e| e.to_string())?.to_env());
-    cmd.arg("gateway").arg("--host-index").arg("0");
-    let key_read = run.key.as_ref().map(key_pipe).transpose()?;
-    if key_read.is_some() {
-        cmd.arg("--key-fd").arg(KEY_FD.to_string());
-    }
-    cmd.arg("--zenoh-connect")
-        .arg(&remote.local_connect)
-        .arg("--zenoh-listen")
-        .arg(&remote.local_listen)
-        .arg("--run-dir")
-        .arg(&dirs.root)
-        .arg("--run-id")
-        .arg(format!("{:016x}", run.run_id))
-        .arg("--build-id")
-        .arg(cohort_wire::build_id())
-        .stdin(Stdio::null())
-        .stdout(Stdio::from(log))
-        .stderr(Stdio::from(log2));
-    cohort_runtime::logging::ChildLog::current().apply(&mut cmd);
-    child_setup(&mut cmd, key_read.as_ref().map(std::os::fd::AsRawFd::as_raw_fd));
-    let mut child = cmd.spawn().map_err(|e| format!("cannot start {}: {e}", bin.display()))?;
-    drop(key_read);
-    let marker = run.root_dir().join(READY_MARKER);
-    let until = Instant::now() + timeout;
-    loop {
-        if marker.exists() {
-            return Ok(Handle::Local(child));
-        }
-        if let Ok(Some(st)) = child.try_wait() {
-            let line = std::fs::read_to_string(&log_path).ok().and_then(|t| t.lines().last().map(str::to_string));
-            return Err(format!("{name} ended before it was ready ({st}): {}", line.unwrap_or_default()));
-        }
-        if Instant::now() > until {
+    let args = ["gateway", "--host-index", "0"].map(String::from);
+    let zenoh = Some((remote.local_connect.as_str(), remote.local_listen.as_str()));
+    let mut child = spawn_child(&bin, &name, (&args, &[]), dirs, run, zenoh, false)?;
+    let ended = || {
+        let st = child.try_wait().ok().flatten()?;
+        let line = std::fs::read_to_string(&log_path).ok().and_then(|t| t.lines().last().map(str::to_string));
+        Some(format!("{st}: {}", line.unwrap_or_default()))
+    };
+    match super::wait_until_ready(run.run_id, 0, timeout, ended) {
+        Ok(()) => Ok(Handle::Local(child)),
+        Err(e) => {
             let _ = child.kill();
             let _ = child.wait();
-            return Err(format!("{name} was not ready within {:.0} s (see logs/{name}.log)", timeout.as_secs_f64()));
+            Err(format!("{e} (see logs/{name}.log)"))
         }
-        std::thread::sleep(Duration::from_millis(5));
     }
 }
 

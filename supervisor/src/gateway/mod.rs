@@ -41,6 +41,29 @@ pub fn host_of_name(name: &str) -> Option<u16> {
     name.strip_prefix("gateway-")?.parse().ok()
 }
 
+/// Wait until host `k`'s gateway of run `run_id` has made its domain's services (its ready
+/// marker exists), or fail: `ended` gives the reason once the gateway has ended, and after
+/// `timeout` it is reported not ready (the caller ends it).
+pub(crate) fn wait_until_ready(
+    run_id: u64,
+    k: u16,
+    timeout: std::time::Duration,
+    mut ended: impl FnMut() -> Option<String>,
+) -> Result<(), String> {
+    let marker = gateway::ready_marker(&IoxRun::new(run_id).in_domain(Default::default(), k));
+    let until = std::time::Instant::now() + timeout;
+    while !marker.exists() {
+        if let Some(why) = ended() {
+            return Err(format!("{} ended before it was ready: {why}", proc_name(k)));
+        }
+        if std::time::Instant::now() > until {
+            return Err(format!("{} was not ready within {:.0} s", proc_name(k), timeout.as_secs_f64()));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    Ok(())
+}
+
 /// Run one gateway to its end (see the module docs for the exit codes).
 pub fn main(args: GatewayArgs, papers: &[&'static dyn Paper]) -> ExitCode {
     cohort_runtime::logging::init_child(&proc_name(args.host_index));

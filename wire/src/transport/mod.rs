@@ -220,6 +220,19 @@ pub(crate) fn read_payload<T: Copy>(bytes: &[u8]) -> T {
     unsafe { std::ptr::read_unaligned(bytes.as_ptr().cast::<T>()) }
 }
 
+/// A payload from the first `bytes.len()` of its bytes, the rest zero (`bytes.len() <=
+/// size_of::<T>()`, checked by callers): the gateways send a message without its zero tail.
+pub(crate) fn read_payload_prefix<T: Copy>(bytes: &[u8]) -> T {
+    assert!(bytes.len() <= std::mem::size_of::<T>());
+    let mut out = std::mem::MaybeUninit::<T>::zeroed();
+    // SAFETY: at most size_of::<T>() bytes are copied into the zeroed value, and every bit
+    // pattern is a valid value of these payloads (integers and floats only).
+    unsafe {
+        std::ptr::copy_nonoverlapping(bytes.as_ptr(), out.as_mut_ptr().cast::<u8>(), bytes.len());
+        out.assume_init()
+    }
+}
+
 /// CLOCK_MONOTONIC in ns: system-wide, so send and receive stamps of two processes compare.
 pub fn monotonic_ns() -> u64 {
     let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };

@@ -63,7 +63,7 @@ const INBOX_DEPTH: usize = 1024;
 /// well below it; every step message is far smaller).
 pub const MAX_MESSAGE_BYTES: usize = 60 * 1024;
 
-fn err(what: impl std::fmt::Display) -> impl FnOnce(::zenoh::Error) -> TransportError {
+pub(crate) fn err(what: impl std::fmt::Display) -> impl FnOnce(::zenoh::Error) -> TransportError {
     move |e| TransportError::Other(format!("zenoh {what}: {e}"))
 }
 

@@ -16,7 +16,7 @@
 
 use super::Placement;
 use crate::msg::{Measurement, PLANT_ID, SCHEMA_VERSION, Share};
-use crate::transport::{Proc, bytes_of, read_payload};
+use crate::transport::{Proc, bytes_of, read_payload_prefix};
 
 const MAGIC: [u8; 4] = *b"CGW1";
 const HEADER_BYTES: usize = 20;
@@ -68,11 +68,23 @@ impl Batch {
     }
 }
 
-/// One message of a received batch.
-#[derive(Debug, Clone)]
-pub enum Record {
-    Measurement { to: u32, m: Box<Measurement> },
-    Share { from: u32, s: Box<Share> },
+/// One checked message of a received batch: its bytes up to the last non-zero one (at most the
+/// message's size; [`Record::measurement`] and [`Record::share`] give the whole message).
+#[derive(Debug, Clone, Copy)]
+pub enum Record<'a> {
+    Measurement { to: u32, bytes: &'a [u8] },
+    Share { from: u32, bytes: &'a [u8] },
+}
+
+impl Record<'_> {
+    /// The measurement a record carries (its zero tail restored).
+    pub fn measurement(bytes: &[u8]) -> Measurement {
+        read_payload_prefix(bytes)
+    }
+    /// The share a record carries (its zero tail restored).
+    pub fn share(bytes: &[u8]) -> Share {
+        read_payload_prefix(bytes)
+    }
 }
 
 /// Why a received batch was refused (as a whole: nothing of it is delivered).
@@ -97,13 +109,13 @@ fn u32_at(b: &[u8], at: usize) -> u32 {
 }
 
 /// The records of a batch that host `from_host` sent to host `here`, every one checked.
-pub fn decode(
-    bytes: &[u8],
+pub fn decode<'a>(
+    bytes: &'a [u8],
     run_id: u64,
     placement: &Placement,
     from_host: u16,
     here: u16,
-) -> Result<Vec<Record>, BatchError> {
+) -> Result<Vec<Record<'a>>, BatchError> {
     if bytes.len() < HEADER_BYTES {
         return Err(BatchError::Short(bytes.len()));
     }
@@ -143,16 +155,21 @@ pub fn decode(
         if placement.host(from) != from_host {
             return Err(bad(format!("{} does not run on host {from_host}", from.name())));
         }
+        let size = match kind {
+            KIND_MEASUREMENT => std::mem::size_of::<Measurement>(),
+            _ => std::mem::size_of::<Share>(),
+        };
+        if len > size {
+            return Err(bad(format!("a payload of {len} bytes, more than the message's {size}")));
+        }
         let record = match kind {
             KIND_MEASUREMENT if from == Proc::Plant => {
                 if to == 0 || to as usize > placement.n_agents() || placement.host(Proc::Agent(to)) != here {
                     return Err(bad(format!("a measurement for agent {to}, which does not run here")));
                 }
-                Record::Measurement { to, m: Box::new(widen(payload).map_err(bad)?) }
+                Record::Measurement { to, bytes: payload }
             }
-            KIND_SHARE if from != Proc::Plant => {
-                Record::Share { from: sender, s: Box::new(widen(payload).map_err(bad)?) }
-            }
+            KIND_SHARE if from != Proc::Plant => Record::Share { from: sender, bytes: payload },
             k => return Err(bad(format!("kind {k} from {}", from.name()))),
         };
         out.push(record);
@@ -163,21 +180,11 @@ pub fn decode(
     Ok(out)
 }
 
-/// A message from its bytes up to the last non-zero one, the rest zero.
-fn widen<T: Copy>(payload: &[u8]) -> Result<T, String> {
-    let size = std::mem::size_of::<T>();
-    if payload.len() > size {
-        return Err(format!("a payload of {} bytes, more than the message's {size}", payload.len()));
-    }
-    let mut full = vec![0u8; size];
-    full[..payload.len()].copy_from_slice(payload);
-    Ok(read_payload(&full))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::msg::Header;
+    use crate::transport::read_payload;
 
     fn header(sender: u32) -> Header {
         Header { version: SCHEMA_VERSION, sender, run_id: 7, step: 3, t_s: 0.3, sent_wall_ns: 11, mac: [5, 6] }
@@ -196,8 +203,8 @@ mod tests {
         let bytes = b.take();
         assert!(bytes.len() < 200, "{} bytes: the share's unused tail is not sent", bytes.len());
         let got = decode(&bytes, 7, &placement(), 2, 0).unwrap();
-        let [Record::Share { from: 3, s }] = got.as_slice() else { panic!("{got:?}") };
-        assert_eq!(bytes_of(s.as_ref()), bytes_of(&share));
+        let [Record::Share { from: 3, bytes }] = got.as_slice() else { panic!("{got:?}") };
+        assert_eq!(bytes_of(&Record::share(bytes)), bytes_of(&share));
         // The batch is empty again after take, with the same run.
         assert!(b.is_empty());
         assert_eq!(decode(&b.take(), 7, &placement(), 2, 0).unwrap().len(), 0);
@@ -211,9 +218,10 @@ mod tests {
         m.readings[1] = 4.0;
         let mut b = Batch::new(7);
         b.push_measurement(2, &m);
-        let got = decode(&b.take(), 7, &placement(), 0, 1).unwrap();
-        let [Record::Measurement { to: 2, m: back }] = got.as_slice() else { panic!("{got:?}") };
-        assert_eq!(bytes_of(back.as_ref()), bytes_of(&m));
+        let bytes = b.take();
+        let got = decode(&bytes, 7, &placement(), 0, 1).unwrap();
+        let [Record::Measurement { to: 2, bytes }] = got.as_slice() else { panic!("{got:?}") };
+        assert_eq!(bytes_of(&Record::measurement(bytes)), bytes_of(&m));
     }
 
     #[test]

@@ -59,10 +59,6 @@ impl Shared {
     }
 }
 
-fn iox(what: &str) -> impl FnOnce(String) -> TransportError + '_ {
-    move |d| TransportError::Iox { what: what.into(), detail: d }
-}
-
 /// The hosts other than this one that this host's processes send to, ascending.
 pub(super) fn destinations(d: &Domain, topo: &Topology) -> Vec<u16> {
     let mut out: Vec<u16> = Vec::new();
@@ -111,10 +107,10 @@ impl OutPorts {
             .service_builder(&run.service(GATEWAY_WAKE)?)
             .event()
             .open()
-            .map_err(|e| iox("open wake/gateway")(format!("{e:?}")))?
+            .map_err(|e| TransportError::iox("open wake/gateway", e))?
             .listener_builder()
             .create()
-            .map_err(|e| iox("gateway listener")(format!("{e:?}")))?;
+            .map_err(|e| TransportError::iox("gateway listener", e))?;
         let mut meas = Vec::new();
         let mut share: Vec<Option<_>> = (0..=topo.n_agents()).map(|_| None).collect();
         for p in d.placement.procs().filter(|&p| d.is_local(p)) {
@@ -125,11 +121,11 @@ impl OutPorts {
                             .service_builder(&run.service(&format!("meas/{i}"))?)
                             .publish_subscribe::<Measurement>()
                             .open()
-                            .map_err(|e| iox("open meas")(format!("{i}: {e:?}")))?
+                            .map_err(|e| TransportError::iox(format!("open meas {i}"), e))?
                             .subscriber_builder()
                             .buffer_size(MEAS_BUFFER)
                             .create()
-                            .map_err(|e| iox("meas subscriber")(format!("{i}: {e:?}")))?;
+                            .map_err(|e| TransportError::iox(format!("meas subscriber {i}"), e))?;
                         meas.push((i, dest(Proc::Agent(i)).expect("a remote agent's host is a destination"), sub));
                     }
                 }
@@ -148,11 +144,11 @@ impl OutPorts {
                         .service_builder(&run.service(&format!("share/{j}"))?)
                         .publish_subscribe::<Share>()
                         .open()
-                        .map_err(|e| iox("open share")(format!("{j}: {e:?}")))?
+                        .map_err(|e| TransportError::iox(format!("open share {j}"), e))?
                         .subscriber_builder()
                         .buffer_size(SHARE_BUFFER)
                         .create()
-                        .map_err(|e| iox("share subscriber")(format!("{j}: {e:?}")))?;
+                        .map_err(|e| TransportError::iox(format!("share subscriber {j}"), e))?;
                     share[j as usize] = Some((sub, to));
                 }
             }
@@ -261,10 +257,10 @@ impl InPorts {
                     .service_builder(&run.service(&format!("wake/{}", p.name()))?)
                     .event()
                     .open()
-                    .map_err(|e| iox("open wake")(format!("{}: {e:?}", p.name())))?
+                    .map_err(|e| TransportError::iox(format!("open wake {}", p.name()), e))?
                     .notifier_builder()
                     .create()
-                    .map_err(|e| iox("notifier")(format!("{}: {e:?}", p.name())))?;
+                    .map_err(|e| TransportError::iox(format!("notifier {}", p.name()), e))?;
                 wakes[k] = Some(notifier);
             }
             Ok(k)
@@ -279,10 +275,10 @@ impl InPorts {
                     .service_builder(&run.service(&format!("meas/{i}"))?)
                     .publish_subscribe::<Measurement>()
                     .open()
-                    .map_err(|e| iox("open meas")(format!("{i}: {e:?}")))?
+                    .map_err(|e| TransportError::iox(format!("open meas {i}"), e))?
                     .publisher_builder()
                     .create()
-                    .map_err(|e| iox("meas publisher")(format!("{i}: {e:?}")))?;
+                    .map_err(|e| TransportError::iox(format!("meas publisher {i}"), e))?;
                 wake(Proc::Agent(i))?;
                 meas[i as usize] = Some(p);
             }
@@ -301,10 +297,10 @@ impl InPorts {
                 .service_builder(&run.service(&format!("share/{i}"))?)
                 .publish_subscribe::<Share>()
                 .open()
-                .map_err(|e| iox("open share")(format!("{i}: {e:?}")))?
+                .map_err(|e| TransportError::iox(format!("open share {i}"), e))?
                 .publisher_builder()
                 .create()
-                .map_err(|e| iox("share publisher")(format!("{i}: {e:?}")))?;
+                .map_err(|e| TransportError::iox(format!("share publisher {i}"), e))?;
             let woken = readers.into_iter().map(&mut wake).collect::<Result<Vec<_>, _>>()?;
             share[i as usize] = Some((p, woken));
         }
@@ -317,19 +313,20 @@ impl InPorts {
     }
 
     /// Publish one checked message as its sender's stand-in and wake its readers here.
-    fn deliver(&self, r: &Record) -> Result<(), String> {
-        match r {
-            Record::Measurement { to, m } => {
-                let Some(Some(p)) = self.meas.get(*to as usize) else { return Ok(()) };
+    fn deliver(&self, r: &Record<'_>) -> Result<(), String> {
+        match *r {
+            Record::Measurement { to, bytes } => {
+                let Some(Some(p)) = self.meas.get(to as usize) else { return Ok(()) };
                 let sample = p.loan_uninit().map_err(|e| format!("loan measurement: {e:?}"))?;
-                sample.write_payload(**m).send().map_err(|e| format!("send measurement: {e:?}"))?;
-                self.notify(*to as usize, PLANT_ID)
+                let m = Record::measurement(bytes);
+                sample.write_payload(m).send().map_err(|e| format!("send measurement: {e:?}"))?;
+                self.notify(to as usize, PLANT_ID)
             }
-            Record::Share { from, s } => {
-                let Some(Some((p, readers))) = self.share.get(*from as usize) else { return Ok(()) };
+            Record::Share { from, bytes } => {
+                let Some(Some((p, readers))) = self.share.get(from as usize) else { return Ok(()) };
                 let sample = p.loan_uninit().map_err(|e| format!("loan share: {e:?}"))?;
-                sample.write_payload(**s).send().map_err(|e| format!("send share: {e:?}"))?;
-                readers.iter().try_for_each(|&k| self.notify(k, *from))
+                sample.write_payload(Record::share(bytes)).send().map_err(|e| format!("send share: {e:?}"))?;
+                readers.iter().try_for_each(|&k| self.notify(k, from))
             }
         }
     }
@@ -363,10 +360,10 @@ pub(super) fn carry_in(
             }
         };
         let key = sample.key_expr().as_str().to_string();
-        let checked =
-            source_of(&key).ok_or_else(|| format!("a batch on {key}, which names no host")).and_then(|from| {
-                decode(&sample.payload().to_bytes(), run_id, &placement, from, here).map_err(|e| format!("{key}: {e}"))
-            });
+        let payload = sample.payload().to_bytes();
+        let checked = source_of(&key)
+            .ok_or_else(|| format!("a batch on {key}, which names no host"))
+            .and_then(|from| decode(&payload, run_id, &placement, from, here).map_err(|e| format!("{key}: {e}")));
         let records = match checked {
             Ok(r) => r,
             Err(e) => {

@@ -14,7 +14,7 @@ use super::batch_key;
 use super::carry::{Counts, Shared, carry_in, carry_out, destinations};
 use crate::msg::{RunControl, SCHEMA_VERSION, Status};
 use crate::transport::iox::{IoxRun, IoxServices};
-use crate::transport::zenoh::{ZenohRun, open_session, publisher, subscriber};
+use crate::transport::zenoh::{ZenohRun, err, open_session, publisher, subscriber};
 use crate::transport::{Topology, TransportError, bytes_of, read_payload};
 
 /// The file a gateway writes in its domain's root directory once the domain's services exist:
@@ -44,10 +44,6 @@ pub struct GatewayEnd {
     pub rejected_batches: u64,
     /// Why it ended: `None` when asked to (a signal, the orchestrator gone).
     pub failure: Option<String>,
-}
-
-fn zerr(what: impl std::fmt::Display) -> impl FnOnce(::zenoh::Error) -> TransportError {
-    move |e| TransportError::Other(format!("zenoh {what}: {e}"))
 }
 
 /// Run a gateway until `stop` is set or the orchestrator's liveliness token goes; its domain's
@@ -92,7 +88,7 @@ fn serve(
             }
         })
         .wait()
-        .map_err(zerr("watch the orchestrator"))?;
+        .map_err(err("watch the orchestrator"))?;
 
     let counts = Arc::new(Counts::default());
     let quit = Arc::new(AtomicBool::new(false));
