@@ -121,12 +121,13 @@ pub struct Spawned {
     pub pid: u32,
 }
 
-/// Send a signal to one child of a run (kill, freeze, thaw: SIGKILL, SIGSTOP, SIGCONT; SIGTERM in
-/// the shutdown ladder).
+/// Send a signal to children of a run (kill, freeze, thaw: SIGKILL, SIGSTOP, SIGCONT; SIGTERM in
+/// the shutdown ladder): one request for every process of the host the signal is for, so a
+/// shutdown costs one round trip per host, not one per process.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SignalRequest {
     pub run_id: u64,
-    pub proc_name: String,
+    pub proc_names: Vec<String>,
     pub signal: i32,
 }
 

@@ -353,8 +353,10 @@ impl Remote {
         Ok(s.pid)
     }
 
-    pub fn signal(&self, host: &HostLink, proc_name: &str, signal: i32) -> Result<(), String> {
-        let req = SignalRequest { run_id: self.run_id, proc_name: proc_name.into(), signal };
+    /// Signal processes of `host`, all in one request.
+    pub fn signal(&self, host: &HostLink, proc_names: &[&str], signal: i32) -> Result<(), String> {
+        let proc_names = proc_names.iter().map(|n| n.to_string()).collect();
+        let req = SignalRequest { run_id: self.run_id, proc_names, signal };
         self.ask(host, "signal", serde_json::to_vec(&req).map_err(|e| e.to_string())?).map(|_| ())
     }
 

@@ -103,7 +103,7 @@ impl Handle {
             },
             Handle::Remote { remote, link, proc_name, .. } => {
                 if !link.daemon_lost() {
-                    let _ = remote.signal(link, proc_name, sig);
+                    let _ = remote.signal(link, &[proc_name], sig);
                 }
             }
         }
@@ -1079,7 +1079,7 @@ impl Supervisor<'_> {
                 .enumerate()
                 .skip(1)
                 .filter(|(i, k)| !w.off_roster[*i] && !k.exit.is_some_and(|st| st.success()))
-                .map(|(_, k)| k.describe())
+                .map(|(_, k)| self.describe_kid(k))
                 .collect();
             return Some((Some(format!("the run ended before every agent finished: {}", short.join("; "))), None));
         }
@@ -1296,13 +1296,37 @@ fn free_bytes(dir: &Path) -> Option<u64> {
 fn shut_down(services: &dyn ControlHub, kids: &mut [Kid]) {
     let _ = services.request_stop();
     wait_all(kids, STOP_GRACE);
-    for k in kids.iter().filter(|k| k.exit.is_none()) {
-        k.signal(libc::SIGTERM);
-    }
+    signal_all(kids.iter().filter(|k| k.exit.is_none()).map(|k| &k.child), libc::SIGTERM);
     wait_all(kids, TERM_GRACE);
-    for k in kids.iter_mut().filter(|k| k.exit.is_none()) {
+    signal_all(kids.iter().filter(|k| k.exit.is_none()).map(|k| &k.child), libc::SIGKILL);
+    wait_all(kids, TERM_GRACE + STOP_GRACE);
+    // Local ones are reaped (a SIGKILLed child ends); a remote one whose daemon never reported
+    // it stays unknown, as its host's end takes it.
+    for k in kids.iter_mut().filter(|k| k.exit.is_none() && matches!(k.child, Handle::Local(_))) {
         k.exit = k.child.kill_wait();
         k.reap();
+    }
+}
+
+/// Send `sig` to every one of `children`: a local one at once, the remote ones in one request per
+/// host (a thousand processes on an unresponsive host cost one request timeout, not a thousand).
+pub(crate) fn signal_all<'a>(children: impl Iterator<Item = &'a Handle>, sig: i32) {
+    let mut by_host: Vec<(&Arc<Remote>, &Arc<HostLink>, Vec<&str>)> = Vec::new();
+    for c in children {
+        match c {
+            Handle::Local(_) => c.signal(sig),
+            Handle::Remote { remote, link, proc_name, .. } => {
+                match by_host.iter_mut().find(|(_, l, _)| Arc::ptr_eq(l, link)) {
+                    Some((_, _, names)) => names.push(proc_name),
+                    None => by_host.push((remote, link, vec![proc_name])),
+                }
+            }
+        }
+    }
+    for (remote, link, names) in by_host.into_iter().filter(|(_, l, _)| !l.daemon_lost()) {
+        if let Err(e) = remote.signal(link, &names, sig) {
+            tracing::warn!("signal {sig} to {} process(es) on host {}: {e}", names.len(), link.name);
+        }
     }
 }
 

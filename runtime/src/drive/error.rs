@@ -6,8 +6,9 @@ use cohort_wire::transport::TransportError;
 pub enum RunError {
     #[error("timeout at step {step}: no {what} from {from} for {after_s:.1} s")]
     Timeout { step: u64, from: String, what: &'static str, after_s: f64 },
-    #[error("stopped at step {step} on request ({why})")]
-    Stopped { step: u64, why: &'static str },
+    /// `waiting`: what the wait the stop ended was for (" while waiting for …"), or empty.
+    #[error("stopped at step {step} on request ({why}){waiting}")]
+    Stopped { step: u64, why: &'static str, waiting: String },
     #[error("transport: {0}")]
     Transport(#[from] TransportError),
     #[error("writing {what}: {source}")]

@@ -416,7 +416,7 @@ fn start_barrier<T: Transport + ?Sized>(t: &mut T, p: &DriveParams) -> Result<()
     let barrier_limit = p.step_timeout.max(Duration::from_secs(60));
     while !t.start_granted() {
         if t.stop_requested() || p.terminate.load(Ordering::Relaxed) {
-            return Err(RunError::Stopped { step: 0, why: "before start" });
+            return Err(RunError::Stopped { step: 0, why: "before start", waiting: String::new() });
         }
         if barrier_start.elapsed() > barrier_limit {
             let after_s = barrier_limit.as_secs_f64();
@@ -440,10 +440,10 @@ fn hold<T: Transport + ?Sized>(
     let mut events = Vec::new();
     loop {
         if w.t.stop_requested() {
-            return Err(RunError::Stopped { step: k, why: "orchestrator" });
+            return Err(RunError::Stopped { step: k, why: "orchestrator", waiting: String::new() });
         }
         if p.terminate.load(Ordering::Relaxed) {
-            return Err(RunError::Stopped { step: k, why: "SIGTERM" });
+            return Err(RunError::Stopped { step: k, why: "SIGTERM", waiting: String::new() });
         }
         w.t.control_events(&mut events);
         for e in events.drain(..) {

@@ -263,10 +263,12 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
                     if inbox.complete() {
                         return Ok(());
                     }
-                    return Err(RunError::Stopped { step, why: "orchestrator" });
+                    let waiting = format!(" while waiting for the {what} of {}", inbox.missing().1);
+                    return Err(RunError::Stopped { step, why: "orchestrator", waiting });
                 }
                 if self.p.terminate.load(Ordering::Relaxed) {
-                    return Err(RunError::Stopped { step, why: "SIGTERM" });
+                    let waiting = format!(" while waiting for the {what} of {}", inbox.missing().1);
+                    return Err(RunError::Stopped { step, why: "SIGTERM", waiting });
                 }
                 self.t.control_events(&mut self.events);
                 for e in self.events.drain(..) {

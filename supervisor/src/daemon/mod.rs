@@ -403,16 +403,24 @@ impl Daemon {
     }
 
     fn signal(&self, r: &SignalRequest) -> Result<(), String> {
-        let kid = self
-            .runs
-            .get(&r.run_id)
-            .and_then(|s| s.kids.get(&r.proc_name))
-            .ok_or_else(|| format!("run {:016x} has no {} here", r.run_id, r.proc_name))?;
-        if !kid.done.load(Ordering::SeqCst) {
-            // SAFETY: kill(2) on a child of ours that its reaper has not reaped yet.
-            unsafe { libc::kill(kid.pid as libc::pid_t, r.signal) };
+        let run = self.runs.get(&r.run_id).ok_or_else(|| format!("run {:016x} has nothing here", r.run_id))?;
+        // Every known one is signalled before an unknown name is reported.
+        let mut unknown = Vec::new();
+        for name in &r.proc_names {
+            match run.kids.get(name) {
+                // SAFETY: kill(2) on a child of ours that its reaper has not reaped yet.
+                Some(kid) if !kid.done.load(Ordering::SeqCst) => unsafe {
+                    libc::kill(kid.pid as libc::pid_t, r.signal);
+                },
+                Some(_) => {}
+                None => unknown.push(name.as_str()),
+            }
         }
-        Ok(())
+        if unknown.is_empty() {
+            Ok(())
+        } else {
+            Err(format!("run {:016x} has no {} here", r.run_id, unknown.join(", ")))
+        }
     }
 
     /// Reply with every file of the run's data subdirectories, in pieces.
