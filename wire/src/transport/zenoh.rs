@@ -458,7 +458,8 @@ impl Drop for ZenohControl {
 /// publisher, the status subscriber and the orchestrator's liveliness token.
 pub struct ZenohHub {
     control: Publisher<'static>,
-    status: Subscriber<FifoChannelHandler<Sample>>,
+    _status: Subscriber<()>,
+    statuses: std::sync::mpsc::Receiver<Sample>,
     _token: LivelinessToken,
     run: ZenohRun,
     rejected: std::cell::Cell<u64>,
@@ -467,13 +468,34 @@ pub struct ZenohHub {
 impl ZenohHub {
     pub fn create(run: &ZenohRun, session: &Session) -> Result<Self, TransportError> {
         let control = publisher(session, run.control_key())?;
-        let status = subscriber(session, run.status_key())?;
+        // Statuses queue without bound. Zenoh blocks its receiving thread on a full bounded
+        // queue, and that thread also brings the host daemons' answers: while the orchestrator
+        // asked daemons to start a thousand processes, one request at a time, their "ready"
+        // statuses filled a queue of 1 024, and every later request timed out unanswered (the
+        // N = 1 000 ring across three namespaces stalled at agent 515). A status is ~100 bytes and
+        // a process sends a handful, except the waits it reports while stuck.
+        let (tx, statuses) = std::sync::mpsc::channel();
+        let status_key = run.status_key();
+        let status = session
+            .declare_subscriber(status_key.clone())
+            .callback(move |s| {
+                let _ = tx.send(s);
+            })
+            .wait()
+            .map_err(err(format!("subscriber {status_key}")))?;
         let token = session
             .liveliness()
             .declare_token(run.orchestrator_token())
             .wait()
             .map_err(err("orchestrator liveliness token"))?;
-        Ok(Self { control, status, _token: token, run: run.clone(), rejected: std::cell::Cell::new(0) })
+        Ok(Self {
+            control,
+            _status: status,
+            statuses,
+            _token: token,
+            run: run.clone(),
+            rejected: std::cell::Cell::new(0),
+        })
     }
 
     fn send(&self, command: u32, edit: impl FnOnce(&mut RunControl)) -> Result<(), TransportError> {
@@ -500,7 +522,7 @@ impl ControlHub for ZenohHub {
         self.send(CONTROL_DEAD, |m| m.dead = dead)
     }
     fn poll_status(&self, f: &mut dyn FnMut(&Status)) -> Result<(), TransportError> {
-        while let Ok(Some(sample)) = self.status.try_recv() {
+        while let Ok(sample) = self.statuses.try_recv() {
             let bytes = sample.payload().to_bytes();
             if bytes.len() != std::mem::size_of::<Status>() {
                 self.rejected.set(self.rejected.get() + 1);
