@@ -556,6 +556,76 @@ mod tests {
         }
     }
 
+    /// Wait until `p` has a subscriber, within 20 s.
+    fn until_matched(p: &Publisher<'static>) {
+        let until = Instant::now() + Duration::from_secs(20);
+        while !p.matching_status().wait().is_ok_and(|m| m.matching()) {
+            assert!(Instant::now() < until, "{} never matched", p.key_expr());
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
+    /// An orchestrator busy elsewhere (starting processes through host daemons) does not poll
+    /// statuses: three queues' worth of them must not stop its session reading what else comes
+    /// in (there, the daemons' answers; here, a put on another key). With a bounded status queue
+    /// zenoh blocked its receiving thread and every later answer timed out.
+    #[test]
+    fn unpolled_statuses_do_not_stop_the_session_reading() {
+        let loopback = std::net::Ipv4Addr::LOCALHOST.into();
+        let (hub_session, hub_at) = open_on_free_ports(&[loopback], &[]).expect("hub session");
+        let run = ZenohRun::new(0x5ca1_ab1e);
+        let hub = ZenohHub::create(&run, &hub_session).expect("hub");
+        let later_key = format!("{}/test/later", run.prefix());
+        let (got, later_rx) = std::sync::mpsc::channel();
+        let _later_sub = hub_session
+            .declare_subscriber(later_key.clone())
+            .callback(move |_| {
+                let _ = got.send(());
+            })
+            .wait()
+            .expect("later subscriber");
+        let (other, _) = open_on_free_ports(&[loopback], &hub_at).expect("process session");
+        let (status_pub, later_pub) =
+            (publisher(&other, run.status_key()).expect("status"), publisher(&other, later_key).expect("later"));
+        until_matched(&status_pub);
+        until_matched(&later_pub);
+        let n = 3 * INBOX_DEPTH;
+        let st = Status {
+            version: SCHEMA_VERSION,
+            sender: 1,
+            run_id: run.run_id,
+            kind: crate::msg::STATUS_READY,
+            waiting_for: 0,
+            step: 0,
+            t_s: 0.0,
+            build_hash: 0,
+            detail: 0,
+            _pad: 0,
+            mac: [0; 2],
+        };
+        // Puts block on a stalled reader (congestion control Block): from a thread, so that a
+        // stall fails the test instead of hanging it.
+        std::thread::spawn(move || {
+            for _ in 0..n {
+                put(&status_pub, &st).expect("status put");
+            }
+            put(&later_pub, &1u64).expect("later put");
+            (status_pub, later_pub, other)
+        });
+        assert!(
+            later_rx.recv_timeout(Duration::from_secs(60)).is_ok(),
+            "the hub's session stopped reading after {n} unpolled statuses"
+        );
+        let mut seen = 0;
+        let until = Instant::now() + Duration::from_secs(20);
+        while seen < n && Instant::now() < until {
+            hub.poll_status(&mut |_| seen += 1).expect("poll");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert_eq!(seen, n, "statuses lost");
+        assert_eq!(hub.rejected(), 0);
+    }
+
     #[test]
     fn endpoint_lists_are_json() {
         assert_eq!(serde_like_list(&["tcp/127.0.0.1:0".into()]), "[\"tcp/127.0.0.1:0\"]");
