@@ -5,7 +5,7 @@
 
 use std::time::{Duration, Instant};
 
-use cohort_wire::transport::zenoh::open_session;
+use cohort_wire::transport::zenoh::{matched, open_session};
 use zenoh::Wait;
 use zenoh::qos::CongestionControl;
 
@@ -69,7 +69,7 @@ pub fn ping(connect: &str, warmup: u64, count: u64) -> Result<String, RttError> 
         .wait()
         .map_err(|e| RttError::Declare { key: PING, reason: e.to_string() })?;
     let until = Instant::now() + Duration::from_secs(20);
-    while !publ.matching_status().wait().is_ok_and(|m| m.matching()) {
+    while !matched(&publ) {
         if Instant::now() > until {
             return Err(RttError::NoEchoAt(connect.to_string()));
         }

@@ -256,19 +256,20 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
             spins = spins.wrapping_add(1);
             // While spinning, look at the control service only now and then: it is not free.
             if !spinning || spins.is_multiple_of(1024) {
-                if self.t.stop_requested() {
+                let why = if self.t.stop_requested() {
                     // What completes this wait may have come in with the stop (the run's last
                     // step): look once more before giving up.
                     self.t.drain(&mut |inc| inbox.take(inc))?;
                     if inbox.complete() {
                         return Ok(());
                     }
+                    Some("orchestrator")
+                } else {
+                    self.p.terminate.load(Ordering::Relaxed).then_some("SIGTERM")
+                };
+                if let Some(why) = why {
                     let waiting = format!(" while waiting for the {what} of {}", inbox.missing().1);
-                    return Err(RunError::Stopped { step, why: "orchestrator", waiting });
-                }
-                if self.p.terminate.load(Ordering::Relaxed) {
-                    let waiting = format!(" while waiting for the {what} of {}", inbox.missing().1);
-                    return Err(RunError::Stopped { step, why: "SIGTERM", waiting });
+                    return Err(RunError::Stopped { step, why, waiting });
                 }
                 self.t.control_events(&mut self.events);
                 for e in self.events.drain(..) {

@@ -215,6 +215,11 @@ pub(crate) fn subscriber(
         .map_err(err(format!("subscriber {key}")))
 }
 
+/// Whether `p` has a matching subscriber now (a failed query counts as not yet).
+pub fn matched(p: &Publisher<'_>) -> bool {
+    p.matching_status().wait().is_ok_and(|m| m.matching())
+}
+
 fn put<T: Copy>(p: &Publisher<'static>, msg: &T) -> Result<(), TransportError> {
     p.put(bytes_of(msg).to_vec()).wait().map_err(err(format!("put {}", p.key_expr())))
 }
@@ -320,7 +325,7 @@ impl ZenohPending {
                 .pubs
                 .iter()
                 .chain(std::iter::once(&self.t.control.status))
-                .filter(|p| !p.matching_status().wait().is_ok_and(|m| m.matching()))
+                .filter(|p| !matched(p))
                 .map(|p| p.key_expr().to_string())
                 .collect();
             if unmatched.is_empty() {
@@ -559,7 +564,7 @@ mod tests {
     /// Wait until `p` has a subscriber, within 20 s.
     fn until_matched(p: &Publisher<'static>) {
         let until = Instant::now() + Duration::from_secs(20);
-        while !p.matching_status().wait().is_ok_and(|m| m.matching()) {
+        while !matched(p) {
             assert!(Instant::now() < until, "{} never matched", p.key_expr());
             std::thread::sleep(Duration::from_millis(10));
         }

@@ -14,7 +14,7 @@ use super::batch_key;
 use super::carry::{Counts, Shared, carry_in, carry_out, destinations};
 use crate::msg::{RunControl, SCHEMA_VERSION, Status};
 use crate::transport::iox::{IoxRun, IoxServices};
-use crate::transport::zenoh::{ZenohRun, err, open_session, publisher, subscriber};
+use crate::transport::zenoh::{ZenohRun, err, matched, open_session, publisher, subscriber};
 use crate::transport::{Topology, TransportError, bytes_of, read_payload};
 
 /// The file a gateway writes in its domain's root directory once the domain's services exist:
@@ -190,8 +190,7 @@ fn relay(
         services.poll_status(|s| held.push(*s))?;
         if !linked && last_check.elapsed() > Duration::from_millis(2) {
             last_check = Instant::now();
-            linked = links.iter().all(|p| p.matching_status().wait().is_ok_and(|m| m.matching()))
-                && status.matching_status().wait().is_ok_and(|m| m.matching());
+            linked = links.iter().all(|p| matched(p)) && matched(status);
         }
         if linked {
             for s in held.drain(..) {
