@@ -612,7 +612,7 @@ pub fn seal_dir(telemetry: &Path) -> Sealed {
 
 /// nice 19 for the calling thread only (Linux: `setpriority` on a thread id is per thread). A
 /// refusal changes nothing but the speed, so it is ignored.
-fn lower_this_threads_priority() {
+pub(crate) fn lower_this_threads_priority() {
     // SAFETY: gettid has no preconditions; setpriority on our own thread id with a valid value.
     unsafe {
         let tid = libc::syscall(libc::SYS_gettid) as libc::id_t;

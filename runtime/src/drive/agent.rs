@@ -10,6 +10,7 @@ use cohort_wire::msg::{Header, LINK_LOST, Measurement, STATUS_DONE, STATUS_IDLE,
 use cohort_wire::transport::{Proc, Transport, TransportError, monotonic_ns};
 
 use super::agent_inbox::{AgentInbox, live_at};
+use super::checkpoint_writer::CheckpointWriter;
 use super::error::{RunError, failed, io};
 use super::files::agent_files;
 use super::params::DriveParams;
@@ -116,6 +117,7 @@ struct AgentDriver<'a, T: Transport + ?Sized> {
     restore: Option<&'a Checkpoint>,
     tel: TelemetryWriter,
     timing: TimingWriter,
+    checkpoints: CheckpointWriter,
     inbox: AgentInbox,
     /// The step this agent is at.
     k: u64,
@@ -154,6 +156,7 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
         columns.extend(algo.columns());
         // A relaunched agent goes on with its predecessor's files.
         let (tel, timing) = agent_files(p, &Proc::Agent(id).name(), &columns, restore.is_some())?;
+        let checkpoints = CheckpointWriter::new(&Proc::Agent(id).name()).map_err(io("agent checkpoint writer"))?;
         let plan = &*p.faults;
         let delay = u64::from(p.link_delay_steps);
         let mut inbox = AgentInbox::new(p, id, neighbours, delay + u64::from(plan.max_delay()) + 1);
@@ -182,6 +185,7 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
             restore,
             tel,
             timing,
+            checkpoints,
             inbox,
             k,
             delay,
@@ -270,10 +274,12 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
                         .collect(),
                 },
             };
+            // Encoded now (the state of this step), written by the writer's thread.
             let path = crate::checkpoint::path_for(&p.dirs.root, id);
-            ck.write(&path).map_err(io(path.display().to_string()))?;
+            let shown = path.display().to_string();
+            self.checkpoints.submit(path, ck.encode()).map_err(io(shown.clone()))?;
             report.faults.checkpoints_written += 1;
-            tracing::debug!("step {k}: checkpoint written ({})", path.display());
+            tracing::debug!("step {k}: checkpoint handed to its writer ({shown})");
         }
         Ok(())
     }
@@ -282,6 +288,8 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
     fn idle_if_hold(&mut self) -> Result<(), RunError> {
         if self.hold_steps.binary_search(&self.k).is_ok() {
             self.tel.flush().and_then(|_| self.timing.flush()).map_err(io("agent telemetry"))?;
+            // A relaunch after this fault reads the newest checkpoint.
+            self.checkpoints.wait().map_err(io("agent checkpoint"))?;
             self.w.t.report(&status(self.p, self.id, STATUS_IDLE, self.k, 0));
         }
         Ok(())
@@ -428,6 +436,7 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
             report.latency_from_ns.insert(name, peer.latency.buckets());
         }
         let flushed = self.tel.finish().and_then(|_| self.timing.finish()).map_err(io("agent telemetry"));
-        result.and(flushed)
+        let written = self.checkpoints.finish().map_err(io("agent checkpoint"));
+        result.and(flushed).and(written)
     }
 }

@@ -15,6 +15,7 @@
 //! [`agent`]'s `AgentDriver`: `open`, `step`, `finish`); the files:
 //! - `plant.rs`, `plant_inbox.rs`: the plant's loop, its inbox and roster;
 //! - `agent.rs`, `agent_inbox.rs`: an agent's loop, its inbox and how it steps from the shares;
+//!   `checkpoint_writer.rs`: its checkpoints, written by a thread off the step path;
 //! - `wait.rs`: the waits and their spin policy, `wait_trial.rs` adaptive waiting's trials of
 //!   spinning against blocking; `params.rs`: the settings; `files.rs`: the
 //!   telemetry and timing files; `status.rs`: status messages and reports; `error.rs`: how a run
@@ -22,6 +23,7 @@
 
 mod agent;
 mod agent_inbox;
+mod checkpoint_writer;
 mod error;
 mod files;
 mod params;
