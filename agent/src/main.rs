@@ -94,7 +94,8 @@ fn load(
     std::fs::write(&loaded, bytes).map_err(|e| format!("{}: {e}", loaded.display()))?;
     let again =
         Checkpoint { state: AgentState { algorithm: algo.save_state(), held: c.state.held.clone() }, ..c.clone() };
-    again.write(&dir.join(format!("agent-{id}.restored.ckpt"))).map_err(|e| format!("{}: {e}", dir.display()))?;
+    // The error names the file.
+    again.write(&dir.join(format!("agent-{id}.restored.ckpt"))).map_err(|e| e.to_string())?;
     tracing::info!("restored from checkpoint step {} ({})", c.step, path.display());
     Ok(c)
 }

@@ -101,6 +101,16 @@ pub fn path_for(run_dir: &Path, id: u32) -> PathBuf {
     run_dir.join("checkpoints").join(format!("agent-{id}.ckpt"))
 }
 
+/// Write an encoded checkpoint (its folder made if missing) atomically, as [`Checkpoint::write`]
+/// does; an error names the file.
+pub fn write_encoded(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let written = match path.parent() {
+        Some(dir) => std::fs::create_dir_all(dir).and_then(|_| crate::record::write_atomic(path, bytes)),
+        None => crate::record::write_atomic(path, bytes),
+    };
+    written.map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))
+}
+
 fn config() -> impl bincode::config::Config {
     bincode::config::standard().with_little_endian().with_fixed_int_encoding()
 }
@@ -169,10 +179,7 @@ impl Checkpoint {
 
     /// Write atomically (a reader never sees half a file): to a temporary name, then rename.
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
-        if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir)?;
-        }
-        crate::record::write_atomic(path, &self.encode())
+        write_encoded(path, &self.encode())
     }
 
     /// Whether this checkpoint can resume an agent relaunched at step `relaunch_step` of a run of

@@ -34,7 +34,7 @@ impl CheckpointWriter {
             // Like the telemetry writers: the time the lockstep's processes leave.
             crate::parquet_out::lower_this_threads_priority();
             for (path, bytes) in rx {
-                if tx.send(write(&path, &bytes)).is_err() {
+                if tx.send(crate::checkpoint::write_encoded(&path, &bytes)).is_err() {
                     break;
                 }
             }
@@ -83,14 +83,6 @@ impl Drop for CheckpointWriter {
     fn drop(&mut self) {
         let _ = self.finish();
     }
-}
-
-fn write(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
-    let written = match path.parent() {
-        Some(dir) => std::fs::create_dir_all(dir).and_then(|_| crate::record::write_atomic(path, bytes)),
-        None => crate::record::write_atomic(path, bytes),
-    };
-    written.map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))
 }
 
 #[cfg(test)]
