@@ -156,7 +156,8 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
         columns.extend(algo.columns());
         // A relaunched agent goes on with its predecessor's files.
         let (tel, timing) = agent_files(p, &Proc::Agent(id).name(), &columns, restore.is_some())?;
-        let checkpoints = CheckpointWriter::new(&Proc::Agent(id).name()).map_err(io("agent checkpoint writer"))?;
+        let checkpoints = CheckpointWriter::new(&Proc::Agent(id).name(), crate::checkpoint::path_for(&p.dirs.root, id))
+            .map_err(io("agent checkpoint writer"))?;
         let plan = &*p.faults;
         let delay = u64::from(p.link_delay_steps);
         let mut inbox = AgentInbox::new(p, id, neighbours, delay + u64::from(plan.max_delay()) + 1);
@@ -274,12 +275,11 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
                         .collect(),
                 },
             };
-            // Encoded now (the state of this step), written by the writer's thread.
-            let path = crate::checkpoint::path_for(&p.dirs.root, id);
-            let shown = path.display().to_string();
-            self.checkpoints.submit(path, ck.encode()).map_err(io(shown.clone()))?;
+            // Encoded now (the state of this step), written by the writer's thread; a failed
+            // write's error names the file.
+            self.checkpoints.submit(ck.encode()).map_err(io("agent checkpoint"))?;
             report.faults.checkpoints_written += 1;
-            tracing::debug!("step {k}: checkpoint handed to its writer ({shown})");
+            tracing::debug!("step {k}: checkpoint handed to its writer");
         }
         Ok(())
     }

@@ -15,11 +15,10 @@ use std::path::PathBuf;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
 
-/// A file to write and where.
-type Job = (PathBuf, Vec<u8>);
-
+/// Writes one agent's checkpoint file (always the same path) from encoded checkpoints.
 pub(super) struct CheckpointWriter {
-    jobs: Option<Sender<Job>>,
+    /// Encoded checkpoints to write, oldest first.
+    jobs: Option<Sender<Vec<u8>>>,
     done: Receiver<std::io::Result<()>>,
     thread: Option<JoinHandle<()>>,
     /// Jobs handed over and not yet answered.
@@ -27,13 +26,14 @@ pub(super) struct CheckpointWriter {
 }
 
 impl CheckpointWriter {
-    pub(super) fn new(name: &str) -> std::io::Result<Self> {
-        let (jobs, rx) = channel::<Job>();
+    /// A writer of `path` (the agent's `checkpoint::path_for`), its thread named for `name`.
+    pub(super) fn new(name: &str, path: PathBuf) -> std::io::Result<Self> {
+        let (jobs, rx) = channel::<Vec<u8>>();
         let (tx, done) = channel();
         let thread = std::thread::Builder::new().name(format!("checkpoint {name}")).spawn(move || {
             // Like the telemetry writers: the time the lockstep's processes leave.
             crate::parquet_out::lower_this_threads_priority();
-            for (path, bytes) in rx {
+            for bytes in rx {
                 if tx.send(crate::checkpoint::write_encoded(&path, &bytes)).is_err() {
                     break;
                 }
@@ -43,13 +43,13 @@ impl CheckpointWriter {
     }
 
     /// Hand a checkpoint over; reports a failed earlier write, if any has come back since.
-    pub(super) fn submit(&mut self, path: PathBuf, bytes: Vec<u8>) -> std::io::Result<()> {
+    pub(super) fn submit(&mut self, bytes: Vec<u8>) -> std::io::Result<()> {
         while let Ok(r) = self.done.try_recv() {
             self.pending -= 1;
             r?;
         }
         let jobs = self.jobs.as_ref().ok_or_else(|| std::io::Error::other("the checkpoint writer has ended"))?;
-        jobs.send((path, bytes)).map_err(|_| std::io::Error::other("the checkpoint writer thread has ended"))?;
+        jobs.send(bytes).map_err(|_| std::io::Error::other("the checkpoint writer thread has ended"))?;
         self.pending += 1;
         Ok(())
     }
@@ -95,15 +95,17 @@ mod tests {
     fn waits_for_every_write_and_reports_a_failure() {
         let dir = std::env::temp_dir().join(format!("cohort-ckw-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let mut w = CheckpointWriter::new("test").unwrap();
+        let mut w = CheckpointWriter::new("test", dir.join("checkpoints").join("a.ckpt")).unwrap();
         for i in 0..20u8 {
-            w.submit(dir.join("checkpoints").join("a.ckpt"), vec![i; 4096]).unwrap();
+            w.submit(vec![i; 4096]).unwrap();
         }
         w.wait().unwrap();
         assert_eq!(std::fs::read(dir.join("checkpoints/a.ckpt")).unwrap(), vec![19u8; 4096], "the last one, whole");
         // A path under a regular file cannot be written.
         std::fs::write(dir.join("file"), b"x").unwrap();
-        w.submit(dir.join("file").join("b.ckpt"), vec![1]).unwrap();
+        w.finish().unwrap();
+        let mut w = CheckpointWriter::new("test", dir.join("file").join("b.ckpt")).unwrap();
+        w.submit(vec![1]).unwrap();
         let e = w.wait().unwrap_err();
         assert!(e.to_string().contains("b.ckpt"), "{e}");
         w.finish().unwrap();
