@@ -94,7 +94,7 @@ pub(super) fn cases(
             push("scale", n, "adaptive", "scale", ring(n, 200, RING)?, false);
         }
         if only.is_some_and(|o| o.starts_with("scale/N=1000")) {
-            for wait in ["adaptive", "event"] {
+            for wait in ["adaptive", "event", "poll"] {
                 push("scale", 1000, wait, "scale", ring(1000, 200, RingRun { wait, ..RING })?, false);
             }
         }

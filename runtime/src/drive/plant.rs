@@ -413,7 +413,10 @@ impl<'a, T: Transport + ?Sized> PlantDriver<'a, T> {
 /// Start barrier: wait for the orchestrator's start signal (every reader exists).
 fn start_barrier<T: Transport + ?Sized>(t: &mut T, p: &DriveParams) -> Result<(), RunError> {
     let barrier_start = Instant::now();
-    let barrier_limit = p.step_timeout.max(Duration::from_secs(60));
+    // As long as the orchestrator waits for the run's start-up (`hold_timeout` covers
+    // `run.startup_timeout_s`): a thousand agent processes take tens of seconds to become ready,
+    // and a plant that gave up after the step timeout ended a start-up still within its limit.
+    let barrier_limit = p.hold_timeout.max(p.step_timeout).max(Duration::from_secs(60));
     while !t.start_granted() {
         if t.stop_requested() || p.terminate.load(Ordering::Relaxed) {
             return Err(RunError::Stopped { step: 0, why: "before start", waiting: String::new() });

@@ -2,7 +2,7 @@
 //! each other and with the values the models held in memory, and a silent agent is a timeout
 //! naming it, never a hang.
 
-use super::wait::{BACKOFF_GROWTH, BACKOFF_MAX, BACKOFF_MIN};
+use super::wait::{BACKOFF_GROWTH, BACKOFF_MAX, BACKOFF_MIN, SPIN_MODE_BUDGET, SPIN_MODE_MAX, spin_mode_budget};
 use super::*;
 use crate::model::{AgentInput, Neighbour};
 use crate::model::{Algorithm, PlantModel, RestoreStateError, ShareOut};
@@ -303,6 +303,17 @@ fn contention_backs_off_while_stalls_are_common_and_forgets_a_lone_one() {
     c.spun(true);
     assert_eq!(blocked(&mut c), BACKOFF_MIN as usize);
     assert_eq!(c.stalls, 2);
+}
+
+/// Once a trial chose spinning, a wait spins 10 ms, or four typical waits when those are
+/// longer (hundreds of agents on two cores), never more than a second.
+#[test]
+fn a_chosen_spin_lasts_four_typical_waits_between_its_bounds() {
+    assert_eq!(spin_mode_budget(0.0), SPIN_MODE_BUDGET);
+    assert_eq!(spin_mode_budget(300.0), SPIN_MODE_BUDGET, "four 300 µs waits are below the 10 ms floor");
+    assert_eq!(spin_mode_budget(20_000.0), Duration::from_millis(80));
+    assert_eq!(spin_mode_budget(5e6), SPIN_MODE_MAX);
+    assert_eq!(spin_mode_budget(f64::NAN), SPIN_MODE_BUDGET, "no typical wait yet spins the floor");
 }
 
 #[test]

@@ -76,11 +76,24 @@ pub(super) const BACKOFF_GROWTH: u32 = 8;
 /// peer that stalls for longer costs a wake-up rather than a spinning core. The typical-wait
 /// budget of start-up let 700 of 130 000 waits of a 50-agent ring expire into a wake-up, and the
 /// ring ran at 82 % of `poll`.
-const SPIN_MODE_BUDGET: Duration = Duration::from_millis(10);
+///
+/// When the typical wait is longer (hundreds of agent processes on two cores: a step takes tens
+/// of ms), the budget is [`ADAPTIVE_MARGIN`] typical waits, at most [`SPIN_MODE_MAX`]: with a
+/// fixed 10 ms, a 1 000-agent ring's spins nearly all expired into wake-ups and ran at 4.5
+/// steps/s where `poll` (spinning through) ran at 12.1.
+pub(super) const SPIN_MODE_BUDGET: Duration = Duration::from_millis(10);
+/// The longest spin of a wait once a trial chose spinning.
+pub(super) const SPIN_MODE_MAX: Duration = Duration::from_secs(1);
 /// Weight of the newest wait in the running typical wait.
 const ADAPTIVE_EWMA: f64 = 0.1;
 /// Spin for up to this many typical waits.
 const ADAPTIVE_MARGIN: f64 = 4.0;
+/// How long a wait spins once a trial chose spinning, for a typical wait of `typical_us`.
+pub(super) fn spin_mode_budget(typical_us: f64) -> Duration {
+    let margin = Duration::from_secs_f64((ADAPTIVE_MARGIN * typical_us).max(0.0) * 1e-6);
+    margin.clamp(SPIN_MODE_BUDGET, SPIN_MODE_MAX)
+}
+
 /// What a process collects while it waits: it takes each incoming message, says when the wait
 /// is over, and names whom it still lacks.
 pub(super) trait Inbox {
@@ -184,6 +197,12 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
     /// How long a wait of `kind` for step `step` may spin, and whether it learns from contention
     /// (only before the first trial ended: see `wait_trial`).
     fn spin_for(&mut self, kind: usize, step: u64) -> (Duration, bool) {
+        // The wait for the first measurement lasts the run's start-up: spinning through it
+        // (`poll` spins for the step timeout) only takes the CPU from the processes still being
+        // started; a thousand-agent ring with `wait = "poll"` never finished starting.
+        if step == 0 && kind == 0 {
+            return (Duration::ZERO, false);
+        }
         let typical = self.typical_wait_us[kind];
         let mode = match self.p.spin {
             SpinPolicy::Fixed(d) => return (d, false),
@@ -195,7 +214,7 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
         // while blocking, is longer than the cap: blocking's wake-ups are what made it long.
         match mode {
             Mode::Block => (Duration::ZERO, false),
-            Mode::Spin => (SPIN_MODE_BUDGET, false),
+            Mode::Spin => (spin_mode_budget(typical), false),
             _ if typical > ADAPTIVE_CAP_US => (Duration::ZERO, true),
             Mode::Learning if !self.contention.may_spin() => (Duration::ZERO, true),
             Mode::Learning => (budget(), true),
