@@ -16,8 +16,8 @@
 //! 3. SIGKILL whoever is still left, and reap it.
 //!
 //! Children run in their own process group (a terminal's Ctrl-C reaches only the orchestrator,
-//! which then stops them in order) and with `PR_SET_PDEATHSIG = SIGKILL`, so even a SIGKILLed
-//! orchestrator leaves no orphan.
+//! which then stops them in order) and with `PR_SET_PDEATHSIG = SIGKILL` (each child sets it
+//! first thing, `die_with_parent`), so even a SIGKILLed orchestrator leaves no orphan.
 
 use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::{Path, PathBuf};
@@ -271,23 +271,23 @@ pub(crate) fn child_setup(cmd: &mut Command, key_raw: Option<i32>) {
     // The base directory this process resolved (its fallback, if the usual one is another
     // user's): the children must find the run's iceoryx2 files where it made them.
     cmd.env(cohort_wire::transport::iox::BASE_ENV, cohort_wire::transport::iox::user_base());
-    // SAFETY: only async-signal-safe calls (dup2, setpgid, prctl, getppid) between fork and exec.
-    unsafe {
-        cmd.pre_exec(move || {
-            // The key pipe's read end becomes KEY_FD, without close-on-exec (dup2 clears it).
-            if let Some(fd) = key_raw
-                && libc::dup2(fd, KEY_FD) < 0
-            {
-                return Err(std::io::Error::last_os_error());
-            }
-            libc::setpgid(0, 0);
-            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong, 0, 0, 0);
-            // The parent may have died between fork and prctl.
-            if libc::getppid() == 1 {
-                libc::_exit(1);
-            }
-            Ok(())
-        });
+    // The child dies with this process (`die_with_parent`, its first call) and runs in a process
+    // group of its own: neither needs code between fork and exec, so the standard library starts
+    // it with posix_spawn, not a fork of this process's address space.
+    cmd.env(cohort_runtime::process::PARENT_PID_ENV, std::process::id().to_string());
+    cmd.process_group(0);
+    if let Some(fd) = key_raw {
+        // SAFETY: only dup2, async-signal-safe, between fork and exec. (Only an authenticated
+        // run's children fork: the standard library has no way to place a descriptor.)
+        unsafe {
+            cmd.pre_exec(move || {
+                // The key pipe's read end becomes KEY_FD, without close-on-exec (dup2 clears it).
+                if libc::dup2(fd, KEY_FD) < 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                Ok(())
+            });
+        }
     }
 }
 

@@ -66,6 +66,7 @@ pub(crate) fn wait_until_ready(
 
 /// Run one gateway to its end (see the module docs for the exit codes).
 pub fn main(args: GatewayArgs, papers: &[&'static dyn Paper]) -> ExitCode {
+    cohort_runtime::process::die_with_parent();
     cohort_runtime::logging::init_child(&proc_name(args.host_index));
     match start(&args, papers) {
         Ok(spec) => {
