@@ -94,6 +94,12 @@ pub(super) fn spin_mode_budget(typical_us: f64) -> Duration {
     margin.clamp(SPIN_MODE_BUDGET, SPIN_MODE_MAX)
 }
 
+/// Whether a wait of `kind` at `step` is an agent's wait for its first measurement, which lasts
+/// the rest of the run's start-up.
+fn is_startup_wait(step: u64, kind: usize) -> bool {
+    step == 0 && kind == 0
+}
+
 /// What a process collects while it waits: it takes each incoming message, says when the wait
 /// is over, and names whom it still lacks.
 pub(super) trait Inbox {
@@ -197,10 +203,10 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
     /// How long a wait of `kind` for step `step` may spin, and whether it learns from contention
     /// (only before the first trial ended: see `wait_trial`).
     fn spin_for(&mut self, kind: usize, step: u64) -> (Duration, bool) {
-        // The wait for the first measurement lasts the run's start-up: spinning through it
-        // (`poll` spins for the step timeout) only takes the CPU from the processes still being
-        // started; a thousand-agent ring with `wait = "poll"` never finished starting.
-        if step == 0 && kind == 0 {
+        // Spinning through the start-up (`poll` spins for the step timeout) only takes the CPU
+        // from the processes still being started; a thousand-agent ring with `wait = "poll"`
+        // never finished starting.
+        if is_startup_wait(step, kind) {
             return (Duration::ZERO, false);
         }
         let typical = self.typical_wait_us[kind];
@@ -316,7 +322,8 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
                     spin = Duration::ZERO;
                 }
             } else {
-                let poll = if step == 0 && kind == 0 { POLL_BEFORE_START } else { (waited / 4).clamp(POLL, POLL_MAX) };
+                let poll =
+                    if is_startup_wait(step, kind) { POLL_BEFORE_START } else { (waited / 4).clamp(POLL, POLL_MAX) };
                 self.t.wait(poll.min(limit.saturating_sub(waited)).max(Duration::from_micros(100)))?;
             }
         }

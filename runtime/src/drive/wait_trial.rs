@@ -40,9 +40,9 @@ const SPIN_GAIN: f64 = 0.95;
 pub(super) enum Mode {
     /// Start-up: adaptive spinning with its contention back-off.
     Learning,
-    /// Spin (up to 10 ms or four typical waits, at most 1 s, without the back-off, and through late yields: with more processes
-    /// than cores a yield comes back late because the peers ran, which is what spinning is for),
-    /// then block.
+    /// Spin (10 ms or four typical waits, at most 1 s; without the back-off, and through late
+    /// yields: with more processes than cores a yield comes back late because the peers ran,
+    /// which is what spinning is for), then block.
     Spin,
     /// Block at once.
     Block,
