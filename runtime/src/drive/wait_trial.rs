@@ -17,9 +17,16 @@
 //! at N = 50 against 1 751 spinning and 774 blocking.) Spinning is given up as soon as it has
 //! taken as long as the whole blocking half (it is then slower), so a trial costs at most
 //! [`TRIAL_STEPS`] blocking steps and as long again: with [`PERIOD_STEPS`] = 8 192 and
-//! [`TRIAL_STEPS`] = 32, about 1 % of a run where spinning is three times as fast. Spinning is taken
-//! only when it is clearly faster ([`SPIN_GAIN`]): a paced run's steps take as long either way,
-//! and blocking then leaves the cores idle. The first steps (start-up) wait as
+//! [`TRIAL_STEPS`] = 32, about 1 % of a run where spinning is three times as fast. The blocking
+//! half is cut short too, after [`MIN_BLOCK_STEPS`], once its time per step is [`BLOCK_LOSS`]
+//! times that of the [`REF_STEPS`] steps before the trial (waited as the last choice, or, before
+//! the first trial, as start-up does): at N = 6 on an idle machine blocking is four times slower,
+//! and the first trial's 32 blocking steps cost ≈ 2.6 ms of the ≈ 9 ms by which `adaptive`
+//! trailed `poll` in a 2 000-step bench run (0.87). Where blocking was chosen, or start-up waited
+//! as blocking does (under contention, or with steps too long for start-up's spinning), the
+//! blocking half is as fast as its reference and runs whole. Spinning is taken only when it is
+//! clearly faster ([`SPIN_GAIN`]): a paced run's steps take as long either way, and blocking then
+//! leaves the cores idle. The first steps (start-up) wait as
 //! [`super::wait::SpinPolicy::Adaptive`] always did, with its contention back-off; between the
 //! first trial and the next, each process waits as its trial chose. Telemetry does not depend on
 //! how a process waits.
@@ -34,6 +41,12 @@ pub(super) const PERIOD_STEPS: u64 = 8192;
 pub(super) const FIRST_TRIAL: u64 = 16;
 /// Spinning is chosen when its time per step is below this share of blocking's.
 const SPIN_GAIN: f64 = 0.95;
+/// Steps before a trial whose time per step is the blocking half's reference.
+const REF_STEPS: u64 = 8;
+/// The blocking half runs at least this many steps.
+const MIN_BLOCK_STEPS: u64 = 8;
+/// The blocking half is given up when its time per step exceeds the reference's this many times.
+const BLOCK_LOSS: f64 = 2.0;
 
 /// How a wait is to go.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -61,6 +74,12 @@ pub(super) struct Trial {
     first_s: Option<f64>,
     /// Spinning was given up (it had taken longer than the blocking half).
     gave_up: bool,
+    /// The step and time the reference of the next trial began ([`REF_STEPS`] before it).
+    reference_from: Option<(u64, Instant)>,
+    /// Seconds per step of the steps before this trial.
+    reference_s: Option<f64>,
+    /// Blocking was given up (it was [`BLOCK_LOSS`] times slower than the reference).
+    block_gave_up: bool,
     /// Trials that ended choosing spinning, and blocking.
     pub(super) chose_spin: u64,
     pub(super) chose_block: u64,
@@ -75,6 +94,9 @@ impl Trial {
             second: None,
             first_s: None,
             gave_up: false,
+            reference_from: None,
+            reference_s: None,
+            block_gave_up: false,
             chose_spin: 0,
             chose_block: 0,
         }
@@ -87,22 +109,28 @@ impl Trial {
 
     /// The same, at time `now`.
     fn mode_at(&mut self, k: u64, now: Instant) -> Mode {
+        if k + REF_STEPS >= next_trial(k) && self.reference_from.is_none() {
+            self.reference_from = Some((k, now));
+        }
         let Some(since) = k.checked_sub(FIRST_TRIAL) else { return Mode::Learning };
         let (period, pos) = (since / PERIOD_STEPS, since % PERIOD_STEPS);
         if self.period != Some(period) {
             self.conclude(k, now);
             *self = Trial { period: Some(period), ..Trial::new_keeping(self) };
+            self.reference_s =
+                self.reference_from.take().filter(|&(k0, _)| k > k0).map(|(k0, t0)| per_step(k0, t0, k, now));
         }
         if pos < TRIAL_STEPS {
-            self.first.get_or_insert((k, now));
-            return Mode::Block;
+            let (k0, t0) = *self.first.get_or_insert((k, now));
+            return if self.blocking_lost(k0, t0, k, now) { Mode::Spin } else { Mode::Block };
         }
         if pos < 2 * TRIAL_STEPS {
             if self.second.is_none()
                 && let Some((k0, t0)) = self.first
                 && k > k0
             {
-                self.first_s = Some((now - t0).as_secs_f64() / (k - k0) as f64);
+                // Unless the blocking half was cut short: then its time per step until the cut.
+                self.first_s.get_or_insert(per_step(k0, t0, k, now));
                 self.second = Some((k, now));
             }
             let (Some(first_s), Some((_, t1))) = (self.first_s, self.second) else { return Mode::Block };
@@ -117,9 +145,34 @@ impl Trial {
         self.choice
     }
 
-    /// A fresh trial's state that keeps the choice and the counts.
+    /// A fresh trial's state that keeps the choice, the counts and the next reference's start.
     fn new_keeping(t: &Trial) -> Trial {
-        Trial { choice: t.choice, chose_spin: t.chose_spin, chose_block: t.chose_block, ..Trial::new() }
+        Trial {
+            choice: t.choice,
+            chose_spin: t.chose_spin,
+            chose_block: t.chose_block,
+            reference_from: t.reference_from,
+            ..Trial::new()
+        }
+    }
+
+    /// Whether the blocking half begun at step `k0`, time `t0` is given up at step `k`: once
+    /// [`MIN_BLOCK_STEPS`] took over [`BLOCK_LOSS`] times the reference's time per step (which is
+    /// then blocking's measure).
+    fn blocking_lost(&mut self, k0: u64, t0: Instant, k: u64, now: Instant) -> bool {
+        if self.block_gave_up {
+            return true;
+        }
+        let Some(reference_s) = self.reference_s else { return false };
+        if k < k0 + MIN_BLOCK_STEPS {
+            return false;
+        }
+        let block_s = per_step(k0, t0, k, now);
+        if block_s > BLOCK_LOSS * reference_s {
+            self.block_gave_up = true;
+            self.first_s = Some(block_s);
+        }
+        self.block_gave_up
     }
 
     /// End the trial under way at step `k` (once): the faster mode, blocking on a near tie.
@@ -129,7 +182,7 @@ impl Trial {
             && !self.gave_up
             && k > k1
         {
-            let spin_s = (now - t1).as_secs_f64() / (k - k1) as f64;
+            let spin_s = per_step(k1, t1, k, now);
             self.choice = if spin_s < SPIN_GAIN * block_s { Mode::Spin } else { Mode::Block };
         }
         if self.choice == Mode::Spin {
@@ -137,6 +190,20 @@ impl Trial {
         } else {
             self.chose_block += 1;
         }
+    }
+}
+
+/// Seconds per step from step `k0` at `t0` to step `k` (> `k0`) at `now`.
+fn per_step(k0: u64, t0: Instant, k: u64, now: Instant) -> f64 {
+    (now - t0).as_secs_f64() / (k - k0) as f64
+}
+
+/// The first step of the next trial to begin after step `k` (the one under way begins at or
+/// before `k`).
+fn next_trial(k: u64) -> u64 {
+    match k.checked_sub(FIRST_TRIAL) {
+        None => FIRST_TRIAL,
+        Some(since) => FIRST_TRIAL + (since / PERIOD_STEPS + 1) * PERIOD_STEPS,
     }
 }
 
@@ -198,6 +265,37 @@ mod tests {
         run(&mut t, next..next + 2 * TRIAL_STEPS + 1, fast, slow, &mut clock);
         assert_eq!(t.mode_at(next + 2 * TRIAL_STEPS + 1, clock), Mode::Spin);
         assert_eq!((t.chose_spin, t.chose_block), (1, 1));
+    }
+
+    #[test]
+    fn blocking_is_cut_short_when_much_slower_than_the_steps_before() {
+        let (mut t, mut clock) = (Trial::new(), Instant::now());
+        let (fast, slow) = (Duration::from_micros(30), Duration::from_micros(120));
+        // Start-up spins (30 µs a step), blocking takes 120 µs: after 8 steps it has lost.
+        let end = FIRST_TRIAL + 2 * TRIAL_STEPS;
+        let modes = run(&mut t, 0..end + 1, fast, slow, &mut clock);
+        let blocked = modes.iter().filter(|&&m| m == Mode::Block).count() as u64;
+        assert_eq!(blocked, MIN_BLOCK_STEPS, "{modes:?}");
+        assert!(modes[(FIRST_TRIAL + MIN_BLOCK_STEPS) as usize..].iter().all(|&m| m != Mode::Block), "{modes:?}");
+        assert_eq!((t.chose_spin, t.chose_block), (1, 0));
+        // The next trial's reference: the 8 steps before it, spun as chosen.
+        let next = FIRST_TRIAL + PERIOD_STEPS;
+        let modes = run(&mut t, next - REF_STEPS..next + 2 * TRIAL_STEPS + 1, fast, slow, &mut clock);
+        assert_eq!(modes.iter().filter(|&&m| m == Mode::Block).count() as u64, MIN_BLOCK_STEPS, "{modes:?}");
+        assert_eq!((t.chose_spin, t.chose_block), (2, 0));
+    }
+
+    #[test]
+    fn blocking_runs_its_whole_half_when_the_steps_before_were_as_slow() {
+        let (mut t, mut clock) = (Trial::new(), Instant::now());
+        let (block, spin) = (Duration::from_micros(100), Duration::from_micros(400));
+        // Start-up waited as blocking does (two hogs: its spins backed off).
+        for k in 0..FIRST_TRIAL {
+            assert_eq!(t.mode_at(k, clock), Mode::Learning);
+            clock += block;
+        }
+        let modes = run(&mut t, FIRST_TRIAL..FIRST_TRIAL + TRIAL_STEPS, spin, block, &mut clock);
+        assert!(modes.iter().all(|&m| m == Mode::Block), "{modes:?}");
     }
 
     #[test]
