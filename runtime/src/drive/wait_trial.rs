@@ -109,11 +109,17 @@ impl Trial {
 
     /// The same, at time `now`.
     fn mode_at(&mut self, k: u64, now: Instant) -> Mode {
-        if k + REF_STEPS >= next_trial(k) && self.reference_from.is_none() {
-            self.reference_from = Some((k, now));
-        }
-        let Some(since) = k.checked_sub(FIRST_TRIAL) else { return Mode::Learning };
+        // The last REF_STEPS steps before the next trial are its reference.
+        let Some(since) = k.checked_sub(FIRST_TRIAL) else {
+            if k + REF_STEPS >= FIRST_TRIAL {
+                self.reference_from.get_or_insert((k, now));
+            }
+            return Mode::Learning;
+        };
         let (period, pos) = (since / PERIOD_STEPS, since % PERIOD_STEPS);
+        if pos + REF_STEPS >= PERIOD_STEPS {
+            self.reference_from.get_or_insert((k, now));
+        }
         if self.period != Some(period) {
             self.conclude(k, now);
             *self = Trial { period: Some(period), ..Trial::new_keeping(self) };
@@ -121,8 +127,8 @@ impl Trial {
                 self.reference_from.take().filter(|&(k0, _)| k > k0).map(|(k0, t0)| per_step(k0, t0, k, now));
         }
         if pos < TRIAL_STEPS {
-            let (k0, t0) = *self.first.get_or_insert((k, now));
-            return if self.blocking_lost(k0, t0, k, now) { Mode::Spin } else { Mode::Block };
+            self.first.get_or_insert((k, now));
+            return if self.blocking_lost(k, now) { Mode::Spin } else { Mode::Block };
         }
         if pos < 2 * TRIAL_STEPS {
             if self.second.is_none()
@@ -156,14 +162,13 @@ impl Trial {
         }
     }
 
-    /// Whether the blocking half begun at step `k0`, time `t0` is given up at step `k`: once
-    /// [`MIN_BLOCK_STEPS`] took over [`BLOCK_LOSS`] times the reference's time per step (which is
-    /// then blocking's measure).
-    fn blocking_lost(&mut self, k0: u64, t0: Instant, k: u64, now: Instant) -> bool {
+    /// Whether the blocking half is given up at step `k`: once [`MIN_BLOCK_STEPS`] took over
+    /// [`BLOCK_LOSS`] times the reference's time per step (which is then blocking's measure).
+    fn blocking_lost(&mut self, k: u64, now: Instant) -> bool {
         if self.block_gave_up {
             return true;
         }
-        let Some(reference_s) = self.reference_s else { return false };
+        let (Some(reference_s), Some((k0, t0))) = (self.reference_s, self.first) else { return false };
         if k < k0 + MIN_BLOCK_STEPS {
             return false;
         }
@@ -196,15 +201,6 @@ impl Trial {
 /// Seconds per step from step `k0` at `t0` to step `k` (> `k0`) at `now`.
 fn per_step(k0: u64, t0: Instant, k: u64, now: Instant) -> f64 {
     (now - t0).as_secs_f64() / (k - k0) as f64
-}
-
-/// The first step of the next trial to begin after step `k` (the one under way begins at or
-/// before `k`).
-fn next_trial(k: u64) -> u64 {
-    match k.checked_sub(FIRST_TRIAL) {
-        None => FIRST_TRIAL,
-        Some(since) => FIRST_TRIAL + (since / PERIOD_STEPS + 1) * PERIOD_STEPS,
-    }
 }
 
 /// Whether step `k` is in a trial (either half).
