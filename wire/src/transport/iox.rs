@@ -1,14 +1,15 @@
-//! iceoryx2 transport: zero-copy publish–subscribe between processes, with event services for
-//! wakeups.
+//! iceoryx2 transport: zero-copy publish–subscribe between processes, with the run's
+//! [doorbells](super::doorbell) for wakeups.
 //!
 //! Layout of one run (everything under the run's own prefix `cohort_<run id>_` and root
 //! directory, so two runs on one machine never see each other):
 //! - `meas/<i>`   pub/sub [`Measurement`], plant → agent i.
 //! - `share/<i>`  pub/sub [`Share`], agent i → plant and every agent that has i as neighbour.
-//! - `wake/<p>`   event, one per process: whoever sends p a message notifies it afterwards, with
-//!   its sender id as the event id, so a process with many subscriptions (the plant) drains only
-//!   the senders that woke it ([`Marks`]); a 1 000-agent plant that looked at every subscriber on
-//!   every wakeup spent O(N²) per step in `drain`.
+//! - `doorbells`  a file in the run's root, not a service: one doorbell per process; whoever sends
+//!   p a message rings p's afterwards, with its sender id, so a process with many subscriptions
+//!   (the plant) drains only the senders that rang ([`Marks`]) — a 1 000-agent plant that looked
+//!   at every subscriber on every wakeup spent O(N²) per step in `drain` — and a process that
+//!   spins is woken without a system call.
 //! - `control`    pub/sub [`RunControl`], orchestrator → all (history 1, so a late reader sees stop).
 //! - `status`     pub/sub [`Status`], all → orchestrator.
 //!
@@ -18,8 +19,8 @@
 //!
 //! A zenoh run with gateways ([`super::gateway`]) has one such layout per host, its *domain*
 //! ([`Domain`]: prefix `cohort_<run id>_<k>_`, root `<run id>-<k>`), made and held by the host's
-//! gateway instead of the orchestrator, plus `wake/gateway`, which a process notifies (with its
-//! sender id) instead of a reader on another host.
+//! gateway instead of the orchestrator; a process rings the gateway's doorbell (with its sender
+//! id) instead of a reader's on another host.
 //!
 //! Ownership (issue 18): a run's root directory lives in the user's own base directory
 //! ([`user_base`], 0700, checked before use), the orchestrator holds an `flock` on the run's lock
@@ -41,13 +42,12 @@
 use std::path::{Path as StdPath, PathBuf};
 use std::time::Duration;
 
-use iceoryx2::port::listener::Listener;
-use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
-use iceoryx2::service::port_factory::{event as ev_factory, publish_subscribe as ps_factory};
+use iceoryx2::service::port_factory::publish_subscribe as ps_factory;
 
+use super::doorbell::Doorbells;
 use super::{ControlHub, DataPath, Incoming, Proc, RunControlPort, Split, Topology, TransportError, monotonic_ns};
 use crate::msg::{
     CONTROL_DEAD, CONTROL_RESUME, CONTROL_START, CONTROL_STOP, Measurement, Roster, RunControl, SCHEMA_VERSION, Share,
@@ -55,9 +55,6 @@ use crate::msg::{
 };
 
 pub(crate) type Svc = ipc::Service;
-
-/// The wakeup service of a host's gateway (runs with gateways only).
-pub(crate) const GATEWAY_WAKE: &str = "wake/gateway";
 
 /// Subscriber queue depth for shares: a neighbour can be one step ahead, so two suffice; four
 /// leave room without ever making a sender wait (safe overflow is on, and in lockstep the queue
@@ -377,7 +374,7 @@ impl IoxRun {
         cfg.global.node.cleanup_dead_nodes_on_creation = false;
         cfg.global.node.cleanup_dead_nodes_on_destruction = false;
         // Likewise every service open checked each node registered in the service for life: the
-        // run-wide services (control, status, the plant's wakeup) hold every process's node, so
+        // run-wide services (control, status) hold every process's node, so
         // at N = 256 the last agent spent 68 ms opening its ports against 7 ms for the first,
         // and start-up CPU grew as N². A relaunched agent finds its dead predecessor's ports
         // still registered: every limit has spare places for that (`IoxServices::create`).
@@ -589,7 +586,7 @@ fn count_files(dir: &StdPath) -> usize {
 pub struct IoxServices {
     _meas: Vec<ps_factory::PortFactory<Svc, Measurement, ()>>,
     _share: Vec<ps_factory::PortFactory<Svc, Share, ()>>,
-    _wake: Vec<ev_factory::PortFactory<Svc>>,
+    _bells: Doorbells,
     _control: ps_factory::PortFactory<Svc, RunControl, ()>,
     _status: ps_factory::PortFactory<Svc, Status, ()>,
     control_pub: Publisher<Svc, RunControl, ()>,
@@ -611,17 +608,16 @@ impl IoxServices {
         // A service's node limit: the processes that open it (the orchestrator among them), room
         // for the relaunched ones (a killed process's node stays registered) and two to spare.
         // Sized per service, not from N: every process that opens a service maps state sized by
-        // its node limit, so a limit of N on each of the plant's 3 N services grew the plant's
+        // its node limit, so a limit of N on each of the plant's 2 N services grew the plant's
         // memory as N².
         // With gateways (`run.domain`), the host's gateway opens what the orchestrator would and
         // more: two nodes of its own (one receiving for other hosts, one delivering from them),
-        // a subscriber on every service it reads for other hosts and a notifier on every wakeup
-        // service it delivers to.
+        // a subscriber on every service it reads for other hosts and a publisher on every one it
+        // delivers to.
         let gw = usize::from(run.domain.is_some());
         let nodes = |processes: usize| processes + 2 + 2 * spare + 2 * gw;
         let mut meas = Vec::with_capacity(n);
         let mut share = Vec::with_capacity(n);
-        let mut wake = Vec::with_capacity(n + 1);
         for i in 1..=topo.n_agents() {
             meas.push(
                 node.service_builder(&run.service(&format!("meas/{i}"))?)
@@ -648,34 +644,8 @@ impl IoxServices {
                     .map_err(|e| TransportError::iox(format!("create share/{i}"), e))?,
             );
         }
-        for p in std::iter::once(Proc::Plant).chain((1..=topo.n_agents()).map(Proc::Agent)) {
-            wake.push(
-                node.service_builder(&run.service(&format!("wake/{}", p.name()))?)
-                    .event()
-                    // Event ids are sender ids: the plant's 0, agents' 1..=N.
-                    .event_id_max_value(n.max(1))
-                    .max_notifiers(topo.senders_to(p) + 1 + spare + gw)
-                    .max_listeners(1 + spare)
-                    // The orchestrator, the listener, its senders.
-                    .max_nodes(nodes(2 + topo.senders_to(p)))
-                    .create()
-                    .map_err(|e| TransportError::iox(format!("create wake/{}", p.name()), e))?,
-            );
-        }
-        if gw == 1 {
-            // The gateway's own wakeup: every local process that sends to a process of another
-            // host notifies it, with its sender id.
-            wake.push(
-                node.service_builder(&run.service(GATEWAY_WAKE)?)
-                    .event()
-                    .event_id_max_value(n.max(1))
-                    .max_notifiers(n + 2 + spare)
-                    .max_listeners(1)
-                    .max_nodes(nodes(n + 2))
-                    .create()
-                    .map_err(|e| TransportError::iox(format!("create {GATEWAY_WAKE}"), e))?,
-            );
-        }
+        // Every process's doorbell (and the gateway's), in the run's root, which the node made.
+        let bells = Doorbells::create(&run.root_dir(), n)?;
         let control = node
             .service_builder(&run.service("control")?)
             .publish_subscribe::<RunControl>()
@@ -706,7 +676,7 @@ impl IoxServices {
         Ok(Self {
             _meas: meas,
             _share: share,
-            _wake: wake,
+            _bells: bells,
             _control: control,
             _status: status,
             control_pub,
@@ -904,19 +874,20 @@ pub struct IoxData {
     share_pub: Option<Publisher<Svc, Share, ()>>,
     /// (owner id, subscriber), in a fixed order.
     share_subs: Vec<(u32, Subscriber<Svc, Share, ()>)>,
-    /// One per process this one wakes (with gateways, one for every process of other hosts:
-    /// their host's gateway); the plant's wakeup first for an agent.
-    notifiers: Vec<Notifier<Svc>>,
-    /// Plant: the notifier of agent i at index i − 1.
-    wakes_agent: Vec<usize>,
-    listener: Listener<Svc>,
+    /// The run's doorbells, and this process's slot in them.
+    bells: Doorbells,
+    slot: usize,
+    /// The slots this process rings (with gateways, the gateway's for every process of other
+    /// hosts); the plant's first for an agent. Plant: agent i's at index i − 1.
+    rings: Vec<usize>,
     /// The share subscribers the next drain looks at.
     marks: Marks,
 }
 
 /// Which share subscribers a drain looks at: those whose owner notified this process since the
-/// last drain (a wakeup's event id is its sender's id), or every one when a wait ended without
-/// any wakeup (a lost one costs at most that wait's poll, as before). A process with few
+/// last drain (the bits of its doorbell), or every one when a wait ended without a ring (the
+/// doorbell loses none, but a sender that died between its sample and its ring leaves one
+/// unrung: it costs at most that wait's poll). A process with few
 /// subscriptions looks at all of them every time: the bookkeeping would cost more.
 struct Marks {
     /// Subscriber index of each sender id (`usize::MAX`: none); empty when every drain sweeps.
@@ -984,35 +955,19 @@ impl IoxData {
                 .open()
                 .map_err(|e| TransportError::iox(format!("open share/{i}"), e))
         };
-        let open_wake = |p: Proc| {
-            node.service_builder(&ps_open(format!("wake/{}", p.name()))?)
-                .event()
-                .open()
-                .map_err(|e| TransportError::iox(format!("open wake/{}", p.name()), e))
+        let bells = Doorbells::open(&run.root_dir(), topo.n_agents() as usize)?;
+        // Whose doorbell rings for a message to `p`: p's own, or, when p runs on another host,
+        // this host's gateway's.
+        let slot_of = |p: Proc| match &run.domain {
+            Some(d) if !d.is_local(p) => bells.gateway_slot(),
+            _ => p.sender_id() as usize,
         };
-        // Who wakes for a message to `p`: p itself, or, when p runs on another host, this host's
-        // gateway (named None); each only once.
-        let mut woken: Vec<Option<Proc>> = Vec::new();
-        let mut notifiers = Vec::new();
-        let mut notifier = |p: Proc| -> Result<usize, TransportError> {
-            let target = match &run.domain {
-                Some(d) if !d.is_local(p) => None,
-                _ => Some(p),
-            };
-            if let Some(k) = woken.iter().position(|&w| w == target) {
-                return Ok(k);
+        let mut rings: Vec<usize> = Vec::new();
+        let mut ring = |p: Proc, dedup: bool| {
+            let s = slot_of(p);
+            if !(dedup && rings.contains(&s)) {
+                rings.push(s);
             }
-            let service = match target {
-                Some(p) => open_wake(p)?,
-                None => node
-                    .service_builder(&run.service(GATEWAY_WAKE)?)
-                    .event()
-                    .open()
-                    .map_err(|e| TransportError::iox(format!("open {GATEWAY_WAKE}"), e))?,
-            };
-            notifiers.push(service.notifier_builder().create().map_err(|e| TransportError::iox("notifier", e))?);
-            woken.push(target);
-            Ok(notifiers.len() - 1)
         };
         let share_sub = |i: u32| -> Result<(u32, Subscriber<Svc, Share, ()>), TransportError> {
             let s = open_share(i)?
@@ -1027,7 +982,6 @@ impl IoxData {
         let mut meas_sub = None;
         let mut share_pub = None;
         let mut share_subs = Vec::new();
-        let mut wakes_agent = Vec::new();
         match me {
             Proc::Plant => {
                 for i in 1..=topo.n_agents() {
@@ -1038,7 +992,7 @@ impl IoxData {
                             .map_err(|e| TransportError::iox("meas publisher", e))?,
                     );
                     share_subs.push(share_sub(i)?);
-                    wakes_agent.push(notifier(Proc::Agent(i))?);
+                    ring(Proc::Agent(i), false);
                 }
             }
             Proc::Agent(id) => {
@@ -1058,27 +1012,30 @@ impl IoxData {
                 for &j in topo.neighbours_of(id) {
                     share_subs.push(share_sub(j)?);
                 }
-                notifier(Proc::Plant)?;
+                ring(Proc::Plant, true);
                 for j in topo.readers_of(id) {
-                    notifier(Proc::Agent(j))?;
+                    ring(Proc::Agent(j), true);
                 }
             }
         }
-        let listener = open_wake(me)?.listener_builder().create().map_err(|e| TransportError::iox("listener", e))?;
         // Ports hold their own references to the node's shared state; the node moves into the
         // control part, which is dropped after the data ports (field order of `Split`).
         let control = IoxControl::with_node(run, node)?;
         let marks = Marks::new(share_subs.iter().map(|(id, _)| *id));
         Ok(Split {
-            data: Self { me, meas_pubs, meas_sub, share_pub, share_subs, notifiers, wakes_agent, listener, marks },
+            data: Self {
+                me,
+                meas_pubs,
+                meas_sub,
+                share_pub,
+                share_subs,
+                bells,
+                slot: me.sender_id() as usize,
+                rings,
+                marks,
+            },
             control,
         })
-    }
-
-    fn notify(&self, n: &Notifier<Svc>) -> Result<(), TransportError> {
-        n.notify_with_custom_event_id(EventId::new(self.me.sender_id() as usize))
-            .map(|_| ())
-            .map_err(|e| TransportError::iox("notify", e))
     }
 
     fn drain_share(&self, k: usize, f: &mut dyn FnMut(Incoming<'_>)) -> Result<(), TransportError> {
@@ -1100,7 +1057,8 @@ impl DataPath for IoxData {
         let mut m = *m;
         m.header.sent_wall_ns = monotonic_ns();
         sample.write_payload(m).send().map_err(|e| TransportError::iox("send measurement", e))?;
-        self.notify(&self.notifiers[self.wakes_agent[idx]])
+        self.bells.ring(self.rings[idx], self.slot);
+        Ok(())
     }
 
     fn send_share(&mut self, s: &Share) -> Result<(), TransportError> {
@@ -1111,21 +1069,20 @@ impl DataPath for IoxData {
         let mut s = *s;
         s.header.sent_wall_ns = monotonic_ns();
         sample.write_payload(s).send().map_err(|e| TransportError::iox("send share", e))?;
-        for n in &self.notifiers {
-            self.notify(n)?;
+        for &r in &self.rings {
+            self.bells.ring(r, self.slot);
         }
         Ok(())
     }
 
     fn drain(&mut self, f: &mut dyn FnMut(Incoming<'_>)) -> Result<(), TransportError> {
+        // Rings first, then the samples: a ring after this is seen by the next wait.
+        let marks = &mut self.marks;
+        self.bells.take(self.slot, |id| marks.mark(id));
         if let Some(sub) = &self.meas_sub {
             while let Some(s) = sub.receive().map_err(|e| TransportError::iox("receive measurement", e))? {
                 f(Incoming::Measurement(s.payload()));
             }
-        }
-        if !self.marks.slot.is_empty() {
-            let marks = &mut self.marks;
-            self.listener.try_wait(|a| marks.mark(a.id.as_value())).map_err(|e| TransportError::iox("wakeups", e))?;
         }
         if self.marks.sweep_all() {
             for k in 0..self.share_subs.len() {
@@ -1141,22 +1098,13 @@ impl DataPath for IoxData {
     }
 
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError> {
-        let marks = &mut self.marks;
-        match self.listener.timed_wait(|a| marks.mark(a.id.as_value()), timeout) {
-            // No wakeup: the next drain looks at every subscriber (one may have been lost).
-            Ok(0) => {
-                marks.all = true;
-                Ok(())
-            }
-            Ok(_) => Ok(()),
-            // A signal (SIGTERM, or SIGCONT after a freeze) cut the wait short: callers re-poll
-            // and look at the stop flags after every return anyway.
-            Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => {
-                marks.all = true;
-                Ok(())
-            }
-            Err(e) => Err(TransportError::iox("wait", e)),
+        // Not rung before the time was up (or a signal — SIGTERM, or SIGCONT after a freeze — cut
+        // the wait short): the next drain looks at every subscriber, as callers re-poll and look
+        // at the stop flags after every return anyway.
+        if !self.bells.wait(self.slot, timeout) {
+            self.marks.all = true;
         }
+        Ok(())
     }
     fn keeps_ports_until_stopped(&self) -> bool {
         true

@@ -10,6 +10,7 @@
 //! generic over it, so the multi-process run and the in-process reference run execute the same
 //! code; `tests/conformance.rs` runs one suite against every implementation.
 
+mod doorbell;
 pub mod gateway;
 pub mod iox;
 pub mod memory;
@@ -62,13 +63,6 @@ impl Topology {
     /// The agents that read agent `id`'s share (besides the plant, which reads every share).
     pub fn readers_of(&self, id: u32) -> Vec<u32> {
         (1..=self.n_agents()).filter(|&j| self.neighbours_of(j).contains(&id)).collect()
-    }
-    /// How many processes send wakeups to `p`.
-    pub fn senders_to(&self, p: Proc) -> usize {
-        match p {
-            Proc::Plant => self.n_agents() as usize,
-            Proc::Agent(i) => 1 + self.neighbours_of(i).len(),
-        }
     }
 }
 

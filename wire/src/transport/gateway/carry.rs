@@ -10,8 +10,6 @@ use ::zenoh::Wait;
 use ::zenoh::handlers::FifoChannelHandler;
 use ::zenoh::pubsub::{Publisher, Subscriber};
 use ::zenoh::sample::Sample;
-use iceoryx2::port::listener::Listener;
-use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher as IoxPublisher;
 use iceoryx2::port::subscriber::Subscriber as IoxSubscriber;
 use iceoryx2::prelude::*;
@@ -19,11 +17,12 @@ use iceoryx2::prelude::*;
 use super::batch::{Batch, Record, decode};
 use super::source_of;
 use crate::msg::{Measurement, PLANT_ID, Share};
-use crate::transport::iox::{Domain, GATEWAY_WAKE, IoxRun, MEAS_BUFFER, SHARE_BUFFER, Svc};
+use crate::transport::doorbell::Doorbells;
+use crate::transport::iox::{Domain, IoxRun, MEAS_BUFFER, SHARE_BUFFER, Svc};
 use crate::transport::{Proc, Topology, TransportError};
 
-/// A wait with no wakeup ends after this and the out thread looks at every subscriber (a
-/// wakeup can be lost under heavy preemption, as the processes' waits assume).
+/// A wait with no ring ends after this and the out thread looks at every subscriber (a sender
+/// that died between its sample and its ring leaves one unrung).
 const SWEEP_EVERY: Duration = Duration::from_millis(10);
 /// How long the in thread waits for a batch before it looks at the quit flag again.
 const IN_POLL: Duration = Duration::from_millis(20);
@@ -88,7 +87,8 @@ type ShareIn = (IoxPublisher<Svc, Share, ()>, Vec<usize>);
 
 /// The out thread's ports: what it reads and where each goes.
 struct OutPorts {
-    listener: Listener<Svc>,
+    /// The domain's doorbells (the gateway's slot is rung for everything bound elsewhere).
+    bells: Doorbells,
     /// (agent, destination index, subscriber) for each remote agent's measurements.
     meas: Vec<(u32, usize, IoxSubscriber<Svc, Measurement, ()>)>,
     /// Indexed by agent id: the subscriber and destination indices of a local agent read elsewhere.
@@ -103,14 +103,7 @@ impl OutPorts {
         let (run, d, topo) = (&sh.run, sh.domain(), &sh.topo);
         let node = run.node("gateway-out")?;
         let dest = |p: Proc| pubs.iter().position(|(h, _)| *h == d.placement.host(p));
-        let listener = node
-            .service_builder(&run.service(GATEWAY_WAKE)?)
-            .event()
-            .open()
-            .map_err(|e| TransportError::iox("open wake/gateway", e))?
-            .listener_builder()
-            .create()
-            .map_err(|e| TransportError::iox("gateway listener", e))?;
+        let bells = Doorbells::open(&run.root_dir(), topo.n_agents() as usize)?;
         let mut meas = Vec::new();
         let mut share: Vec<Option<_>> = (0..=topo.n_agents()).map(|_| None).collect();
         for p in d.placement.procs().filter(|&p| d.is_local(p)) {
@@ -155,7 +148,7 @@ impl OutPorts {
         }
         let batches = pubs.iter().map(|_| Batch::new(run.run_id)).collect();
         let pubs = pubs.into_iter().map(|(_, p)| p).collect();
-        Ok(Self { listener, meas, share, batches, pubs, _node: node })
+        Ok(Self { bells, meas, share, batches, pubs, _node: node })
     }
 
     fn drain_meas(&mut self) -> Result<(), String> {
@@ -181,11 +174,10 @@ impl OutPorts {
     /// without wakeups), then one put per destination with anything for it.
     fn once(&mut self, ids: &mut Vec<usize>, counts: &Counts) -> Result<(), String> {
         ids.clear();
-        let woke = match self.listener.timed_wait(|a| ids.push(a.id.as_value()), SWEEP_EVERY) {
-            Ok(n) => n > 0,
-            Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => false,
-            Err(e) => return Err(format!("gateway wait: {e:?}")),
-        };
+        let slot = self.bells.gateway_slot();
+        self.bells.wait(slot, SWEEP_EVERY);
+        self.bells.take(slot, |id| ids.push(id));
+        let woke = !ids.is_empty();
         if woke {
             for &id in ids.iter() {
                 if id == PLANT_ID as usize { self.drain_meas()? } else { self.drain_share(id)? }
@@ -232,15 +224,14 @@ pub(super) fn carry_out(
     }
 }
 
-/// The in thread's ports: stand-in publishers of remote senders, and the local readers' wakeups.
+/// The in thread's ports: stand-in publishers of remote senders, and the local readers' doorbells.
 struct InPorts {
     /// Indexed by agent id: the measurement publisher of a local agent whose plant is remote.
     meas: Vec<Option<IoxPublisher<Svc, Measurement, ()>>>,
     /// Indexed by agent id: the share publisher of a remote agent read here, and who reads it here
-    /// (indices into `wakes`).
+    /// (their doorbell slots: 0 the plant, i agent i).
     share: Vec<Option<ShareIn>>,
-    /// Indexed like the placement (0 the plant, i agent i): the wakeup of a local reader.
-    wakes: Vec<Option<Notifier<Svc>>>,
+    bells: Doorbells,
     _node: Node<Svc>,
 }
 
@@ -249,22 +240,7 @@ impl InPorts {
         let (run, d, topo) = (&sh.run, sh.domain(), &sh.topo);
         let node = run.node("gateway-in")?;
         let n = topo.n_agents() as usize;
-        let mut wakes: Vec<Option<Notifier<Svc>>> = (0..=n).map(|_| None).collect();
-        let mut wake = |p: Proc| -> Result<usize, TransportError> {
-            let k = p.sender_id() as usize;
-            if wakes[k].is_none() {
-                let notifier = node
-                    .service_builder(&run.service(&format!("wake/{}", p.name()))?)
-                    .event()
-                    .open()
-                    .map_err(|e| TransportError::iox(format!("open wake {}", p.name()), e))?
-                    .notifier_builder()
-                    .create()
-                    .map_err(|e| TransportError::iox(format!("notifier {}", p.name()), e))?;
-                wakes[k] = Some(notifier);
-            }
-            Ok(k)
-        };
+        let bells = Doorbells::open(&run.root_dir(), n)?;
         let mut meas: Vec<Option<_>> = (0..=n).map(|_| None).collect();
         let mut share: Vec<Option<_>> = (0..=n).map(|_| None).collect();
         let plant_here = d.is_local(Proc::Plant);
@@ -279,7 +255,6 @@ impl InPorts {
                     .publisher_builder()
                     .create()
                     .map_err(|e| TransportError::iox(format!("meas publisher {i}"), e))?;
-                wake(Proc::Agent(i))?;
                 meas[i as usize] = Some(p);
             }
             if local {
@@ -301,15 +276,10 @@ impl InPorts {
                 .publisher_builder()
                 .create()
                 .map_err(|e| TransportError::iox(format!("share publisher {i}"), e))?;
-            let woken = readers.into_iter().map(&mut wake).collect::<Result<Vec<_>, _>>()?;
+            let woken = readers.into_iter().map(|r| r.sender_id() as usize).collect();
             share[i as usize] = Some((p, woken));
         }
-        Ok(Self { meas, share, wakes, _node: node })
-    }
-
-    fn notify(&self, k: usize, sender: u32) -> Result<(), String> {
-        let Some(n) = &self.wakes[k] else { return Ok(()) };
-        n.notify_with_custom_event_id(EventId::new(sender as usize)).map(|_| ()).map_err(|e| format!("notify: {e:?}"))
+        Ok(Self { meas, share, bells, _node: node })
     }
 
     /// Publish one checked message as its sender's stand-in and wake its readers here.
@@ -320,13 +290,15 @@ impl InPorts {
                 let sample = p.loan_uninit().map_err(|e| format!("loan measurement: {e:?}"))?;
                 let m = Record::measurement(bytes);
                 sample.write_payload(m).send().map_err(|e| format!("send measurement: {e:?}"))?;
-                self.notify(to as usize, PLANT_ID)
+                self.bells.ring(to as usize, PLANT_ID as usize);
+                Ok(())
             }
             Record::Share { from, bytes } => {
                 let Some(Some((p, readers))) = self.share.get(from as usize) else { return Ok(()) };
                 let sample = p.loan_uninit().map_err(|e| format!("loan share: {e:?}"))?;
                 sample.write_payload(Record::share(bytes)).send().map_err(|e| format!("send share: {e:?}"))?;
-                readers.iter().try_for_each(|&k| self.notify(k, from))
+                readers.iter().for_each(|&k| self.bells.ring(k, from as usize));
+                Ok(())
             }
         }
     }

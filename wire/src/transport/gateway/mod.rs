@@ -8,14 +8,14 @@
 //!   on one machine share /dev/shm, so the host's index is in the names). The gateway creates the
 //!   domain's services, as the orchestrator does for a one-host run, and holds them.
 //! - **Out.** A process that sends to a process of another host publishes on its own service as
-//!   always and wakes the gateway (`wake/gateway`, event id = its sender id) instead of the
-//!   reader. The gateway's out thread subscribes to every local service read elsewhere, drains
-//!   the senders that woke it, and puts one [`batch`] per destination host on
+//!   always and rings the gateway's doorbell (with its sender id; [`super::doorbell`]) instead
+//!   of the reader's. The gateway's out thread subscribes to every local service read elsewhere,
+//!   drains the senders that rang, and puts one [`batch`] per destination host on
 //!   `cohort/<run>/g/<destination>/<source>`.
 //! - **In.** The in thread subscribes to `cohort/<run>/g/<here>/*`, checks each batch
 //!   ([`batch::decode`]: every sender must run on the source host), publishes each message on the
-//!   local service of its sender (as that sender's stand-in) and wakes the local readers with the
-//!   sender's id — so a reader cannot tell a remote sender from a local one, and the driver checks
+//!   local service of its sender (as that sender's stand-in) and rings the local readers' doorbells
+//!   with the sender's id — so a reader cannot tell a remote sender from a local one, and the driver checks
 //!   the message as it checks any.
 //! - **Control.** The gateway is its host's run-control hub: it relays the orchestrator's
 //!   requests (zenoh `control`) onto the domain's `control` service as they were sealed, and the
