@@ -20,11 +20,13 @@
 //! [`TRIAL_STEPS`] = 32, about 1 % of a run where spinning is three times as fast. The blocking
 //! half is cut short too, after [`MIN_BLOCK_STEPS`], once its time per step is [`BLOCK_LOSS`]
 //! times that of the [`REF_STEPS`] steps before the trial (waited as the last choice, or, before
-//! the first trial, as start-up does): at N = 6 on an idle machine blocking is four times slower,
-//! and the first trial's 32 blocking steps cost ≈ 2.6 ms of the ≈ 9 ms by which `adaptive`
-//! trailed `poll` in a 2 000-step bench run (0.87). Where blocking was chosen, or start-up waited
-//! as blocking does (under contention, or with steps too long for start-up's spinning), the
-//! blocking half is as fast as its reference and runs whole. Spinning is taken only when it is
+//! the first trial, spinning): at N = 6 on an idle machine blocking is four times slower, and the
+//! first trial's 32 blocking steps cost ≈ 2.6 ms of the ≈ 9 ms by which `adaptive` trailed `poll`
+//! in a 2 000-step bench run (0.87). The first trial's reference spins rather than waiting as
+//! start-up does: at N = 1 000 start-up's steps are too long for its spinning, so it waited as
+//! blocking does and the blocking half ran whole (32 steps at the `event` rate, a quarter of a
+//! 200-step run). Where blocking was chosen, or spinning is slower (under contention), the
+//! blocking half is as fast as its reference or faster, and runs whole. Spinning is taken only when it is
 //! clearly faster ([`SPIN_GAIN`]): a paced run's steps take as long either way, and blocking then
 //! leaves the cores idle. The first steps (start-up) wait as
 //! [`super::wait::SpinPolicy::Adaptive`] always did, with its contention back-off; between the
@@ -110,9 +112,13 @@ impl Trial {
     /// The same, at time `now`.
     fn mode_at(&mut self, k: u64, now: Instant) -> Mode {
         // The last REF_STEPS steps before the next trial are its reference.
+        // Before the first trial, they spin: start-up's own waiting is as slow as blocking where
+        // its steps are too long for its spinning (a thousand agents), and the first trial's
+        // blocking half then ran whole at the blocking rate.
         let Some(since) = k.checked_sub(FIRST_TRIAL) else {
             if k + REF_STEPS >= FIRST_TRIAL {
                 self.reference_from.get_or_insert((k, now));
+                return Mode::Spin;
             }
             return Mode::Learning;
         };
@@ -285,13 +291,37 @@ mod tests {
     fn blocking_runs_its_whole_half_when_the_steps_before_were_as_slow() {
         let (mut t, mut clock) = (Trial::new(), Instant::now());
         let (block, spin) = (Duration::from_micros(100), Duration::from_micros(400));
-        // Start-up waited as blocking does (two hogs: its spins backed off).
-        for k in 0..FIRST_TRIAL {
-            assert_eq!(t.mode_at(k, clock), Mode::Learning);
-            clock += block;
-        }
+        // Two hogs: spinning is the slower. Start-up learns; its last REF_STEPS steps spin, as
+        // the first trial's reference.
+        let modes = run(&mut t, 0..FIRST_TRIAL, spin, block, &mut clock);
+        let learning = (FIRST_TRIAL - REF_STEPS) as usize;
+        assert!(modes[..learning].iter().all(|&m| m == Mode::Learning), "{modes:?}");
+        assert!(modes[learning..].iter().all(|&m| m == Mode::Spin), "{modes:?}");
         let modes = run(&mut t, FIRST_TRIAL..FIRST_TRIAL + TRIAL_STEPS, spin, block, &mut clock);
         assert!(modes.iter().all(|&m| m == Mode::Block), "{modes:?}");
+        // Blocking as slow as that reference (a paced run: every step takes as long) runs whole too.
+        let (mut t, mut clock) = (Trial::new(), Instant::now());
+        let modes = run(&mut t, 0..FIRST_TRIAL + TRIAL_STEPS, block, block, &mut clock);
+        assert!(modes[FIRST_TRIAL as usize..].iter().all(|&m| m == Mode::Block), "{modes:?}");
+    }
+
+    /// The first trial's reference spins even where start-up's waits were as slow as blocking (a
+    /// thousand agents: steps too long for start-up's spinning), so blocking that is much slower
+    /// than spinning is cut short at the first trial too.
+    #[test]
+    fn the_first_trials_reference_spins_whatever_start_up_did() {
+        let (mut t, mut clock) = (Trial::new(), Instant::now());
+        let (spin, block) = (Duration::from_millis(60), Duration::from_millis(200));
+        // Start-up's waits (Learning) take as long as blocking.
+        let modes: Vec<Mode> = (0..FIRST_TRIAL + 2 * TRIAL_STEPS + 1)
+            .map(|k| {
+                let m = t.mode_at(k, clock);
+                clock += if m == Mode::Spin { spin } else { block };
+                m
+            })
+            .collect();
+        assert_eq!(modes.iter().filter(|&&m| m == Mode::Block).count() as u64, MIN_BLOCK_STEPS, "{modes:?}");
+        assert_eq!((t.chose_spin, t.chose_block), (1, 0));
     }
 
     #[test]
