@@ -26,9 +26,9 @@
 //! start-up does: at N = 1 000 start-up's steps are too long for its spinning, so it waited as
 //! blocking does and the blocking half ran whole (32 steps at the `event` rate, a quarter of a
 //! 200-step run). Where blocking was chosen, or spinning is slower (under contention), the
-//! blocking half is as fast as its reference or faster, and runs whole. Spinning is taken only when it is
-//! clearly faster ([`SPIN_GAIN`]): a paced run's steps take as long either way, and blocking then
-//! leaves the cores idle. The first steps (start-up) wait as
+//! blocking half is as fast as its reference or faster, and runs whole. Spinning is taken only
+//! when it is clearly faster ([`SPIN_GAIN`]): a paced run's steps take as long either way, and
+//! blocking then leaves the cores idle. The first steps (start-up) wait as
 //! [`super::wait::SpinPolicy::Adaptive`] always did, with its contention back-off; between the
 //! first trial and the next, each process waits as its trial chose. Telemetry does not depend on
 //! how a process waits.
@@ -111,8 +111,8 @@ impl Trial {
 
     /// The same, at time `now`.
     fn mode_at(&mut self, k: u64, now: Instant) -> Mode {
-        // The last REF_STEPS steps before the next trial are its reference.
-        // Before the first trial, they spin: start-up's own waiting is as slow as blocking where
+        // The last REF_STEPS steps before the next trial are its reference. Before the first
+        // trial, they spin: start-up's own waiting is as slow as blocking where
         // its steps are too long for its spinning (a thousand agents), and the first trial's
         // blocking half then ran whole at the blocking rate.
         let Some(since) = k.checked_sub(FIRST_TRIAL) else {

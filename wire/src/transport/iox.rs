@@ -586,7 +586,6 @@ fn count_files(dir: &StdPath) -> usize {
 pub struct IoxServices {
     _meas: Vec<ps_factory::PortFactory<Svc, Measurement, ()>>,
     _share: Vec<ps_factory::PortFactory<Svc, Share, ()>>,
-    _bells: Doorbells,
     _control: ps_factory::PortFactory<Svc, RunControl, ()>,
     _status: ps_factory::PortFactory<Svc, Status, ()>,
     control_pub: Publisher<Svc, RunControl, ()>,
@@ -644,8 +643,9 @@ impl IoxServices {
                     .map_err(|e| TransportError::iox(format!("create share/{i}"), e))?,
             );
         }
-        // Every process's doorbell (and the gateway's), in the run's root, which the node made.
-        let bells = Doorbells::create(&run.root_dir(), n)?;
+        // Every process's doorbell (and the gateway's): a file in the run's root, which the node
+        // made; the processes map it, the orchestrator (or gateway) only makes it.
+        drop(Doorbells::create(&run.root_dir(), n)?);
         let control = node
             .service_builder(&run.service("control")?)
             .publish_subscribe::<RunControl>()
@@ -676,7 +676,6 @@ impl IoxServices {
         Ok(Self {
             _meas: meas,
             _share: share,
-            _bells: bells,
             _control: control,
             _status: status,
             control_pub,
