@@ -55,6 +55,8 @@ use crate::msg::{
 };
 
 pub(crate) type Svc = ipc::Service;
+/// The gateway's in side: ports a zenoh callback thread may use (see [`IoxRun::shared_node`]).
+pub(crate) type SharedSvc = ipc_threadsafe::Service;
 
 /// Subscriber queue depth for shares: a neighbour can be one step ahead, so two suffice; four
 /// leave room without ever making a sender wait (safe overflow is on, and in lockstep the queue
@@ -402,14 +404,19 @@ impl IoxRun {
     pub(crate) fn node(&self, name: &str) -> Result<Node<Svc>, TransportError> {
         self.node_with(name, &self.config()?)
     }
-    fn node_with(&self, name: &str, cfg: &Config) -> Result<Node<Svc>, TransportError> {
+    /// A node whose ports may be used from any thread (`ipc_threadsafe`: the same shared-memory
+    /// resources as `ipc`, its ports behind a mutex), for the gateway's zenoh callback.
+    pub(crate) fn shared_node(&self, name: &str) -> Result<Node<SharedSvc>, TransportError> {
+        self.node_with(name, &self.config()?)
+    }
+    fn node_with<S: iceoryx2::service::Service>(&self, name: &str, cfg: &Config) -> Result<Node<S>, TransportError> {
         ensure_user_base()?;
         NodeBuilder::new()
             .name(&NodeName::new(name).map_err(|e| TransportError::iox("node name", e))?)
             .config(cfg)
             // Signals stay ours: SIGTERM/SIGINT handling is done by the processes themselves.
             .signal_handling_mode(SignalHandlingMode::Disabled)
-            .create::<Svc>()
+            .create::<S>()
             .map_err(|e| TransportError::iox(format!("create node {name}"), e))
     }
 

@@ -1,14 +1,14 @@
-//! The gateway's two data threads: out (local iceoryx2 services → one zenoh batch per remote
-//! host) and in (batches → local services, waking the readers). Each owns an iceoryx2 node of
-//! its own (iceoryx2's ports stay on the thread that made them).
+//! The gateway's two data paths: out, a thread (local iceoryx2 services → one zenoh batch per
+//! remote host), and in, the zenoh subscriber's callback (batches → local services, waking the
+//! readers). Each owns an iceoryx2 node of its own: the out thread's ports stay on the thread that
+//! made them; the in side's are thread-safe, as zenoh calls it from its own threads.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 
 use ::zenoh::Wait;
-use ::zenoh::handlers::FifoChannelHandler;
-use ::zenoh::pubsub::{Publisher, Subscriber};
+use ::zenoh::pubsub::Publisher;
 use ::zenoh::sample::Sample;
 use iceoryx2::port::publisher::Publisher as IoxPublisher;
 use iceoryx2::port::subscriber::Subscriber as IoxSubscriber;
@@ -18,16 +18,14 @@ use super::batch::{Batch, Record, decode};
 use super::source_of;
 use crate::msg::{Measurement, PLANT_ID, Share};
 use crate::transport::doorbell::Doorbells;
-use crate::transport::iox::{Domain, IoxRun, MEAS_BUFFER, SHARE_BUFFER, Svc};
+use crate::transport::iox::{Domain, IoxRun, MEAS_BUFFER, SHARE_BUFFER, SharedSvc, Svc};
 use crate::transport::{Proc, Topology, TransportError};
 
 /// A wait with no ring ends after this and the out thread looks at every subscriber (a sender
 /// that died between its sample and its ring leaves one unrung).
 const SWEEP_EVERY: Duration = Duration::from_millis(10);
-/// How long the in thread waits for a batch before it looks at the quit flag again.
-const IN_POLL: Duration = Duration::from_millis(20);
 
-/// What the data threads counted, for the gateway's end line.
+/// What the out thread and the in callback counted, for the gateway's end line.
 #[derive(Debug, Default)]
 pub struct Counts {
     pub batches_out: AtomicU64,
@@ -43,7 +41,7 @@ pub(super) struct Shared {
     pub topo: Topology,
     pub quit: Arc<AtomicBool>,
     pub counts: Arc<Counts>,
-    /// The first failure of either thread (it then sets `quit`).
+    /// The first failure of the out thread or the in callback (it then sets `quit`).
     pub failure: Arc<std::sync::Mutex<Option<String>>>,
 }
 
@@ -82,8 +80,6 @@ pub(super) fn destinations(d: &Domain, topo: &Topology) -> Vec<u16> {
 
 /// A local agent's share subscriber and the destinations (indices) that read it.
 type ShareOut = (IoxSubscriber<Svc, Share, ()>, Vec<usize>);
-/// A remote agent's stand-in share publisher and its readers here (indices into the wakeups).
-type ShareIn = (IoxPublisher<Svc, Share, ()>, Vec<usize>);
 
 /// The out thread's ports: what it reads and where each goes.
 struct OutPorts {
@@ -224,21 +220,28 @@ pub(super) fn carry_out(
     }
 }
 
-/// The in thread's ports: stand-in publishers of remote senders, and the local readers' doorbells.
+/// The in side's ports: stand-in publishers of remote senders, and the local readers' doorbells.
+/// They live on a thread-safe node, so that zenoh's receiving thread delivers each batch itself
+/// (a hand-off to a thread of our own cost a wake-up per batch, on every one-way hop of a step).
 struct InPorts {
     /// Indexed by agent id: the measurement publisher of a local agent whose plant is remote.
-    meas: Vec<Option<IoxPublisher<Svc, Measurement, ()>>>,
+    meas: Vec<Option<IoxPublisher<SharedSvc, Measurement, ()>>>,
     /// Indexed by agent id: the share publisher of a remote agent read here, and who reads it here
     /// (their doorbell slots: 0 the plant, i agent i).
     share: Vec<Option<ShareIn>>,
     bells: Doorbells,
-    _node: Node<Svc>,
+    // Last: the ports above are dropped before their node (behind a mutex only to be `Sync`;
+    // nothing uses it).
+    _node: std::sync::Mutex<Node<SharedSvc>>,
 }
+
+/// A remote agent's stand-in share publisher and its readers here (doorbell slots).
+type ShareIn = (IoxPublisher<SharedSvc, Share, ()>, Vec<usize>);
 
 impl InPorts {
     fn open(sh: &Shared) -> Result<Self, TransportError> {
         let (run, d, topo) = (&sh.run, sh.domain(), &sh.topo);
-        let node = run.node("gateway-in")?;
+        let node = run.shared_node("gateway-in")?;
         let n = topo.n_agents() as usize;
         let bells = Doorbells::open(&run.root_dir(), n)?;
         let mut meas: Vec<Option<_>> = (0..=n).map(|_| None).collect();
@@ -279,7 +282,7 @@ impl InPorts {
             let woken = readers.into_iter().map(|r| r.sender_id() as usize).collect();
             share[i as usize] = Some((p, woken));
         }
-        Ok(Self { meas, share, bells, _node: node })
+        Ok(Self { meas, share, bells, _node: std::sync::Mutex::new(node) })
     }
 
     /// Publish one checked message as its sender's stand-in and wake its readers here.
@@ -304,51 +307,48 @@ impl InPorts {
     }
 }
 
-/// The in thread: open its ports, say so on `ready`, deliver every batch that arrives until `quit`.
-pub(super) fn carry_in(
+/// The in side: what the zenoh subscriber's callback does with each batch that arrives (on
+/// zenoh's receiving thread; batches from different hosts may arrive on different threads at
+/// once, and each stand-in publisher has one source host).
+pub(super) struct Inbound {
+    ports: InPorts,
     sh: Shared,
-    inbox: Subscriber<FifoChannelHandler<Sample>>,
-    ready: std::sync::mpsc::Sender<Result<(), TransportError>>,
-) {
-    let ports = match InPorts::open(&sh) {
-        Ok(p) => {
-            let _ = ready.send(Ok(()));
-            p
-        }
-        Err(e) => {
-            let _ = ready.send(Err(e));
+    placement: Arc<super::Placement>,
+}
+
+impl Inbound {
+    /// Open the in side's ports.
+    pub(super) fn open(sh: Shared) -> Result<Self, TransportError> {
+        let ports = InPorts::open(&sh)?;
+        let placement = Arc::clone(&sh.domain().placement);
+        Ok(Self { ports, sh, placement })
+    }
+
+    /// Check one batch and deliver its messages; a batch that fails the check is refused whole
+    /// (counted, the first ten logged), a failure to deliver ends the gateway.
+    pub(super) fn on_batch(&self, sample: &Sample) {
+        if self.sh.quit.load(Ordering::SeqCst) {
             return;
         }
-    };
-    let (run_id, here) = (sh.run.run_id, sh.domain().here);
-    let placement = Arc::clone(&sh.domain().placement);
-    while !sh.quit.load(Ordering::SeqCst) {
-        let sample = match inbox.recv_timeout(IN_POLL) {
-            Ok(Some(s)) => s,
-            Ok(None) => continue,
-            Err(e) => {
-                sh.fail(format!("zenoh inbox: {e}"));
-                break;
-            }
-        };
-        let key = sample.key_expr().as_str().to_string();
+        let (run_id, here) = (self.sh.run.run_id, self.sh.domain().here);
+        let key = sample.key_expr().as_str();
         let payload = sample.payload().to_bytes();
-        let checked = source_of(&key)
+        let checked = source_of(key)
             .ok_or_else(|| format!("a batch on {key}, which names no host"))
-            .and_then(|from| decode(&payload, run_id, &placement, from, here).map_err(|e| format!("{key}: {e}")));
+            .and_then(|from| decode(&payload, run_id, &self.placement, from, here).map_err(|e| format!("{key}: {e}")));
         let records = match checked {
             Ok(r) => r,
             Err(e) => {
-                if sh.counts.rejected.fetch_add(1, Ordering::Relaxed) < 10 {
+                if self.sh.counts.rejected.fetch_add(1, Ordering::Relaxed) < 10 {
                     tracing::warn!("gateway: refused a batch: {e}");
                 }
-                continue;
+                return;
             }
         };
-        sh.counts.batches_in.fetch_add(1, Ordering::Relaxed);
-        sh.counts.messages_in.fetch_add(records.len() as u64, Ordering::Relaxed);
-        if let Err(e) = records.iter().try_for_each(|r| ports.deliver(r)) {
-            sh.fail(e);
+        self.sh.counts.batches_in.fetch_add(1, Ordering::Relaxed);
+        self.sh.counts.messages_in.fetch_add(records.len() as u64, Ordering::Relaxed);
+        if let Err(e) = records.iter().try_for_each(|r| self.ports.deliver(r)) {
+            self.sh.fail(e);
         }
     }
 }

@@ -11,7 +11,7 @@ use ::zenoh::pubsub::Publisher;
 use ::zenoh::sample::SampleKind;
 
 use super::batch_key;
-use super::carry::{Counts, Shared, carry_in, carry_out, destinations};
+use super::carry::{Counts, Inbound, Shared, carry_out, destinations};
 use crate::msg::{RunControl, SCHEMA_VERSION, Status};
 use crate::transport::iox::{IoxRun, IoxServices};
 use crate::transport::zenoh::{ZenohRun, err, matched, open_session, publisher, subscriber};
@@ -73,7 +73,6 @@ fn serve(
         pubs.push((h, Arc::new(publisher(&session, batch_key(&prefix, h, domain.here))?)));
     }
     let links: Vec<Arc<Publisher<'static>>> = pubs.iter().map(|(_, p)| Arc::clone(p)).collect();
-    let inbox = subscriber(&session, format!("{prefix}/g/{:x}/*", domain.here))?;
     let control = subscriber(&session, zrun.control_key())?;
     let status = publisher(&session, zrun.status_key())?;
     let orchestrator_gone = Arc::new(AtomicBool::new(false));
@@ -100,38 +99,27 @@ fn serve(
         counts: Arc::clone(&counts),
         failure: Arc::clone(&failure),
     };
+    // The in side first: batches may arrive as soon as its subscriber is declared.
+    let inbound = Arc::new(Inbound::open(shared())?);
+    let _inbox = session
+        .declare_subscriber(format!("{prefix}/g/{:x}/*", domain.here))
+        .callback(move |sample| inbound.on_batch(&sample))
+        .wait()
+        .map_err(err("subscriber for batches"))?;
     let (tx, rx) = std::sync::mpsc::channel();
-    let threads = [
-        {
-            let (sh, tx) = (shared(), tx.clone());
-            std::thread::Builder::new().name("gateway-out".into()).spawn(move || carry_out(sh, pubs, tx))
-        },
-        {
-            let sh = shared();
-            std::thread::Builder::new().name("gateway-in".into()).spawn(move || carry_in(sh, inbox, tx))
-        },
-    ]
-    .map(|t| t.map_err(|e| TransportError::Other(format!("cannot start a gateway thread: {e}"))));
-    let mut started = Vec::new();
-    let mut opened: Result<(), TransportError> = Ok(());
-    for t in threads {
-        match t {
-            Ok(h) => started.push(h),
-            Err(e) => opened = opened.and(Err(e)),
-        }
-    }
-    for _ in 0..started.len() {
-        let r = rx.recv().unwrap_or_else(|_| Err(TransportError::Other("a gateway thread ended at start".into())));
-        opened = opened.and(r);
-    }
+    let sh = shared();
+    let out = std::thread::Builder::new()
+        .name("gateway-out".into())
+        .spawn(move || carry_out(sh, pubs, tx))
+        .map_err(|e| TransportError::Other(format!("cannot start a gateway thread: {e}")))?;
+    let opened =
+        rx.recv().unwrap_or_else(|_| Err(TransportError::Other("the gateway's out thread ended at start".into())));
     let relayed = opened.and_then(|()| {
         mark_ready(run)?;
         relay(&services, &control, &status, &links, run, stop, &orchestrator_gone, &quit)
     });
     quit.store(true, Ordering::SeqCst);
-    for t in started {
-        let _ = t.join();
-    }
+    let _ = out.join();
     relayed?;
     let failure = failure.lock().unwrap_or_else(|p| p.into_inner()).take();
     let c = &counts;

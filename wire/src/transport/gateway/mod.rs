@@ -12,11 +12,13 @@
 //!   of the reader's. The gateway's out thread subscribes to every local service read elsewhere,
 //!   drains the senders that rang, and puts one [`batch`] per destination host on
 //!   `cohort/<run>/g/<destination>/<source>`.
-//! - **In.** The in thread subscribes to `cohort/<run>/g/<here>/*`, checks each batch
-//!   ([`batch::decode`]: every sender must run on the source host), publishes each message on the
-//!   local service of its sender (as that sender's stand-in) and rings the local readers' doorbells
-//!   with the sender's id — so a reader cannot tell a remote sender from a local one, and the driver checks
-//!   the message as it checks any.
+//! - **In.** A callback subscriber on `cohort/<run>/g/<here>/*`, run by zenoh's receiving
+//!   thread, checks each batch ([`batch::decode`]: every sender must run on the source host),
+//!   publishes each message on the local service of its sender (as that sender's stand-in) and
+//!   rings the local readers' doorbells with the sender's id — so a reader cannot tell a remote
+//!   sender from a local one, and the driver checks the message as it checks any. Its ports are
+//!   iceoryx2's thread-safe variant (`ipc_threadsafe`, the same resources as `ipc`); a thread of
+//!   our own fed by a zenoh channel cost one more wake-up on every hop between hosts.
 //! - **Control.** The gateway is its host's run-control hub: it relays the orchestrator's
 //!   requests (zenoh `control`) onto the domain's `control` service as they were sealed, and the
 //!   local processes' statuses (checked as the orchestrator checks them) onto zenoh `status`. It
