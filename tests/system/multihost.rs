@@ -661,9 +661,12 @@ fn twenty_agents_over_zenoh_start_every_time() {
 fn a_stopped_host_daemon_leaves_no_empty_per_host_directory() {
     let dir = scratch_dir("multihost-hostdir");
     let port = 40_000 + (std::process::id() % 20_000) as u16;
+    // Its own iceoryx2 base, short enough for a run root, so no concurrent test shares it.
+    let run_base = PathBuf::from(format!("/tmp/cohort-tidy-{}", std::process::id()));
     let mut c = Command::new(bin_path("orchestrator"))
         .args(["host", "--listen", &format!("tcp/127.0.0.1:{port}"), "--name", "tidy"])
         .env("TMPDIR", &dir)
+        .env(cohort_wire::transport::iox::BASE_ENV, &run_base)
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -686,6 +689,26 @@ fn a_stopped_host_daemon_leaves_no_empty_per_host_directory() {
     assert!(status.code().is_some(), "the daemon ends by itself on SIGTERM, not by the signal: {status:?}");
     assert!(!base.join("tidy").exists(), "{} left behind", base.join("tidy").display());
     assert!(!base.exists(), "{} left behind, empty", base.display());
+    // The daemon sweeps stale runs as it starts and ends; a sweep never makes the base.
+    assert!(!run_base.exists(), "{} made by a sweep and left", run_base.display());
+}
+
+/// A zenoh run on one host (its gateway and the orchestrator sweep stale runs after the
+/// gateway ends) leaves no empty base directory: each such run left `/dev/shm/cohort-<uid>`.
+#[test]
+fn a_zenoh_run_on_one_host_leaves_no_base_directory() {
+    let (_g, dir) = heavy_scratch("zenoh-no-base");
+    let run_base = PathBuf::from(format!("/tmp/cohort-zb-{}", std::process::id()));
+    let o = Command::new(bin_path("orchestrator"))
+        .args(["launch", "topologies/fig1.toml", "--duration", DURATION, "--transport", "zenoh", "--no-plots", "-q"])
+        .arg("--out")
+        .arg(dir.join("run"))
+        .env(cohort_wire::transport::iox::BASE_ENV, &run_base)
+        .output()
+        .expect("launch");
+    assert!(o.status.success(), "{}", describe_output(&o));
+    assert!(dir.join("run/logs/gateway-0.log").is_file(), "the run went through its gateway");
+    assert!(!run_base.exists(), "{} left behind", run_base.display());
 }
 
 /// `launch --live` of a run whose every process is on a host daemon: the view asks the daemons

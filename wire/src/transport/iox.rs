@@ -487,7 +487,18 @@ impl IoxRun {
     /// lock file in the user's base directory can be locked (the kernel released the lock when
     /// that orchestrator ended), or its root directory has no lock file at all (a claim always
     /// makes the lock file first). Another user's runs are never touched. Returns the ids swept.
+    /// It never makes the base (with none there is nothing to sweep), and removes it when the
+    /// sweep leaves it empty: sweeps also run at ends, after the last run removed it.
     pub fn sweep_stale() -> Vec<u64> {
+        if std::fs::symlink_metadata(user_base()).is_err() {
+            return Vec::new();
+        }
+        let swept = Self::sweep_base();
+        remove_user_base_if_empty();
+        swept
+    }
+
+    fn sweep_base() -> Vec<u64> {
         let mut swept = Vec::new();
         let Ok(base) = ensure_user_base() else { return swept };
         let Ok(rd) = std::fs::read_dir(&base) else { return swept };
