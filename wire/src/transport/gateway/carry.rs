@@ -313,15 +313,12 @@ impl InPorts {
 pub(super) struct Inbound {
     ports: InPorts,
     sh: Shared,
-    placement: Arc<super::Placement>,
 }
 
 impl Inbound {
     /// Open the in side's ports.
     pub(super) fn open(sh: Shared) -> Result<Self, TransportError> {
-        let ports = InPorts::open(&sh)?;
-        let placement = Arc::clone(&sh.domain().placement);
-        Ok(Self { ports, sh, placement })
+        Ok(Self { ports: InPorts::open(&sh)?, sh })
     }
 
     /// Check one batch and deliver its messages; a batch that fails the check is refused whole
@@ -330,12 +327,12 @@ impl Inbound {
         if self.sh.quit.load(Ordering::SeqCst) {
             return;
         }
-        let (run_id, here) = (self.sh.run.run_id, self.sh.domain().here);
+        let (run_id, d) = (self.sh.run.run_id, self.sh.domain());
         let key = sample.key_expr().as_str();
         let payload = sample.payload().to_bytes();
         let checked = source_of(key)
             .ok_or_else(|| format!("a batch on {key}, which names no host"))
-            .and_then(|from| decode(&payload, run_id, &self.placement, from, here).map_err(|e| format!("{key}: {e}")));
+            .and_then(|from| decode(&payload, run_id, &d.placement, from, d.here).map_err(|e| format!("{key}: {e}")));
         let records = match checked {
             Ok(r) => r,
             Err(e) => {
