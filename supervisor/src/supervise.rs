@@ -88,6 +88,9 @@ impl Handle {
             Handle::Remote { pid, .. } => *pid,
         }
     }
+    fn is_local(&self) -> bool {
+        matches!(self, Handle::Local(_))
+    }
     /// Its end, once known (`waitpid` here, or the daemon's report).
     pub(crate) fn try_wait(&mut self) -> Option<ExitStatus> {
         match self {
@@ -1011,7 +1014,11 @@ impl Supervisor<'_> {
     /// degrade mode report an agent that ended outside the plan to the plant at once.
     fn faults(&mut self, w: &mut Watch, kids: &mut [Kid]) -> Result<(), String> {
         let s = self.s;
-        for k in kids.iter_mut() {
+        // One system call instead of one per local child (a 1 000-agent run spent 87 000 `wait4`
+        // a second of the orchestrator's time on this loop): a local child needs reaping only
+        // when one has ended.
+        let local_ended = a_child_has_ended();
+        for k in kids.iter_mut().filter(|k| local_ended || !k.child.is_local()) {
             k.reap();
         }
         self.note_lost_hosts(kids, w.plant_step);
@@ -1327,6 +1334,21 @@ pub(crate) fn signal_all<'a>(children: impl Iterator<Item = &'a Handle>, sig: i3
         if let Err(e) = remote.signal(link, &names, sig) {
             tracing::warn!("signal {sig} to {} process(es) on host {}: {e}", names.len(), link.name);
         }
+    }
+}
+
+/// Whether any child of this process has ended and is not reaped yet (it stays unreaped:
+/// `WNOWAIT`). True also when that cannot be told, so the caller looks at each child.
+fn a_child_has_ended() -> bool {
+    // SAFETY: waitid writes only into the siginfo we own; WNOWAIT leaves the child to be reaped.
+    unsafe {
+        let mut info: libc::siginfo_t = std::mem::zeroed();
+        let r = libc::waitid(libc::P_ALL, 0, &mut info, libc::WEXITED | libc::WNOHANG | libc::WNOWAIT);
+        // No child at all (ECHILD) means none ended; any other failure: look at each.
+        if r != 0 {
+            return std::io::Error::last_os_error().raw_os_error() != Some(libc::ECHILD);
+        }
+        info.si_pid() != 0
     }
 }
 
