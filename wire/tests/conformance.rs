@@ -359,6 +359,31 @@ fn run_control_reaches_every_process(h: &mut dyn Harness) {
     assert!(agents.iter_mut().all(|a| a.stop_requested()), "an agent never saw the stop");
 }
 
+/// A run-control notice ends the wait of a process whose data path says it is woken by run
+/// control (iceoryx2: the orchestrator rings every doorbell), and `control_rung` reports it
+/// before the port is read; with nothing new since, it says so. Every other data path always
+/// says there may be something new, and its waits stay short.
+fn a_control_notice_wakes_a_data_path_woken_by_control(h: &mut dyn Harness) {
+    let (_plant, mut agents) = h.open(&ring4());
+    h.grant_start();
+    let a = agents[1].as_mut();
+    let woken = a.woken_by_control();
+    a.drain(&mut |_| {}).unwrap();
+    assert!(a.control_rung(), "a fresh port has run control to read (the start)");
+    assert_eq!(a.control_rung(), !woken, "nothing new since the last call");
+    h.request_stop();
+    let t0 = Instant::now();
+    a.wait(if woken { Duration::from_secs(60) } else { Duration::from_millis(50) }).unwrap();
+    assert!(t0.elapsed() < Duration::from_secs(20), "the stop did not end the wait: {:?}", t0.elapsed());
+    a.drain(&mut |_| {}).unwrap();
+    assert!(a.control_rung(), "the stop was not reported as new run control");
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !a.stop_requested() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    assert!(a.stop_requested());
+}
+
 /// Status reports reach the orchestrator's side.
 fn status_reaches_the_orchestrator(h: &mut dyn Harness) {
     let (mut plant, _agents) = h.open(&ring4());
@@ -440,6 +465,10 @@ macro_rules! conformance {
             #[test]
             fn run_control_reaches_every_process() {
                 super::run_control_reaches_every_process(&mut $make);
+            }
+            #[test]
+            fn a_control_notice_wakes_a_data_path_woken_by_control() {
+                super::a_control_notice_wakes_a_data_path_woken_by_control(&mut $make);
             }
             #[test]
             fn status_reaches_the_orchestrator() {

@@ -15,7 +15,7 @@ use super::error::{RunError, failed, io};
 use super::files::agent_files;
 use super::params::DriveParams;
 use super::status::{new_report, report_ready, status};
-use super::wait::{POLL, Waiter};
+use super::wait::{Waiter, repoll_after};
 use crate::checkpoint::{AgentState, Checkpoint};
 use crate::model::{AgentInput, Algorithm, ShareOut};
 use crate::record::{ProcessReport, TelemetryWriter, TimingWriter, reject_map};
@@ -59,8 +59,9 @@ fn linger<T: Transport + ?Sized>(t: &mut T, p: &DriveParams) {
     let until = Instant::now().checked_add(p.step_timeout.saturating_mul(2));
     while until.is_none_or(|u| Instant::now() < u) && !t.stop_requested() && !p.terminate.load(Ordering::Relaxed) {
         // Nothing is awaited but the stop: a wakeup from a late share only shortens the nap.
-        if t.wait(POLL).is_err() {
-            std::thread::sleep(POLL);
+        let nap = repoll_after(&*t, false, Duration::ZERO);
+        if t.wait(nap).is_err() {
+            std::thread::sleep(nap);
         }
     }
 }

@@ -27,6 +27,25 @@ const POLL_MAX: Duration = Duration::from_millis(100);
 /// each 10 ms while the rest were spawned, start-up CPU grew as N² (a 256-agent ring: the late
 /// agents' start-up cost 3× the early ones').
 const POLL_BEFORE_START: Duration = Duration::from_millis(100);
+/// How long a blocked wait sleeps before it looks again with nothing rung: every [`POLL`] at
+/// first, then a quarter of the time it has waited (at most [`POLL_MAX`]), so a lost wakeup
+/// costs a quarter of the wait; when the transport's wait also returns on every run-control
+/// notice ([`DataPath::woken_by_control`]), nothing needs looking at sooner than [`POLL_MAX`]:
+/// a wakeup is only ever lost when its sender died between its sample and its ring, and that
+/// death brings the orchestrator's notice. The first measurement's wait, which lasts the whole
+/// start-up, always sleeps [`POLL_BEFORE_START`].
+///
+/// [`DataPath::woken_by_control`]: cohort_wire::transport::DataPath::woken_by_control
+pub(super) fn repoll_after<T: Transport + ?Sized>(t: &T, startup: bool, waited: Duration) -> Duration {
+    if startup {
+        POLL_BEFORE_START
+    } else if t.woken_by_control() {
+        POLL_MAX
+    } else {
+        (waited / 4).clamp(POLL, POLL_MAX)
+    }
+}
+
 /// After this long in one wait, the process tells the orchestrator whom it is waiting for.
 const REPORT_WAITING_AFTER: Duration = Duration::from_millis(200);
 
@@ -281,7 +300,9 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
             spins = spins.wrapping_add(1);
             // While spinning, look at the control service only now and then: it is not free.
             if !spinning || spins.is_multiple_of(1024) {
-                let why = if self.t.stop_requested() {
+                // Nor, when the transport knows, while run control has sent nothing new.
+                let control = self.t.control_rung();
+                let why = if control && self.t.stop_requested() {
                     // What completes this wait may have come in with the stop (the run's last
                     // step): look once more before giving up.
                     self.t.drain(&mut |inc| inbox.take(inc))?;
@@ -296,12 +317,14 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
                     let waiting = format!(" while waiting for the {what} of {}", inbox.missing().1);
                     return Err(RunError::Stopped { step, why, waiting });
                 }
-                self.t.control_events(&mut self.events);
-                for e in self.events.drain(..) {
-                    inbox.control(&e);
-                }
-                if inbox.complete() {
-                    continue;
+                if control {
+                    self.t.control_events(&mut self.events);
+                    for e in self.events.drain(..) {
+                        inbox.control(&e);
+                    }
+                    if inbox.complete() {
+                        continue;
+                    }
                 }
                 if !reported && waited >= REPORT_WAITING_AFTER {
                     reported = true;
@@ -322,8 +345,7 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
                     spin = Duration::ZERO;
                 }
             } else {
-                let poll =
-                    if is_startup_wait(step, kind) { POLL_BEFORE_START } else { (waited / 4).clamp(POLL, POLL_MAX) };
+                let poll = repoll_after(&*self.t, is_startup_wait(step, kind), waited);
                 self.t.wait(poll.min(limit.saturating_sub(waited)).max(Duration::from_micros(100)))?;
             }
         }

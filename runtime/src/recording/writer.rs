@@ -245,6 +245,15 @@ impl DataPath for Recording<'_> {
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError> {
         self.inner.wait(timeout)
     }
+    fn keeps_ports_until_stopped(&self) -> bool {
+        self.inner.keeps_ports_until_stopped()
+    }
+    fn woken_by_control(&self) -> bool {
+        self.inner.woken_by_control()
+    }
+    fn control_rung(&mut self) -> bool {
+        self.inner.control_rung()
+    }
 }
 
 impl RunControlPort for Recording<'_> {

@@ -15,9 +15,14 @@
 //! `fcntl`, a `setsockopt` and a `recvfrom`, and every process one more service to create and
 //! open at start-up.
 //!
+//! The orchestrator (or the host's gateway relaying it) rings every process's doorbell after each
+//! run-control notice it publishes, as sender N + 1, which no reader subscribes to: a process
+//! waiting for its peers sees a stop, a resume or a roster change at once, so its waits need not
+//! wake up every few milliseconds to look (`DataPath::woken_by_control`).
+//!
 //! Layout: slot `k` (the plant 0, agent i at i, the host's gateway at N + 1) is a 64-byte line
-//! whose first `u32` is the futex word (1: about to sleep), then `⌈(N + 1)/64⌉` words of 64 bits,
-//! bit `s` for sender id `s`, padded to a whole line. Nothing read from the file is used as an
+//! whose first `u32` is the futex word (1: about to sleep), then `⌈(N + 2)/64⌉` words of 64 bits,
+//! bit `s` for sender id `s` (N + 1: run control), padded to a whole line. Nothing read from the file is used as an
 //! index or bound: a reader maps bits to its own subscriptions and ignores the rest, so a
 //! process of the same user scribbling on the file can cost wakeups, never memory safety.
 
@@ -49,10 +54,11 @@ unsafe impl Send for Doorbells {}
 unsafe impl Sync for Doorbells {}
 
 impl Doorbells {
-    /// The file's size for `n` agents: slots for the plant, the agents and a gateway.
+    /// The file's size for `n` agents: slots for the plant, the agents and a gateway; bits for
+    /// those senders and run control.
     fn shape(n_agents: usize) -> (usize, usize, usize) {
         let slots = n_agents + 2;
-        let words = (n_agents + 1).div_ceil(64);
+        let words = (n_agents + 2).div_ceil(64);
         let slot_bytes = LINE + (words * 8).div_ceil(LINE) * LINE;
         (slots, words, slot_bytes)
     }
@@ -139,6 +145,17 @@ impl Doorbells {
         assert!(slot < self.slots, "doorbell slot {slot} of {}", self.slots);
         // SAFETY: as above; `words` words follow the slot's first line.
         unsafe { std::slice::from_raw_parts(self.base.add(slot * self.slot_bytes + LINE).cast(), self.words) }
+    }
+
+    /// The sender id of run control: N + 1, which no reader subscribes to.
+    pub(crate) fn control_sender(&self) -> usize {
+        self.slots - 1
+    }
+
+    /// Run control rings every process's slot (not the gateway's: it reads no control) after
+    /// publishing a notice.
+    pub(crate) fn ring_processes(&self) {
+        (0..self.gateway_slot()).for_each(|to| self.ring(to, self.control_sender()));
     }
 
     /// Sender `from` rings slot `to` (after publishing what it rings for).
@@ -281,6 +298,31 @@ mod tests {
         assert!(bells.wait(2, Duration::from_secs(30)), "the ring is still there until taken");
         assert!(t0.elapsed() < Duration::from_secs(20));
         bells.take(2, |_| {});
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// Run control rings every process (plant and agents), with a sender id of its own that has
+    /// a bit even when N + 1 starts a new bitmap word, and not the gateway; it wakes a sleeper.
+    #[test]
+    fn run_control_rings_every_process_but_the_gateway() {
+        let d = scratch("control");
+        let bells = std::sync::Arc::new(Doorbells::create(&d, 63).unwrap());
+        assert_eq!(bells.control_sender(), 64);
+        let other = std::sync::Arc::clone(&bells);
+        let ringer = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(100));
+            other.ring_processes();
+        });
+        let t0 = Instant::now();
+        assert!(bells.wait(5, Duration::from_secs(30)), "the control ring woke the sleeper");
+        assert!(t0.elapsed() < Duration::from_secs(20), "{:?}", t0.elapsed());
+        ringer.join().unwrap();
+        for slot in 0..=63 {
+            let mut got = Vec::new();
+            bells.take(slot, |s| got.push(s));
+            assert_eq!(got, vec![64], "slot {slot}");
+        }
+        assert!(!bells.rung(bells.gateway_slot()), "the gateway reads no run control");
         std::fs::remove_dir_all(&d).unwrap();
     }
 

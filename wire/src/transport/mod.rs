@@ -105,8 +105,8 @@ pub trait DataPath {
     /// Hand every message received so far to `f` (FIFO per sender), without blocking.
     fn drain(&mut self, f: &mut dyn FnMut(Incoming<'_>)) -> Result<(), TransportError>;
     /// Block until a wakeup arrives or `timeout` passes; may return early. Callers re-poll with
-    /// [`Transport::drain`] after every return, because a wakeup can be lost under heavy
-    /// preemption: waits are always short and repeated, never one long one.
+    /// [`Transport::drain`] after every return, because a wakeup can be lost (a sender that dies
+    /// between its message and its wakeup): waits are bounded and repeated, never one long one.
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError>;
     /// Whether a process must keep its ports open after its last step until the orchestrator's
     /// stop request (it sends one as soon as the plant has finished), because a message it sent
@@ -115,6 +115,22 @@ pub trait DataPath {
     /// receive) can no longer reach once the publisher is gone.
     fn keeps_ports_until_stopped(&self) -> bool {
         false
+    }
+    /// Whether [`DataPath::wait`] also returns as soon as the orchestrator publishes a run-control
+    /// notice (a stop, a resume, a roster change), not only when a message arrives: then a
+    /// process waiting for its peers need not wake up every few milliseconds to look at the
+    /// control port. iceoryx2: the orchestrator rings every doorbell after a notice. A thousand
+    /// agent processes on two cores each re-polling every 10 ms of a 150 ms step woke ≈ 8 times
+    /// per step instead of ≈ 2, and that was most of the step.
+    fn woken_by_control(&self) -> bool {
+        false
+    }
+    /// Whether the run-control port may hold something new since the last call. A data path
+    /// [`woken_by_control`](DataPath::woken_by_control) knows (run control rang its doorbell,
+    /// or a wait ended without any ring), so a process that wakes for its peers' messages need
+    /// not also read the control service each time; any other always says yes.
+    fn control_rung(&mut self) -> bool {
+        true
     }
 }
 
@@ -180,6 +196,12 @@ impl<D: DataPath, C> DataPath for Split<D, C> {
     }
     fn keeps_ports_until_stopped(&self) -> bool {
         self.data.keeps_ports_until_stopped()
+    }
+    fn woken_by_control(&self) -> bool {
+        self.data.woken_by_control()
+    }
+    fn control_rung(&mut self) -> bool {
+        self.data.control_rung()
     }
 }
 
