@@ -4,14 +4,14 @@
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use cohort_wire::msg::{RunControl, STATUS_WAITING};
+use cohort_wire::msg::{PLANT_ID, RunControl, STATUS_WAITING};
 use cohort_wire::transport::{Incoming, Transport};
 use cohort_wire::validate::Rejection;
 
 use super::error::RunError;
 use super::params::DriveParams;
 use super::status::status;
-use super::wait_trial::{Mode, Trial};
+use super::wait_trial::{self, Mode, Trial};
 use crate::record::WaitStats;
 
 /// Longest single blocking wait before re-polling.
@@ -231,7 +231,7 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
         let typical = self.typical_wait_us[kind];
         let mode = match self.p.spin {
             SpinPolicy::Fixed(d) => return (d, false),
-            SpinPolicy::Adaptive => self.trial.mode(step),
+            SpinPolicy::Adaptive => self.adaptive_mode(step),
         };
         let budget =
             || Duration::from_secs_f64((ADAPTIVE_MARGIN * typical).clamp(ADAPTIVE_FLOOR_US, ADAPTIVE_CAP_US) * 1e-6);
@@ -244,6 +244,19 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
             Mode::Learning if !self.contention.may_spin() => (Duration::ZERO, true),
             Mode::Learning => (budget(), true),
         }
+    }
+
+    /// Adaptive waiting's mode for `step`: this process's trial's; between trials, the plant's
+    /// choice where its host's processes can read it ([`wait_trial::advice`]).
+    fn adaptive_mode(&mut self, step: u64) -> Mode {
+        let own = self.trial.mode(step);
+        if self.me == PLANT_ID {
+            if let Some(a) = self.trial.advice(step) {
+                self.t.set_wait_advice(a);
+            }
+            return own;
+        }
+        wait_trial::follow(self.t.wait_advice(), step).unwrap_or(own)
     }
 
     /// Drain into `inbox`, check it, wait briefly; repeat until it is complete or `limit` passes

@@ -157,6 +157,12 @@ impl Trial {
         self.choice
     }
 
+    /// The choice of the trial that ended before step `k`, as advice for the host
+    /// ([`advice`]); none during a trial or before the first.
+    pub(super) fn advice(&self, k: u64) -> Option<u64> {
+        advice(k, self.choice)
+    }
+
     /// A fresh trial's state that keeps the choice, the counts and the next reference's start.
     fn new_keeping(t: &Trial) -> Trial {
         Trial {
@@ -210,9 +216,32 @@ fn per_step(k0: u64, t0: Instant, k: u64, now: Instant) -> f64 {
 }
 
 /// Whether step `k` is in a trial (either half).
-#[cfg(test)]
 fn in_trial(k: u64) -> bool {
     k.checked_sub(FIRST_TRIAL).is_some_and(|d| d % PERIOD_STEPS < 2 * TRIAL_STEPS)
+}
+
+/// The trial period of step `k` (none before the first trial).
+fn period_of(k: u64) -> Option<u64> {
+    k.checked_sub(FIRST_TRIAL).map(|d| d / PERIOD_STEPS)
+}
+
+/// Between trials, every process of the plant's host waits as the plant's trial chose (the
+/// plant publishes it, `DataPath::wait_advice`): each process measures the same lockstep, but
+/// over its own step boundaries, and near a tie their verdicts split — in one launch of a
+/// thousand-agent ring 529 agents chose spinning and 472 blocking, a mixture slower than either.
+/// Encoded as (period + 1) · 2 + (1 for spinning); 0 is none.
+pub(super) fn advice(k: u64, choice: Mode) -> Option<u64> {
+    let period = period_of(k).filter(|_| !in_trial(k))?;
+    Some((period + 1) * 2 + u64::from(choice == Mode::Spin))
+}
+
+/// The mode `advice` gives step `k`: only between trials, and only the advice of `k`'s period.
+pub(super) fn follow(advice: u64, k: u64) -> Option<Mode> {
+    let period = (advice / 2).checked_sub(1)?;
+    if in_trial(k) || period_of(k) != Some(period) {
+        return None;
+    }
+    Some(if advice % 2 == 1 { Mode::Spin } else { Mode::Block })
 }
 
 #[cfg(test)]
@@ -230,6 +259,26 @@ mod tests {
             m
         })
         .collect()
+    }
+
+    /// The plant's advice holds between the trials of its own period only: not during a trial,
+    /// not in the next period, not before the first trial; none is given during a trial.
+    #[test]
+    fn advice_holds_between_the_trials_of_its_period() {
+        let after = FIRST_TRIAL + 2 * TRIAL_STEPS;
+        assert_eq!(advice(FIRST_TRIAL + 3, Mode::Spin), None, "no advice during a trial");
+        assert_eq!(advice(FIRST_TRIAL - 1, Mode::Spin), None, "nor before the first");
+        let spin = advice(after, Mode::Spin).unwrap();
+        let block = advice(after + 100, Mode::Block).unwrap();
+        assert_eq!(follow(spin, after + 1), Some(Mode::Spin));
+        assert_eq!(follow(block, after + 1), Some(Mode::Block));
+        assert_eq!(follow(spin, FIRST_TRIAL + PERIOD_STEPS - 1), Some(Mode::Spin), "until the next trial");
+        assert_eq!(follow(spin, FIRST_TRIAL + PERIOD_STEPS), None, "the next trial is every process's own");
+        let next = FIRST_TRIAL + PERIOD_STEPS + 2 * TRIAL_STEPS;
+        assert_eq!(follow(spin, next), None, "last period's advice is stale");
+        assert_eq!(follow(advice(next, Mode::Block).unwrap(), next), Some(Mode::Block));
+        assert_eq!(follow(0, after), None, "none published");
+        assert_eq!(follow(1, after), None, "no period");
     }
 
     #[test]

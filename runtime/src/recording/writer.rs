@@ -254,6 +254,12 @@ impl DataPath for Recording<'_> {
     fn control_rung(&mut self) -> bool {
         self.inner.control_rung()
     }
+    fn wait_advice(&self) -> u64 {
+        self.inner.wait_advice()
+    }
+    fn set_wait_advice(&self, advice: u64) {
+        self.inner.set_wait_advice(advice);
+    }
 }
 
 impl RunControlPort for Recording<'_> {

@@ -22,8 +22,9 @@
 //!
 //! Layout: slot `k` (the plant 0, agent i at i, the host's gateway at N + 1) is a 64-byte line
 //! whose first `u32` is the futex word (1: about to sleep), then `⌈(N + 2)/64⌉` words of 64 bits,
-//! bit `s` for sender id `s` (N + 1: run control), padded to a whole line. Nothing read from the file is used as an
-//! index or bound: a reader maps bits to its own subscriptions and ignores the rest, so a
+//! bit `s` for sender id `s` (N + 1: run control), padded to a whole line; after the slots, one
+//! line of run-wide words (the plant's waiting advice, `DataPath::wait_advice`). Nothing read
+//! from the file is used as an index or bound: a reader maps bits to its own subscriptions and ignores the rest, so a
 //! process of the same user scribbling on the file can cost wakeups, never memory safety.
 
 use std::fs::OpenOptions;
@@ -79,7 +80,7 @@ impl Doorbells {
             .open(&path)
             .map_err(|e| err(&path, e))?;
         let (slots, words, slot_bytes) = Self::shape(n_agents);
-        file.set_len((slots * slot_bytes) as u64).map_err(|e| err(&path, e))?;
+        file.set_len(file_len(slots, slot_bytes) as u64).map_err(|e| err(&path, e))?;
         Self::map(&path, &file, slots, words, slot_bytes)
     }
 
@@ -95,11 +96,11 @@ impl Doorbells {
             .map_err(|e| err(&path, e))?;
         let (slots, words, slot_bytes) = Self::shape(n_agents);
         let len = file.metadata().map_err(|e| err(&path, e))?.len();
-        if len != (slots * slot_bytes) as u64 {
+        if len != file_len(slots, slot_bytes) as u64 {
             return Err(TransportError::Other(format!(
                 "{}: {len} bytes, not the {} of a run of {n_agents} agents",
                 path.display(),
-                slots * slot_bytes
+                file_len(slots, slot_bytes)
             )));
         }
         Self::map(&path, &file, slots, words, slot_bytes)
@@ -112,7 +113,7 @@ impl Doorbells {
         words: usize,
         slot_bytes: usize,
     ) -> Result<Self, TransportError> {
-        let len = slots * slot_bytes;
+        let len = file_len(slots, slot_bytes);
         // SAFETY: a fresh shared mapping of the whole file; the descriptor may close after it.
         let base = unsafe {
             libc::mmap(
@@ -156,6 +157,26 @@ impl Doorbells {
     /// publishing a notice.
     pub(crate) fn ring_processes(&self) {
         (0..self.gateway_slot()).for_each(|to| self.ring(to, self.control_sender()));
+    }
+
+    /// The run-wide line's first word: the plant's waiting advice (0: none yet), on a line of
+    /// its own so that reading it never contends with a futex word.
+    fn advice_word(&self) -> &AtomicU64 {
+        // SAFETY: the line after the last slot, in the mapping, aligned, only accessed atomically.
+        unsafe { &*self.base.add(self.slots * self.slot_bytes).cast::<AtomicU64>() }
+    }
+
+    /// Publish `advice` (non-zero) for every process of the host; a store only when it changes.
+    pub(crate) fn set_advice(&self, advice: u64) {
+        let w = self.advice_word();
+        if w.load(SeqCst) != advice {
+            w.store(advice, SeqCst);
+        }
+    }
+
+    /// The latest advice, 0 when none was published.
+    pub(crate) fn advice(&self) -> u64 {
+        self.advice_word().load(SeqCst)
     }
 
     /// Sender `from` rings slot `to` (after publishing what it rings for).
@@ -205,6 +226,11 @@ impl Drop for Doorbells {
         // SAFETY: the mapping made in `map`, unmapped once.
         unsafe { libc::munmap(self.base.cast(), self.len) };
     }
+}
+
+/// The slots, then one line of run-wide words (the plant's waiting advice).
+fn file_len(slots: usize, slot_bytes: usize) -> usize {
+    slots * slot_bytes + LINE
 }
 
 fn err(path: &Path, e: std::io::Error) -> TransportError {
@@ -323,6 +349,21 @@ mod tests {
             assert_eq!(got, vec![64], "slot {slot}");
         }
         assert!(!bells.rung(bells.gateway_slot()), "the gateway reads no run control");
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// The plant's advice starts as none, reaches another mapping, and lies outside every slot.
+    #[test]
+    fn advice_reaches_another_mapping_and_touches_no_slot() {
+        let d = scratch("advice");
+        let a = Doorbells::create(&d, 64).unwrap();
+        let b = Doorbells::open(&d, 64).unwrap();
+        assert_eq!(b.advice(), 0);
+        a.set_advice(u64::MAX);
+        assert_eq!(b.advice(), u64::MAX);
+        for slot in 0..a.slots {
+            assert!(!b.rung(slot), "slot {slot}");
+        }
         std::fs::remove_dir_all(&d).unwrap();
     }
 

@@ -1151,6 +1151,12 @@ impl DataPath for IoxData {
     fn control_rung(&mut self) -> bool {
         std::mem::take(&mut self.control_rung)
     }
+    fn wait_advice(&self) -> u64 {
+        self.bells.advice()
+    }
+    fn set_wait_advice(&self, advice: u64) {
+        self.bells.set_advice(advice);
+    }
 }
 
 #[cfg(test)]

@@ -132,6 +132,14 @@ pub trait DataPath {
     fn control_rung(&mut self) -> bool {
         true
     }
+    /// A word the plant publishes to every process of its host (adaptive waiting's choice,
+    /// encoded by the runtime), 0 when none was published or the transport has no such place.
+    fn wait_advice(&self) -> u64 {
+        0
+    }
+    /// The plant only: publish [`DataPath::wait_advice`] (non-zero); a no-op where there is no
+    /// such place.
+    fn set_wait_advice(&self, _advice: u64) {}
 }
 
 /// The run-control port of one process: the orchestrator's requests in, its status out.
@@ -202,6 +210,12 @@ impl<D: DataPath, C> DataPath for Split<D, C> {
     }
     fn control_rung(&mut self) -> bool {
         self.data.control_rung()
+    }
+    fn wait_advice(&self) -> u64 {
+        self.data.wait_advice()
+    }
+    fn set_wait_advice(&self, advice: u64) {
+        self.data.set_wait_advice(advice);
     }
 }
 
