@@ -1107,13 +1107,11 @@ impl DataPath for IoxData {
 
     fn drain(&mut self, f: &mut dyn FnMut(Incoming<'_>)) -> Result<(), TransportError> {
         // Rings first, then the samples: a ring after this is seen by the next wait.
-        let (marks, control) = (&mut self.marks, self.bells.control_sender());
-        let mut control_rung = false;
+        let (marks, rung, control) = (&mut self.marks, &mut self.control_rung, self.bells.control_sender());
         self.bells.take(self.slot, |id| {
-            control_rung |= id == control;
+            *rung |= id == control;
             marks.mark(id);
         });
-        self.control_rung |= control_rung;
         if let Some(sub) = &self.meas_sub {
             while let Some(s) = sub.receive().map_err(|e| TransportError::iox("receive measurement", e))? {
                 f(Incoming::Measurement(s.payload()));
