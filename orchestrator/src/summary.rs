@@ -44,7 +44,7 @@ impl Percentiles {
             total: Some(total),
         })
     }
-    /// A histogram's percentiles (each to the histogram's 3 significant figures).
+    /// A histogram's percentiles (each to the histogram's 2 significant figures: within 1 %).
     pub fn of_hist(h: &LatencyHist) -> Option<Self> {
         (!h.is_empty()).then(|| Self {
             samples: h.len() as usize,

@@ -399,15 +399,21 @@ fn metrics_with_nulls<'de, D: serde::Deserializer<'de>>(
     Ok(m.into_iter().map(|(k, v)| (k, v.unwrap_or(f64::NAN))).collect())
 }
 
-/// A latency histogram (HdrHistogram, 3 significant figures, 100 ns to 60 s) kept by a receiver
-/// per sender. Counts are u32 (saturating at 4.29 · 10⁹ messages a bucket): its 21 504 buckets
-/// take 86 kB a link instead of 172 kB (a 100-agent plant keeps 100, each agent one per neighbour
-/// and the plant's); the log's encoding (V2, variable-length counts) does not change.
+/// A latency histogram (HdrHistogram, 2 significant figures: every value within 1 %, 100 ns to
+/// 60 s) kept by a receiver per sender. Counts are u32 (saturating at 4.29 · 10⁹ messages a
+/// bucket). Its 3 072 buckets take 12 kB a link: a plant keeps one per agent, each agent one per
+/// neighbour and the plant's. With 3 significant figures they took 86 kB a link (21 504 buckets,
+/// ≈ 56 kB of them touched by a link's spread of latencies), and each record was a cache miss
+/// into them: a tenth of a 1 000-agent plant's time (`perf`), 56 MB of its memory. The log's
+/// encoding (V2, variable-length counts) does not change.
 pub struct LatencyHist(hdrhistogram::Histogram<u32>);
+
+/// Significant figures of a [`LatencyHist`].
+const LATENCY_SIGFIG: u8 = 2;
 
 impl Default for LatencyHist {
     fn default() -> Self {
-        Self(hdrhistogram::Histogram::new_with_bounds(100, 60_000_000_000, 3).expect("valid bounds"))
+        Self(hdrhistogram::Histogram::new_with_bounds(100, 60_000_000_000, LATENCY_SIGFIG).expect("valid bounds"))
     }
 }
 
@@ -455,9 +461,9 @@ pub struct LatencyBuckets(pub Vec<(u64, u64)>);
 /// `<proc>` the receiving process): an HdrHistogram interval log (the format of HdrHistogram's
 /// `HistogramLogWriter`, read by its `HistogramLogReader` in Java, Python (`hdrh`), Go, Rust …),
 /// one interval per sender, tagged with the sender's name (`Tag=agent-2,…`), each histogram in
-/// the compressed V2 encoding (3 significant figures, 100 ns to 60 s, as recorded). Compact: a
-/// whole (360 s) fig1 run's 24 links take 79 kB, against 2.2 MB as one CSV row per bucket, the
-/// form the histograms had before. Read a run's back with [`read_latency_histograms`].
+/// the compressed V2 encoding (2 significant figures, 100 ns to 60 s, as recorded). Compact: a
+/// whole (360 s) fig1 run's 24 links took 79 kB at 3 significant figures, against 2.2 MB as one
+/// CSV row per bucket, the form the histograms had before. Read a run's back with [`read_latency_histograms`].
 pub const LATENCY_LOG: &str = "timing/<proc>.hlog";
 
 /// The latency log of process `name` in `timing` (see [`LATENCY_LOG`]).
