@@ -11,8 +11,8 @@
 //!   rows than the CSV writer's 64 KiB text buffer holds, so no more rows are at risk than with
 //!   CSV) are appended, as raw little-endian numbers, to a journal `telemetry/<proc>.rows` (one
 //!   `write`: no encoding, so it costs next to nothing; see [`read_journal`] for the format);
-//! * the same rows go to the final file, written in row groups of [`rows_per_group`] rows into a hidden
-//!   temporary file, closed and renamed to `telemetry/<proc>.parquet` by
+//! * the same rows go to the final file, written in row groups of [`rows_per_group`] rows into a
+//!   hidden temporary file, closed and renamed to `telemetry/<proc>.parquet` by
 //!   [`ParquetWriter::finish`], which then removes the journal. The encoding waits for `finish`
 //!   (the rows wait in memory, up to a budget, [`defer_budget`], then are encoded as they come): on 2 cores the
 //!   lockstep leaves no core idle, and encoding during the run slowed fig1's step loop by 16 %
@@ -28,7 +28,8 @@
 //! plant bug: see `drive.rs`, `last_heard`.)
 //!
 //! Bytes are deterministic: the final file's row groups fall every [`rows_per_group`] rows (a
-//! function of the file's width) whatever the flushes, with no time stamps (`created_by` is fixed by the crate version).
+//! function of the file's width) whatever the flushes, with no time stamps (`created_by` is
+//! fixed by the crate version).
 
 use std::collections::HashMap;
 use std::fs::File;
@@ -57,8 +58,8 @@ pub const ROWS_PER_GROUP: usize = 4096;
 /// its compressed pages) until the group closes: a 1 000-agent ring's plant file has 9 003
 /// columns, and 4096 of its rows held 295 MB in the plant (a 300-agent plant's resident set
 /// was 341 MB against 65 MB writing CSV). Each group also adds its columns' metadata to the
-/// footer (≈ 100 bytes a column), so groups must not get small: at 32 MiB that is ≈ 3 % of a
-/// group's compressed size.
+/// footer (≈ 100 bytes a column), so groups must not get small: at 32 MiB and 9 003 columns
+/// (465 rows a group) that is ≈ 3 % of a group's numbers.
 pub const GROUP_BYTES: usize = 32 << 20;
 
 /// Fewest rows per row group, whatever the width.
