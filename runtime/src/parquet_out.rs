@@ -142,13 +142,14 @@ fn properties(schema: &Schema) -> WriterProperties {
     // the CPU; dictionaries do not fit noisy doubles. Whole numbers (the steps, and timing's
     // nanoseconds) are delta-coded: bit-packed differences, which zstd shrinks further.
     //
-    // A file wider than 1 024 columns is compressed with LZ4 (raw blocks) instead: the parquet
-    // crate gives every column writer of the open row group its own zstd compression and
-    // decompression contexts (≈ 100 kB a column, held until the group closes), which made most
-    // of a 300-agent plant's 300 MB (2 703 columns). LZ4 keeps no context; on the ring's plant
+    // A file wider than 1 024 columns (whose groups the width cuts short, `rows_per_group`) is
+    // compressed with LZ4 (raw blocks) instead: the parquet crate gives every column writer of
+    // the open row group its own zstd compression and decompression contexts (≈ 100 kB a
+    // column, held until the group closes), which made most of a 300-agent plant's 300 MB
+    // (2 703 columns). LZ4 keeps no context; on the ring's plant
     // files it wrote 1.5 % more bytes (2 703 columns, 3 000 rows: 54.5 MB against 53.7 MB).
-    let columns = schema.fields().len();
-    let compression = if columns > GROUP_BYTES / (8 * ROWS_PER_GROUP) {
+    let rows = rows_per_group(schema.fields().len());
+    let compression = if rows < ROWS_PER_GROUP {
         Compression::LZ4_RAW
     } else {
         Compression::ZSTD(ZstdLevel::try_new(3).expect("zstd level 3 exists"))
@@ -157,7 +158,7 @@ fn properties(schema: &Schema) -> WriterProperties {
         .set_compression(compression)
         .set_dictionary_enabled(false)
         .set_encoding(Encoding::BYTE_STREAM_SPLIT)
-        .set_max_row_group_row_count(Some(rows_per_group(columns)));
+        .set_max_row_group_row_count(Some(rows));
     for f in schema.fields().iter().filter(|f| *f.data_type() == DataType::UInt64) {
         b = b.set_column_encoding(ColumnPath::from(f.name().as_str()), Encoding::DELTA_BINARY_PACKED);
     }
