@@ -384,6 +384,48 @@ fn a_control_notice_wakes_a_data_path_woken_by_control(h: &mut dyn Harness) {
     assert!(a.stop_requested());
 }
 
+/// Drain once each time `t` says it was rung ([`DataPath::rung`], what a spinning process looks
+/// at before it drains again), never waiting (a wait that ends unrung makes iceoryx2's next drain
+/// look at everything), until one message comes or a generous deadline passes.
+fn drain_when_rung(t: &mut dyn Transport) -> Option<Received> {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while Instant::now() < deadline {
+        if t.rung() {
+            let mut got = None;
+            t.drain(&mut |m| {
+                got.get_or_insert(match m {
+                    Incoming::Measurement(m) => Received::Measurement(Box::new(*m)),
+                    Incoming::Share { from, share } => Received::Share(from, Box::new(*share)),
+                });
+            })
+            .expect("drain");
+            if got.is_some() {
+                return got;
+            }
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    None
+}
+
+/// `rung` never hides a message: a neighbour's share, then the plant's measurement, each reach
+/// an agent that drains only when it says it was rung — the measurement too, though the drain
+/// before it was for a share (iceoryx2 reads its measurement subscriber only after the plant rang).
+fn rung_never_hides_a_message(h: &mut dyn Harness) {
+    let (mut plant, mut agents) = h.open(&ring4());
+    h.grant_start();
+    assert!(collect(agents[1].as_mut(), 0).is_empty());
+    agents[0].send_share(&share(h.run_id(), 1, 0, &[1.0])).unwrap();
+    let Some(Received::Share(1, _)) = drain_when_rung(agents[1].as_mut()) else {
+        panic!("agent 2 did not get agent 1's share by draining when rung")
+    };
+    plant.send_measurement(2, &measurement(h.run_id(), 0, &[2.0])).unwrap();
+    let Some(Received::Measurement(m)) = drain_when_rung(agents[1].as_mut()) else {
+        panic!("agent 2 did not get its measurement by draining when rung")
+    };
+    assert_eq!(m.readings(), [2.0]);
+}
+
 /// Status reports reach the orchestrator's side.
 fn status_reaches_the_orchestrator(h: &mut dyn Harness) {
     let (mut plant, _agents) = h.open(&ring4());
@@ -469,6 +511,10 @@ macro_rules! conformance {
             #[test]
             fn a_control_notice_wakes_a_data_path_woken_by_control() {
                 super::a_control_notice_wakes_a_data_path_woken_by_control(&mut $make);
+            }
+            #[test]
+            fn rung_never_hides_a_message() {
+                super::rung_never_hides_a_message(&mut $make);
             }
             #[test]
             fn status_reaches_the_orchestrator() {

@@ -103,6 +103,9 @@ pub(super) const BACKOFF_GROWTH: u32 = 8;
 pub(super) const SPIN_MODE_BUDGET: Duration = Duration::from_millis(10);
 /// The longest spin of a wait once a trial chose spinning.
 pub(super) const SPIN_MODE_MAX: Duration = Duration::from_secs(1);
+/// The longest run of yields without a full pass of the wait loop (which drains, checks the
+/// timeout and reports a long wait), when nobody rings.
+const QUIET_SPIN_MAX: Duration = Duration::from_millis(10);
 /// Weight of the newest wait in the running typical wait.
 const ADAPTIVE_EWMA: f64 = 0.1;
 /// Spin for up to this many typical waits.
@@ -259,6 +262,30 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
         wait_trial::follow(self.t.wait_advice(), step).unwrap_or(own)
     }
 
+    /// Yield until a peer rings ([`DataPath::rung`]), `end` passes, SIGTERM comes or, when
+    /// `learning`, a yield stalls ([`YIELD_STALL`]; then `true`), looking at nothing but this
+    /// process's doorbell line and the clock. With hundreds of processes a core, every pass runs
+    /// cache-cold, and a pass that also drained (a receive on iceoryx2's shared state per
+    /// subscriber) and timed itself cost a thousand-agent ring waiting `poll` ≈ 8× the steps/s
+    /// of a bare futex-and-yield lockstep of the same processes. Transports without doorbells
+    /// say they are always rung: one yield a pass, as before.
+    ///
+    /// [`DataPath::rung`]: cohort_wire::transport::DataPath::rung
+    fn spin_quietly(&mut self, end: Instant, learning: bool) -> bool {
+        let mut before = Instant::now();
+        loop {
+            std::thread::yield_now();
+            let now = Instant::now();
+            if learning && now - before >= YIELD_STALL {
+                return true;
+            }
+            if now >= end || self.t.rung() || self.p.terminate.load(Ordering::Relaxed) {
+                return false;
+            }
+            before = now;
+        }
+    }
+
     /// Drain into `inbox`, check it, wait briefly; repeat until it is complete or `limit` passes
     /// with nothing fresh.
     pub(super) fn until(
@@ -311,8 +338,9 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
                 spin_ended = Some(Instant::now());
             }
             spins = spins.wrapping_add(1);
-            // While spinning, look at the control service only now and then: it is not free.
-            if !spinning || spins.is_multiple_of(1024) {
+            // While spinning, look at the control service only now and then: it is not free —
+            // unless the transport knows whether run control rang (a flag, then).
+            if !spinning || spins.is_multiple_of(1024) || self.t.woken_by_control() {
                 // Nor, when the transport knows, while run control has sent nothing new.
                 let control = self.t.control_rung();
                 let why = if control && self.t.stop_requested() {
@@ -350,9 +378,8 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
             if crate::coop::pause() {
                 // A task of a cooperative run: the peers run now, on this thread.
             } else if spinning {
-                let y0 = Instant::now();
-                std::thread::yield_now();
-                if learning && y0.elapsed() >= YIELD_STALL {
+                let end = (started + spin).min(Instant::now() + QUIET_SPIN_MAX);
+                if self.spin_quietly(end, learning) {
                     // Contended: spinning only takes the CPU from whoever we wait for.
                     stalled = true;
                     spin = Duration::ZERO;

@@ -245,6 +245,9 @@ impl DataPath for Recording<'_> {
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError> {
         self.inner.wait(timeout)
     }
+    fn rung(&self) -> bool {
+        self.inner.rung()
+    }
     fn keeps_ports_until_stopped(&self) -> bool {
         self.inner.keeps_ports_until_stopped()
     }

@@ -216,7 +216,8 @@ impl Doorbells {
         self.rung(me)
     }
 
-    fn rung(&self, me: usize) -> bool {
+    /// Whether slot `me` has been rung since the last [`Self::take`] (its bitmap's line only).
+    pub(crate) fn rung(&self, me: usize) -> bool {
         self.bits(me).iter().any(|w| w.load(SeqCst) != 0)
     }
 }

@@ -50,8 +50,8 @@ use iceoryx2::service::port_factory::publish_subscribe as ps_factory;
 use super::doorbell::Doorbells;
 use super::{ControlHub, DataPath, Incoming, Proc, RunControlPort, Split, Topology, TransportError, monotonic_ns};
 use crate::msg::{
-    CONTROL_DEAD, CONTROL_RESUME, CONTROL_START, CONTROL_STOP, Measurement, Roster, RunControl, SCHEMA_VERSION, Share,
-    Status,
+    CONTROL_DEAD, CONTROL_RESUME, CONTROL_START, CONTROL_STOP, Measurement, PLANT_ID, Roster, RunControl,
+    SCHEMA_VERSION, Share, Status,
 };
 
 pub(crate) type Svc = ipc::Service;
@@ -1108,11 +1108,15 @@ impl DataPath for IoxData {
     fn drain(&mut self, f: &mut dyn FnMut(Incoming<'_>)) -> Result<(), TransportError> {
         // Rings first, then the samples: a ring after this is seen by the next wait.
         let (marks, rung, control) = (&mut self.marks, &mut self.control_rung, self.bells.control_sender());
+        let mut plant_rang = false;
         self.bells.take(self.slot, |id| {
             *rung |= id == control;
+            plant_rang |= id == PLANT_ID as usize;
             marks.mark(id);
         });
-        if let Some(sub) = &self.meas_sub {
+        // The measurement subscriber only when the plant (or the gateway, as its stand-in) rang,
+        // or on a sweep: a receive reads iceoryx2's shared state, cold among many processes.
+        if let Some(sub) = self.meas_sub.as_ref().filter(|_| plant_rang || self.marks.sweep_all()) {
             while let Some(s) = sub.receive().map_err(|e| TransportError::iox("receive measurement", e))? {
                 f(Incoming::Measurement(s.payload()));
             }
@@ -1139,6 +1143,9 @@ impl DataPath for IoxData {
             self.control_rung = true;
         }
         Ok(())
+    }
+    fn rung(&self) -> bool {
+        self.marks.sweep_all() || self.bells.rung(self.slot)
     }
     fn keeps_ports_until_stopped(&self) -> bool {
         true

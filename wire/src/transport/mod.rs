@@ -108,6 +108,13 @@ pub trait DataPath {
     /// [`Transport::drain`] after every return, because a wakeup can be lost (a sender that dies
     /// between its message and its wakeup): waits are bounded and repeated, never one long one.
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError>;
+    /// Whether a [`DataPath::drain`] may find something new: `false` only where the transport
+    /// knows that nobody rang since the last drain (iceoryx2's doorbells, one line of this
+    /// process's own), so a spinning process can yield again without draining; any other always
+    /// says yes.
+    fn rung(&self) -> bool {
+        true
+    }
     /// Whether a process must keep its ports open after its last step until the orchestrator's
     /// stop request (it sends one as soon as the plant has finished), because a message it sent
     /// can still be lost when it leaves: an iceoryx2 sample lives in its publisher's segment,
@@ -201,6 +208,9 @@ impl<D: DataPath, C> DataPath for Split<D, C> {
     }
     fn wait(&mut self, timeout: Duration) -> Result<(), TransportError> {
         self.data.wait(timeout)
+    }
+    fn rung(&self) -> bool {
+        self.data.rung()
     }
     fn keeps_ports_until_stopped(&self) -> bool {
         self.data.keeps_ports_until_stopped()
