@@ -18,16 +18,20 @@
 //! delayed by the kernel's netem where the kernel has it, else TAP pairs with the user-space pump
 //! of [`cohort_supervisor::linkemu`] (the rows say which); with the pump, the bench also measures
 //! the round trip across a veth lab, so the pump's own latency can be read off. And `orchestrator
-//! campaign`'s cases per second on fig1 with 1 and 2 workers, in-process and as processes.
+//! campaign`'s cases per second on fig1 with 1 and 2 workers, in-process and as processes. And
+//! after the cases, at every N of the idle ring and scale rows, the machine's wake floor
+//! ([`floor`]: the ring's wake graph among as many processes doing nothing else), so that what
+//! the ring reaches is read against what this machine allows.
 //!
 //! The module's parts: `types` (a case, a sample, an aggregate), `ring` (the consensus ring
 //! as scenario text), `cases` (every case), one module per kind of row that needs more than a
-//! ring (`zenoh`, `loaded`, `mac`, `python`, `live`), `sample` (what a run measured),
+//! ring (`zenoh`, `loaded`, `mac`, `python`, `live`), `floor` (the wake floor), `sample` (what a run measured),
 //! `run` (the campaign: choose, run interleaved, aggregate, write) and `report` (the
 //! Markdown of the rows every bench has).
 
 mod campaign;
 mod cases;
+mod floor;
 mod live;
 mod loaded;
 mod mac;

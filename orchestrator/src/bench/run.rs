@@ -15,7 +15,7 @@ use super::report::{machine, markdown};
 use super::sample::sample;
 use super::types::{Aggregate, Case, Sample, median};
 use super::zenoh::{Rtt, lab_rtts, measure_rtt, start_lab, zenoh_markdown};
-use super::{campaign, python};
+use super::{campaign, floor, python};
 
 /// A directory removed with everything in it when dropped.
 struct RemoveOnDrop(PathBuf);
@@ -81,9 +81,11 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     let aggregates = measure(&cases, reps, &scratch, lab.as_ref(), started)?;
     let links = lab.as_ref().map(|l| l.links());
     drop(lab);
+    let floor = floor::measure_for(&aggregates, reps).map_err(|e| BenchError::Failed(e.to_string()))?;
     let mac = [6usize, 106, 512].map(|v| (v, mac_ns(v)));
     let mut md = markdown(&aggregates, quick, reps, only, started.elapsed().as_secs_f64());
     md.push_str(&loaded_markdown(&aggregates));
+    md.push_str(&floor::markdown(&aggregates, &floor));
     md.push_str(&mac_markdown(&aggregates, &mac));
     md.push_str(&zenoh_markdown(&aggregates, &rtts, links));
     md.push_str(&python::markdown(&aggregates));
@@ -91,6 +93,7 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
     md.push_str(&campaign::markdown(&campaign_rows));
     let mut json = results_json(quick, reps, &aggregates, &rtts, links, &mac);
     json["campaign"] = serde_json::json!(campaign_rows);
+    json["wake_floor"] = serde_json::json!(floor);
     write_results(out_dir, &json, &md)?;
     Ok(md)
 }
