@@ -264,11 +264,12 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
 
     /// Yield until a peer rings ([`DataPath::rung`]), `end` passes, SIGTERM comes or, when
     /// `learning`, a yield stalls ([`YIELD_STALL`]; then `true`), looking at nothing but this
-    /// process's doorbell line and the clock. With hundreds of processes a core, every pass runs
-    /// cache-cold, and a pass that also drained (a receive on iceoryx2's shared state per
-    /// subscriber) and timed itself cost a thousand-agent ring waiting `poll` ≈ 8× the steps/s
-    /// of a bare futex-and-yield lockstep of the same processes. Transports without doorbells
-    /// say they are always rung: one yield a pass, as before.
+    /// process's doorbell line and the clock. With hundreds of processes a core every pass runs
+    /// cache-cold; a thousand-agent ring waiting `poll` ran at an eighth of the steps/s of a bare
+    /// futex-and-yield lockstep of as many processes (the bench's wake floor), and passes that
+    /// found nothing yet drained (a receive on iceoryx2's shared state) and read the clock three
+    /// times; without that, ≈ 10 % faster there. Transports without doorbells say they are
+    /// always rung: one yield a pass, as before.
     ///
     /// [`DataPath::rung`]: cohort_wire::transport::DataPath::rung
     fn spin_quietly(&mut self, end: Instant, learning: bool) -> bool {
