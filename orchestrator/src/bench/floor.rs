@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use super::report::{f0, get};
+use super::report::{f0, f2, get, ns_of};
 use super::types::{Aggregate, median};
 
 /// How the floor's processes wait.
@@ -66,7 +66,7 @@ const WAIT_SLICE_NS: i64 = 100_000_000;
 
 /// A 64-byte line per process: its futex word (1: about to sleep), a ring counter, and the last
 /// step of its message (agent i: its measurement from the plant, then its share). Slot 0 is the
-/// plant's; the controls counted in `Line::step` of slot N + 1.
+/// plant's; the agents' controls are counted in `meas` of line N + 1 ([`Board::controls`]).
 #[repr(C, align(64))]
 struct Line {
     sleeping: AtomicU32,
@@ -254,11 +254,8 @@ pub(super) fn measure(n: u32, how: FloorWait, steps: u64) -> Result<FloorRow, Fl
 /// The floor at every N of the run's idle ring and scale rows, `reps` times interleaved (both
 /// waits each time), medians. None at all when no such row ran.
 pub(super) fn measure_for(a: &[Aggregate], reps: u32) -> Result<Vec<FloorRow>, FloorError> {
-    let mut ns: Vec<u32> = a.iter().filter(|x| x.group == "ring" || x.group == "scale").map(|x| x.n).collect();
-    ns.sort_unstable();
-    ns.dedup();
     let mut out = Vec::new();
-    for n in ns {
+    for n in ns_of(a, &["ring", "scale"]) {
         for how in [FloorWait::Block, FloorWait::Spin] {
             let mut rates = Vec::new();
             for _ in 0..reps.max(1) {
@@ -311,11 +308,6 @@ pub(super) fn markdown(a: &[Aggregate], rows: &[FloorRow]) -> String {
         );
     }
     md
-}
-
-/// A ratio with two decimals, "–" when a side is missing.
-fn f2(x: f64) -> String {
-    if x.is_finite() { format!("{x:.2}") } else { "–".into() }
 }
 
 #[cfg(test)]

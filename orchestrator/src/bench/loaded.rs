@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use super::report::{f0, get};
+use super::report::{f0, get, ns_of};
 use super::types::{Aggregate, median};
 
 /// Two threads that burn a core each until dropped: a machine busy with other work (the
@@ -98,9 +98,7 @@ fn adaptive_over_best(a: &[Aggregate], group: &str, n: u32) -> Option<Vec<f64>> 
 
 /// The section holding the default wait against the best fixed one at every N with both rows.
 fn against_best_markdown(a: &[Aggregate]) -> String {
-    let mut ns: Vec<u32> = a.iter().filter(|x| x.group == "ring" || x.group == "loaded").map(|x| x.n).collect();
-    ns.sort_unstable();
-    ns.dedup();
+    let ns = ns_of(a, &["ring", "loaded"]);
     let mut md = String::new();
     let mut rows = String::new();
     for n in ns {

@@ -67,6 +67,19 @@ pub(super) fn f0(x: f64) -> String {
     if x.is_finite() { format!("{x:.0}") } else { "–".into() }
 }
 
+/// A ratio with two decimals, "–" when not finite (a side `--only` left out).
+pub(super) fn f2(x: f64) -> String {
+    if x.is_finite() { format!("{x:.2}") } else { "–".into() }
+}
+
+/// The agent counts of the rows of `groups`, ascending, each once.
+pub(super) fn ns_of(a: &[Aggregate], groups: &[&str]) -> Vec<u32> {
+    let mut ns: Vec<u32> = a.iter().filter(|x| groups.contains(&x.group.as_str())).map(|x| x.n).collect();
+    ns.sort_unstable();
+    ns.dedup();
+    ns
+}
+
 /// The header and the sections of the rows every bench has (each empty when `--only` left out
 /// its rows).
 pub(super) fn markdown(a: &[Aggregate], quick: bool, reps: u32, only: Option<&str>, took_s: f64) -> String {
@@ -86,8 +99,7 @@ pub(super) fn markdown(a: &[Aggregate], quick: bool, reps: u32, only: Option<&st
     );
     headline_sections(&mut md, a);
     // Ring: strategies per N
-    let mut ns: Vec<u32> = a.iter().filter(|x| x.group == "ring").map(|x| x.n).collect();
-    ns.dedup();
+    let ns = ns_of(a, &["ring"]);
     // `--only` may leave no ring case: then no ring sections.
     if !ns.is_empty() {
         ring_sections(&mut md, a, &ns);
@@ -132,8 +144,7 @@ fn headline_sections(md: &mut String, a: &[Aggregate]) {
 
 /// iceoryx2 against UDP loopback, same protocol and waits, for the N with UDP rows.
 fn udp_section(md: &mut String, a: &[Aggregate]) {
-    let mut udp_ns: Vec<u32> = a.iter().filter(|x| x.group == "udp").map(|x| x.n).collect();
-    udp_ns.dedup();
+    let udp_ns = ns_of(a, &["udp"]);
     if !udp_ns.is_empty() {
         md.push_str("\n## iceoryx2 vs UDP loopback (same protocol, same waits)\n\n| N | wait | iceoryx2 steps/s | UDP steps/s | iceoryx2 / UDP |\n|---|---|---|---|---|\n");
         for &n in &udp_ns {
