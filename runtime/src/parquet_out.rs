@@ -7,7 +7,8 @@
 //! A Parquet file is readable only once its footer is written, so a process killed with SIGKILL
 //! would lose every row of an open file. Never lose telemetry: rows go to disk twice, both off the
 //! step path, on a writer thread:
-//! * every [`ParquetWriter::batch_rows`] rows (at most [`JOURNAL_BATCH_BYTES`] of numbers: fewer
+//! * every [`ParquetWriter::batch_rows`] rows (the first batch shorter by the file's `phase`, so
+//!   that a lockstep's processes do not all write at the same step; at most [`JOURNAL_BATCH_BYTES`] of numbers: fewer
 //!   rows than the CSV writer's 64 KiB text buffer holds, so no more rows are at risk than with
 //!   CSV) are appended, as raw little-endian numbers, to a journal `telemetry/<proc>.rows` (one
 //!   `write`: no encoding, so it costs next to nothing; see [`read_journal`] for the format);
@@ -165,6 +166,20 @@ fn properties(schema: &Schema) -> WriterProperties {
     b.build()
 }
 
+/// How many rows the first journal batch of the file at `path` is short of `batch_rows`: a
+/// function of the file's name, spread over `0..batch_rows`. A lockstep's processes write rows
+/// at the same steps, so without it every agent's writer thread woke at the same step (and every
+/// 186th step of a 100-agent ring): a hundred threads at once, which the scheduler runs before
+/// the spinning processes of the lockstep, made those steps the run's slowest (see the README,
+/// "Where a 100-agent step's worst cases come from"). Only when the journal is written changes;
+/// the final file's bytes do not depend on it.
+fn phase(path: &Path, batch_rows: usize) -> usize {
+    // FNV-1a of the name: `agent-17.parquet` and `agent-18.parquet` land far apart.
+    let name = path.file_name().map_or(&[][..], |n| n.as_encoded_bytes());
+    let h = name.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3));
+    (h % batch_rows.max(1) as u64) as usize
+}
+
 type Ack = Sender<std::io::Result<()>>;
 
 enum Cmd {
@@ -182,6 +197,9 @@ pub struct ParquetWriter<V: Value = f64> {
     k: Vec<u64>,
     values: Vec<Vec<V>>,
     batch_rows: usize,
+    /// Rows of the batch being buffered: [`Self::batch_rows`], but the first batch is shorter by
+    /// this file's [`phase`].
+    this_batch: usize,
     tx: Option<Sender<Cmd>>,
     thread: Option<JoinHandle<()>>,
     path: PathBuf,
@@ -253,6 +271,7 @@ impl<V: Value> ParquetWriter<V> {
             k: Vec::with_capacity(batch_rows),
             values: (0..width).map(|_| Vec::with_capacity(batch_rows)).collect(),
             batch_rows,
+            this_batch: batch_rows - phase(path, batch_rows),
             tx: Some(tx),
             thread: Some(thread),
             path: path.to_path_buf(),
@@ -271,7 +290,7 @@ impl<V: Value> ParquetWriter<V> {
         for (column, v) in self.values.iter_mut().zip(values) {
             column.push(*v);
         }
-        if self.k.len() >= self.batch_rows { self.send_rows(None) } else { Ok(()) }
+        if self.k.len() >= self.this_batch { self.send_rows(None) } else { Ok(()) }
     }
     /// Hand the buffered rows to the writer thread (always, when `ack` is given).
     fn send_rows(&mut self, ack: Option<Ack>) -> std::io::Result<()> {
@@ -279,6 +298,7 @@ impl<V: Value> ParquetWriter<V> {
             return Ok(());
         }
         let n = self.batch_rows;
+        self.this_batch = n;
         let k = std::mem::replace(&mut self.k, Vec::with_capacity(n));
         let mut arrays: Vec<ArrayRef> = Vec::with_capacity(self.values.len() + 1);
         arrays.push(Arc::new(UInt64Array::from(k)));
@@ -768,6 +788,23 @@ mod tests {
         assert_eq!(k, (0..n).collect::<Vec<_>>());
         assert_eq!(back[4094][n as usize - 1], value(n - 1, 4094).to_bits());
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The processes of a run write their first journal batch at steps spread over a whole batch
+    /// (so later ones too), each at the same steps every run; a first batch is never empty.
+    #[test]
+    fn journal_batches_of_a_runs_processes_fall_at_spread_steps() {
+        let per = 186; // an 11-column agent file
+        let phases: Vec<usize> = (1..=100).map(|i| phase(Path::new(&format!("agent-{i}.parquet")), per)).collect();
+        assert!(phases.iter().all(|&p| p < per));
+        let mut distinct = phases.clone();
+        distinct.sort_unstable();
+        distinct.dedup();
+        assert!(distinct.len() >= 50, "100 agents' first batches at only {} distinct steps", distinct.len());
+        assert!(phases.iter().filter(|&&p| p < per / 2).count() >= 25, "{phases:?}");
+        assert!(phases.iter().filter(|&&p| p >= per / 2).count() >= 25, "{phases:?}");
+        assert_eq!(phase(Path::new("telemetry/agent-7.parquet"), per), phase(Path::new("agent-7.parquet"), per));
+        assert_eq!(phase(Path::new("agent-7.parquet"), 1), 0);
     }
 
     /// A writer that never finishes (its process killed) leaves a journal with every row but
