@@ -10,7 +10,7 @@ use cohort_wire::msg::{Header, LINK_LOST, Measurement, STATUS_DONE, STATUS_IDLE,
 use cohort_wire::transport::{Proc, Transport, TransportError, monotonic_ns};
 
 use super::agent_inbox::{AgentInbox, live_at};
-use super::checkpoint_writer::CheckpointWriter;
+use super::checkpoint_writer::{CheckpointWriter, stagger};
 use super::error::{RunError, failed, io};
 use super::files::agent_files;
 use super::params::DriveParams;
@@ -260,6 +260,7 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
     /// The state at the start of step k (after step k−1), before any fault due at k.
     fn checkpoint_if_due(&mut self, report: &mut ProcessReport) -> Result<(), RunError> {
         let (p, k, id) = (self.p, self.k, self.id);
+        self.checkpoints.release_due(k).map_err(io("agent checkpoint"))?;
         if p.checkpoint_every > 0 && k % p.checkpoint_every == 0 && self.restore.is_none_or(|c| c.step != k) {
             let ck = Checkpoint {
                 run_id: p.run_id,
@@ -276,11 +277,12 @@ impl<'a, T: Transport + ?Sized> AgentDriver<'a, T> {
                         .collect(),
                 },
             };
-            // Encoded now (the state of this step), written by the writer's thread; a failed
-            // write's error names the file.
-            self.checkpoints.submit(ck.encode()).map_err(io("agent checkpoint"))?;
+            // Encoded now (the state of this step), written by the writer's thread a few steps
+            // later (`stagger`); a failed write's error names the file.
+            let at = k + stagger(id, p.checkpoint_every);
+            self.checkpoints.hold(ck.encode(), at).map_err(io("agent checkpoint"))?;
             report.faults.checkpoints_written += 1;
-            tracing::debug!("step {k}: checkpoint handed to its writer");
+            tracing::debug!("step {k}: checkpoint encoded, handed to its writer at step {at}");
         }
         Ok(())
     }
