@@ -174,10 +174,9 @@ fn properties(schema: &Schema) -> WriterProperties {
 /// "Where a 100-agent step's worst cases come from"). Only when the journal is written changes;
 /// the final file's bytes do not depend on it.
 fn phase(path: &Path, batch_rows: usize) -> usize {
-    // FNV-1a of the name: `agent-17.parquet` and `agent-18.parquet` land far apart.
+    // A digest of the name: `agent-17.parquet` and `agent-18.parquet` land far apart.
     let name = path.file_name().map_or(&[][..], |n| n.as_encoded_bytes());
-    let h = name.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3));
-    (h % batch_rows.max(1) as u64) as usize
+    (cohort_wire::fnv1a(name) % batch_rows.max(1) as u64) as usize
 }
 
 type Ack = Sender<std::io::Result<()>>;

@@ -23,7 +23,7 @@ pub fn process_rng(seed: u64, p: Proc) -> ChaCha8Rng {
 /// A generator for one named stream of scenario set-up draws (e.g. random initial offsets),
 /// independent of every process's noise stream, and the same in every process that asks.
 pub fn setup_rng(seed: u64, stream: &str) -> ChaCha8Rng {
-    let tag = stream.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
+    let tag = cohort_wire::fnv1a(stream.as_bytes());
     ChaCha8Rng::seed_from_u64(splitmix64(seed ^ splitmix64(tag)))
 }
 

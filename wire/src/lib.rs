@@ -28,5 +28,11 @@ pub fn build_id() -> &'static str {
 
 /// A 64-bit digest of [`build_id`], small enough for a status message.
 pub fn build_id_hash() -> u64 {
-    build_id().bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+    fnv1a(build_id().as_bytes())
+}
+
+/// FNV-1a (64-bit) of `bytes`: a stable digest (unlike `DefaultHasher`, the same in every build
+/// and Rust version) for tags, names and cache keys; not a defence against anyone.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
 }

@@ -63,21 +63,21 @@ impl CheckpointWriter {
     /// Keep a checkpoint to hand over at step `at` ([`Self::release_due`]); one still held goes
     /// now.
     pub(super) fn hold(&mut self, bytes: Vec<u8>, at: u64) -> std::io::Result<()> {
-        if let Some((_, older)) = self.held.take() {
-            self.submit(older)?;
-        }
+        self.hand_over_held()?;
         self.held = Some((at, bytes));
         Ok(())
     }
 
     /// At step `k`: hand over the held checkpoint if its step has come.
     pub(super) fn release_due(&mut self, k: u64) -> std::io::Result<()> {
+        if self.held.as_ref().is_some_and(|(at, _)| *at <= k) { self.hand_over_held() } else { Ok(()) }
+    }
+
+    /// Hand over the held checkpoint, if any, whatever its step.
+    fn hand_over_held(&mut self) -> std::io::Result<()> {
         match self.held.take() {
-            Some((at, bytes)) if at <= k => self.submit(bytes),
-            held => {
-                self.held = held;
-                Ok(())
-            }
+            Some((_, bytes)) => self.submit(bytes),
+            None => Ok(()),
         }
     }
 
@@ -96,10 +96,7 @@ impl CheckpointWriter {
     /// Hand over a held checkpoint, then block until every checkpoint is on the file system; the
     /// first failure.
     pub(super) fn wait(&mut self) -> std::io::Result<()> {
-        let mut first = match self.held.take() {
-            Some((_, bytes)) => self.submit(bytes),
-            None => Ok(()),
-        };
+        let mut first = self.hand_over_held();
         while self.pending > 0 {
             let r =
                 self.done.recv().unwrap_or_else(|_| Err(std::io::Error::other("the checkpoint writer thread ended")));

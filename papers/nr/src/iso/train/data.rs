@@ -65,7 +65,7 @@ impl DataOptions {
             crate::iso::guidance::features::N_FEATURES,
             serde_json::to_string(self).expect("plain options serialise")
         );
-        text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+        cohort_wire::fnv1a(text.as_bytes())
     }
 }
 
