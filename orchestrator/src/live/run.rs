@@ -182,14 +182,17 @@ impl View {
     }
 
     fn poll(&mut self) {
-        let subscribed = self.server.take_subscriptions();
+        // A new subscriber gets the latest state before this poll publishes anything: it is
+        // subscribed already, so what is published next reaches it anyway, and the latest taken
+        // after publishing was that same message again (a duplicate scene when the first rows and
+        // a client's subscription came in one poll).
+        for s in &self.server.take_subscriptions() {
+            self.send_latest(s);
+        }
         self.follow_new_journals();
         self.read_rows();
         self.timeline();
         self.progress();
-        for s in &subscribed {
-            self.send_latest(s);
-        }
     }
 
     /// A client that just subscribed to a topic gets its latest state (the whole log for
