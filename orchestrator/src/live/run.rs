@@ -37,6 +37,10 @@ pub struct LiveRun {
     thread: Option<JoinHandle<()>>,
 }
 
+/// A message logged to every subscriber: (step, bytes, its number from [`server::log`], 0 when
+/// its channel was not made).
+type Sent = (u64, Vec<u8>, u64);
+
 /// Rows of one process: (step, the values after `k`).
 type Rows = Vec<(u64, Vec<f64>)>;
 
@@ -46,7 +50,7 @@ struct Proc {
     journal: Option<Journal>,
     columns: Vec<String>,
     channel: Option<Arc<RawChannel>>,
-    latest: Option<(u64, Vec<u8>)>,
+    latest: Option<Sent>,
     rows: BTreeMap<u64, Vec<f64>>,
     /// Rows it may still publish now, and when that was reckoned (see [`View::read_rows`]).
     allowance: f64,
@@ -64,9 +68,9 @@ struct View {
     procs: BTreeMap<String, Proc>,
     events: Receiver<TimelineEvent>,
     dead: BTreeSet<u32>,
-    log: Vec<(u64, Vec<u8>)>,
-    scene: Option<(u64, Vec<u8>)>,
-    progress: Option<(u64, Vec<u8>)>,
+    log: Vec<Sent>,
+    scene: Option<Sent>,
+    progress: Option<Sent>,
     last_step: u64,
     started: Instant,
     last_remote: Option<Instant>,
@@ -182,10 +186,8 @@ impl View {
     }
 
     fn poll(&mut self) {
-        // A new subscriber gets the latest state before this poll publishes anything: it is
-        // subscribed already, so what is published next reaches it anyway, and the latest taken
-        // after publishing was that same message again (a duplicate scene when the first rows and
-        // a client's subscription came in one poll).
+        // A new subscriber gets the latest state it has not had (`Subscription::logged`), before
+        // this poll publishes more, which reaches it anyway.
         for s in &self.server.take_subscriptions() {
             self.send_latest(s);
         }
@@ -198,7 +200,7 @@ impl View {
     /// A client that just subscribed to a topic gets its latest state (the whole log for
     /// `/roster`), and no other client gets it again.
     fn send_latest(&self, s: &Subscription) {
-        let latest = |m: &Option<(u64, Vec<u8>)>| m.iter().map(|(k, b)| (*k, b.clone())).collect::<Vec<_>>();
+        let latest = |m: &Option<Sent>| m.iter().cloned().collect::<Vec<_>>();
         let (channel, messages) = match s.topic.as_str() {
             "/scene" => (typed_channel::<SceneUpdate>(self.server, "/scene"), latest(&self.scene)),
             "/roster" => (typed_channel::<Log>(self.server, "/roster"), self.log.clone()),
@@ -209,7 +211,7 @@ impl View {
             }
         };
         if let Some(c) = channel {
-            for (k, bytes) in &messages {
+            for (k, bytes, _) in messages.iter().filter(|m| m.2 <= s.logged) {
                 server::log_to(&c, bytes, self.t_ns(*k), s.sink);
             }
         }
@@ -279,14 +281,12 @@ impl View {
             }
             for (k, values) in rows {
                 // Rows of a step already shown (a remote process's, asked again) are not sent twice.
-                if p.latest.as_ref().is_some_and(|(last, _)| k <= *last) {
+                if p.latest.as_ref().is_some_and(|(last, _, _)| k <= *last) {
                     continue;
                 }
                 let bytes = row_json(&p.columns, k, &values);
-                if let Some(c) = &p.channel {
-                    server::log(c, &bytes, t(k));
-                }
-                p.latest = Some((k, bytes));
+                let n = p.channel.as_ref().map_or(0, |c| server::log(c, &bytes, t(k)));
+                p.latest = Some((k, bytes, n));
                 p.rows.insert(k, values);
                 if name == "plant" {
                     plant_steps.push(k);
@@ -330,10 +330,9 @@ impl View {
             .collect();
         let frame = Frame { t_ns: self.t_ns(k), bodies: &self.bodies, truth, estimate, links, dead: &self.dead };
         let bytes = encode(&scene::update(&frame));
-        if let Some(c) = typed_channel::<SceneUpdate>(self.server, "/scene") {
-            server::log(&c, &bytes, self.t_ns(k));
-        }
-        self.scene = Some((k, bytes));
+        let n =
+            typed_channel::<SceneUpdate>(self.server, "/scene").map_or(0, |c| server::log(&c, &bytes, self.t_ns(k)));
+        self.scene = Some((k, bytes, n));
     }
 
     /// The roster at the start, on `/roster`.
@@ -358,10 +357,8 @@ impl View {
             line: 0,
         };
         let bytes = encode(&msg);
-        if let Some(c) = typed_channel::<Log>(self.server, "/roster") {
-            server::log(&c, &bytes, t);
-        }
-        self.log.push((step, bytes));
+        let n = typed_channel::<Log>(self.server, "/roster").map_or(0, |c| server::log(&c, &bytes, t));
+        self.log.push((step, bytes, n));
     }
 
     /// Every timeline event since the last poll on `/roster` (and the roster the links show).
@@ -409,10 +406,9 @@ impl View {
             "clients": self.server.clients(),
         });
         let bytes = serde_json::to_vec(&msg).unwrap_or_default();
-        if let Some(c) = json_channel(self.server, "/progress", "cohort.progress", props) {
-            server::log(&c, &bytes, self.t_ns(step));
-        }
-        self.progress = Some((step, bytes));
+        let n = json_channel(self.server, "/progress", "cohort.progress", props)
+            .map_or(0, |c| server::log(&c, &bytes, self.t_ns(step)));
+        self.progress = Some((step, bytes, n));
     }
 }
 

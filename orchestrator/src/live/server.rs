@@ -43,6 +43,11 @@ pub static STEP: AtomicU64 = AtomicU64::new(0);
 pub struct Subscription {
     pub sink: Option<SinkId>,
     pub topic: String,
+    /// How many messages had been logged to every subscriber when it subscribed: those numbered
+    /// higher reached it already (it was subscribed when they were logged), so sending it the
+    /// latest state skips them. (Sent after the view's next publishing instead, a subscriber got
+    /// the message just logged twice.)
+    pub logged: u64,
 }
 
 /// Queues every subscription for [`Server::take_subscriptions`].
@@ -51,7 +56,8 @@ struct Subscribed(Arc<Mutex<Vec<Subscription>>>);
 impl ServerListener for Subscribed {
     fn on_subscribe(&self, client: Client, channel: ChannelView) {
         let mut q = self.0.lock().unwrap_or_else(|p| p.into_inner());
-        q.push(Subscription { sink: client.sink_id(), topic: channel.topic().to_string() });
+        let logged = LOGGED.load(Ordering::SeqCst);
+        q.push(Subscription { sink: client.sink_id(), topic: channel.topic().to_string(), logged });
     }
 }
 
@@ -152,9 +158,15 @@ impl Server {
     }
 }
 
-/// Log `bytes` on `channel` at sim time `t_ns`, to every subscriber.
-pub fn log(channel: &RawChannel, bytes: &[u8], t_ns: u64) {
+/// Messages logged to every subscriber so far, counted before each is logged.
+static LOGGED: AtomicU64 = AtomicU64::new(0);
+
+/// Log `bytes` on `channel` at sim time `t_ns`, to every subscriber. Returns the message's number
+/// (see [`Subscription::logged`]).
+pub fn log(channel: &RawChannel, bytes: &[u8], t_ns: u64) -> u64 {
+    let n = LOGGED.fetch_add(1, Ordering::SeqCst) + 1;
     channel.log_with_meta(bytes, PartialMetadata::with_log_time(t_ns));
+    n
 }
 
 /// Log `bytes` on `channel` at sim time `t_ns` to one subscriber only.
