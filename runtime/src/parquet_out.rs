@@ -37,12 +37,12 @@ use std::fs::File;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::mpsc::{Sender, channel};
+use std::sync::mpsc::{Receiver, Sender, channel, sync_channel};
 use std::thread::JoinHandle;
 
 use arrow_array::cast::AsArray;
 use arrow_array::types::{ArrowPrimitiveType, Float64Type, UInt64Type};
-use arrow_array::{Array, ArrayRef, Float64Array, PrimitiveArray, RecordBatch, UInt64Array};
+use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch, UInt64Array};
 use arrow_schema::{DataType, Field, Schema, SchemaRef};
 use parquet::arrow::ArrowWriter;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
@@ -91,16 +91,24 @@ pub trait Value: arrow_array::ArrowNativeTypeOp + Send + Sync + 'static {
     fn data_type() -> DataType {
         Self::Arrow::DATA_TYPE
     }
+    /// The 64-bit word a journal holds for it (a double's bits, or the whole number).
+    fn word(self) -> u64;
 }
 
 impl Value for f64 {
     type Arrow = Float64Type;
     const NAME: &'static str = "f64";
+    fn word(self) -> u64 {
+        self.to_bits()
+    }
 }
 
 impl Value for u64 {
     type Arrow = UInt64Type;
     const NAME: &'static str = "u64";
+    fn word(self) -> u64 {
+        self
+    }
 }
 
 /// The value type a journal names.
@@ -182,19 +190,31 @@ fn phase(path: &Path, batch_rows: usize) -> usize {
 type Ack = Sender<std::io::Result<()>>;
 
 enum Cmd {
-    /// Rows to write (to the journal, then into the final file); answer once they are in the
-    /// journal if asked.
-    Rows(RecordBatch, Option<Ack>),
+    /// Rows to write (to the journal, then into the final file), as the journal holds them (each
+    /// row `k` then every value, one word each); answer once they are in the journal if asked.
+    Rows(Vec<u64>, Option<Ack>),
     /// Close the final file, rename it into place, remove the journal; answer with the outcome.
     Finish(Ack),
 }
 
 /// Buffers rows and has a thread write them; see the module docs. `V` is the type of the value
 /// columns (f64 for telemetry, u64 for timing).
+///
+/// The rows' buffers go to the writer thread and come back to be filled again, so that neither
+/// thread frees what the other allocated. glibc's `free` of another thread's allocation takes that
+/// thread's arena lock, and the writer thread runs at nice 19: preempted while it held the lock
+/// of the process's main arena (freeing the columns it had been sent), it stalled the step
+/// thread's next `malloc` for as long as the lockstep's spinning processes kept it off a core. A
+/// 1 000-agent ring's plant slept there 100–700 ms at a time, once or twice a second, and the
+/// whole lockstep with it.
 pub struct ParquetWriter<V: Value = f64> {
-    schema: SchemaRef,
-    k: Vec<u64>,
-    values: Vec<Vec<V>>,
+    /// The rows being buffered, in journal order (see [`Cmd::Rows`]).
+    rows: Vec<u64>,
+    /// Words per row: `k` and the values.
+    width: usize,
+    /// Emptied buffers the writer thread handed back.
+    spare: Receiver<Vec<u64>>,
+    value: std::marker::PhantomData<V>,
     batch_rows: usize,
     /// Rows of the batch being buffered: [`Self::batch_rows`], but the first batch is shorter by
     /// this file's [`phase`].
@@ -238,6 +258,9 @@ impl<V: Value> ParquetWriter<V> {
             deferred_bytes: 0,
         };
         let (tx, rx) = channel::<Cmd>();
+        // Two places: a batch's buffer is back before the next batch is sent; a fixed ring, so
+        // handing one back allocates nothing.
+        let (back, spare) = sync_channel::<Vec<u64>>(2);
         let thread = std::thread::Builder::new().name(format!("telemetry {name}")).spawn(move || {
             // What this thread does during the run (journal writes; encoding beyond its budget)
             // competes for the cores with the lockstep's processes (on 2 cores, seven spinning
@@ -250,8 +273,11 @@ impl<V: Value> ParquetWriter<V> {
             }
             for cmd in rx {
                 match cmd {
-                    Cmd::Rows(batch, ack) => {
-                        let r = state.write(&batch);
+                    Cmd::Rows(mut rows, ack) => {
+                        let r = state.write(&rows);
+                        rows.clear();
+                        // Full only if the step thread stopped taking them: then it is freed here.
+                        let _ = back.try_send(rows);
                         if let Some(ack) = ack {
                             let _ = ack.send(r);
                         }
@@ -263,12 +289,13 @@ impl<V: Value> ParquetWriter<V> {
                 }
             }
         })?;
-        let width = columns.len().saturating_sub(1);
-        let batch_rows = (JOURNAL_BATCH_BYTES / (8 * columns.len().max(1))).clamp(MIN_BATCH_ROWS, ROWS_PER_GROUP);
+        let width = columns.len().max(1);
+        let batch_rows = (JOURNAL_BATCH_BYTES / (8 * width)).clamp(MIN_BATCH_ROWS, ROWS_PER_GROUP);
         Ok(Self {
-            schema,
-            k: Vec::with_capacity(batch_rows),
-            values: (0..width).map(|_| Vec::with_capacity(batch_rows)).collect(),
+            rows: Vec::with_capacity(batch_rows * width),
+            width,
+            spare,
+            value: std::marker::PhantomData,
             batch_rows,
             this_batch: batch_rows - phase(path, batch_rows),
             tx: Some(tx),
@@ -284,29 +311,20 @@ impl<V: Value> ParquetWriter<V> {
     }
     /// Buffer one row: step `k`, then the values (one per column after `k`).
     pub fn row(&mut self, k: u64, values: &[V]) -> std::io::Result<()> {
-        debug_assert_eq!(values.len(), self.values.len(), "{}", self.path.display());
-        self.k.push(k);
-        for (column, v) in self.values.iter_mut().zip(values) {
-            column.push(*v);
-        }
-        if self.k.len() >= self.this_batch { self.send_rows(None) } else { Ok(()) }
+        debug_assert_eq!(values.len() + 1, self.width, "{}", self.path.display());
+        self.rows.push(k);
+        self.rows.extend(values.iter().map(|v| v.word()));
+        if self.rows.len() >= self.this_batch * self.width { self.send_rows(None) } else { Ok(()) }
     }
     /// Hand the buffered rows to the writer thread (always, when `ack` is given).
     fn send_rows(&mut self, ack: Option<Ack>) -> std::io::Result<()> {
-        if self.k.is_empty() && ack.is_none() {
+        if self.rows.is_empty() && ack.is_none() {
             return Ok(());
         }
-        let n = self.batch_rows;
-        self.this_batch = n;
-        let k = std::mem::replace(&mut self.k, Vec::with_capacity(n));
-        let mut arrays: Vec<ArrayRef> = Vec::with_capacity(self.values.len() + 1);
-        arrays.push(Arc::new(UInt64Array::from(k)));
-        for column in &mut self.values {
-            let v = std::mem::replace(column, Vec::with_capacity(n));
-            arrays.push(Arc::new(PrimitiveArray::<V::Arrow>::new(v.into(), None)));
-        }
-        let batch = RecordBatch::try_new(self.schema.clone(), arrays).map_err(std::io::Error::other)?;
-        self.send(Cmd::Rows(batch, ack))
+        self.this_batch = self.batch_rows;
+        let next = self.spare.try_recv().unwrap_or_else(|_| Vec::with_capacity(self.batch_rows * self.width));
+        let rows = std::mem::replace(&mut self.rows, next);
+        self.send(Cmd::Rows(rows, ack))
     }
     fn gone(&self) -> std::io::Error {
         std::io::Error::other(format!("{}: the telemetry writer thread ended", self.path.display()))
@@ -533,17 +551,14 @@ impl FileState {
         self.writer = Some(w);
         Ok(())
     }
-    /// Append `batch` to the journal (one write), then to the final file.
-    fn write(&mut self, batch: &RecordBatch) -> std::io::Result<()> {
+    /// Append `rows` (journal order, see [`Cmd::Rows`]) to the journal (one write), then to the
+    /// final file.
+    fn write(&mut self, rows: &[u64]) -> std::io::Result<()> {
+        // In this thread's own buffer: the rows' buffer goes back to the step thread.
         self.bytes.clear();
-        let k = batch.column(0).as_primitive::<UInt64Type>().values();
-        // Every value column as 64-bit words (a double's bits, or the whole number itself).
-        let columns: Vec<&[u64]> = batch.columns()[1..].iter().map(|c| words(c.as_ref())).collect();
-        for (r, k) in k.iter().enumerate() {
-            self.bytes.extend_from_slice(&k.to_le_bytes());
-            for c in &columns {
-                self.bytes.extend_from_slice(&c[r].to_le_bytes());
-            }
+        self.bytes.reserve(8 * rows.len());
+        for w in rows {
+            self.bytes.extend_from_slice(&w.to_le_bytes());
         }
         let journal = self.journal.as_mut().ok_or_else(|| std::io::Error::other("the journal is closed"))?;
         journal
@@ -615,16 +630,6 @@ pub fn seal(path: &Path) -> std::io::Result<()> {
     let w = state.writer.as_mut().expect("started");
     w.write(&rows.slice(from, rows.num_rows() - from)).map_err(|e| state.err(e))?;
     state.finish()
-}
-
-/// The values of an unsliced 8-byte primitive array (Float64 or UInt64) as 64-bit words.
-fn words(a: &dyn Array) -> &[u64] {
-    if let Some(f) = a.as_primitive_opt::<Float64Type>() {
-        // The same bytes read as whole numbers (arrow checks size and alignment).
-        f.values().inner().typed_data::<u64>()
-    } else {
-        a.as_primitive::<UInt64Type>().values()
-    }
 }
 
 fn last_k(b: &RecordBatch) -> Option<u64> {
@@ -791,6 +796,26 @@ mod tests {
 
     /// The processes of a run write their first journal batch at steps spread over a whole batch
     /// (so later ones too), each at the same steps every run; a first batch is never empty.
+    /// The step thread fills the buffers the writer thread hands back instead of allocating new
+    /// ones (and so never has one freed by the writer thread; see [`ParquetWriter`]).
+    #[test]
+    fn the_rows_buffers_come_back_to_the_step_thread() {
+        let dir = scratch("recycled");
+        let path = dir.join("a.parquet");
+        let mut w = ParquetWriter::<f64>::create(&path, &columns()).unwrap();
+        let first = w.rows.as_ptr();
+        w.row(0, &row(0)).unwrap();
+        w.flush().unwrap();
+        assert_ne!(w.rows.as_ptr(), first, "the first buffer went to the writer thread");
+        w.row(1, &row(1)).unwrap();
+        w.flush().unwrap();
+        assert_eq!(w.rows.as_ptr(), first, "the first buffer came back and is filled again");
+        w.finish().unwrap();
+        let (_, k, _) = read_back(&path);
+        assert_eq!(k, [0, 1]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     #[test]
     fn journal_batches_of_a_runs_processes_fall_at_spread_steps() {
         let per = 186; // an 11-column agent file

@@ -18,6 +18,11 @@
 //! those steps were among a run's slowest (README, "Where a 100-agent step's worst cases come
 //! from"). The encoded bytes wait in the agent meanwhile; [`CheckpointWriter::wait`] hands them
 //! over first.
+//!
+//! The bytes come back with the write's outcome and are freed by the agent's own thread, as the
+//! telemetry writers' buffers are (see `parquet_out::ParquetWriter`): a `free` on this nice-19
+//! thread would take the lock of the agent's main allocation arena, and the step thread's next
+//! `malloc` would wait for as long as this thread, preempted, held it.
 
 use std::path::PathBuf;
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -27,7 +32,8 @@ use std::thread::JoinHandle;
 pub(super) struct CheckpointWriter {
     /// Encoded checkpoints to write, oldest first.
     jobs: Option<Sender<Vec<u8>>>,
-    done: Receiver<std::io::Result<()>>,
+    /// Each write's outcome, with its bytes.
+    done: Receiver<(std::io::Result<()>, Vec<u8>)>,
     thread: Option<JoinHandle<()>>,
     /// Jobs handed over and not yet answered.
     pending: usize,
@@ -52,7 +58,7 @@ impl CheckpointWriter {
             // Like the telemetry writers: the time the lockstep's processes leave.
             crate::parquet_out::lower_this_threads_priority();
             for bytes in rx {
-                if tx.send(crate::checkpoint::write_encoded(&path, &bytes)).is_err() {
+                if tx.send((crate::checkpoint::write_encoded(&path, &bytes), bytes)).is_err() {
                     break;
                 }
             }
@@ -83,7 +89,7 @@ impl CheckpointWriter {
 
     /// Hand a checkpoint over; reports a failed earlier write, if any has come back since.
     pub(super) fn submit(&mut self, bytes: Vec<u8>) -> std::io::Result<()> {
-        while let Ok(r) = self.done.try_recv() {
+        while let Ok((r, _bytes)) = self.done.try_recv() {
             self.pending -= 1;
             r?;
         }
@@ -98,8 +104,10 @@ impl CheckpointWriter {
     pub(super) fn wait(&mut self) -> std::io::Result<()> {
         let mut first = self.hand_over_held();
         while self.pending > 0 {
-            let r =
-                self.done.recv().unwrap_or_else(|_| Err(std::io::Error::other("the checkpoint writer thread ended")));
+            let r = self
+                .done
+                .recv()
+                .map_or_else(|_| Err(std::io::Error::other("the checkpoint writer thread ended")), |(r, _bytes)| r);
             self.pending -= 1;
             if first.is_ok() {
                 first = r;
@@ -168,10 +176,15 @@ mod tests {
         w.release_due(7).unwrap();
         w.hold(vec![2; 64], 20).unwrap();
         w.hold(vec![3; 64], 30).unwrap();
+        let mut back = Vec::new();
         while w.pending > 0 {
-            w.done.recv().unwrap().unwrap();
+            let (r, bytes) = w.done.recv().unwrap();
+            r.unwrap();
+            back.push(bytes);
             w.pending -= 1;
         }
+        // The bytes come back, to be freed by the agent's thread.
+        assert_eq!(back, [vec![1u8; 64], vec![2u8; 64]]);
         assert_eq!(std::fs::read(&path).unwrap(), vec![2u8; 64], "the older held one went when the newer came");
         w.wait().unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), vec![3u8; 64], "wait hands over the held one");
