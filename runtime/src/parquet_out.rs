@@ -205,7 +205,7 @@ enum Cmd {
 /// thread's arena lock, and the writer thread runs at nice 19: preempted while it held the lock
 /// of the process's main arena (freeing the columns it had been sent), it stalled the step
 /// thread's next `malloc` for as long as the lockstep's spinning processes kept it off a core. A
-/// 1 000-agent ring's plant slept there 100–700 ms at a time, once or twice a second, and the
+/// 1 000-agent ring's plant slept there 40–220 ms at a time, five times in four seconds, and the
 /// whole lockstep with it.
 pub struct ParquetWriter<V: Value = f64> {
     /// The rows being buffered, in journal order (see [`Cmd::Rows`]).
@@ -794,8 +794,6 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
-    /// The processes of a run write their first journal batch at steps spread over a whole batch
-    /// (so later ones too), each at the same steps every run; a first batch is never empty.
     /// The step thread fills the buffers the writer thread hands back instead of allocating new
     /// ones (and so never has one freed by the writer thread; see [`ParquetWriter`]).
     #[test]
@@ -816,6 +814,8 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
+    /// The processes of a run write their first journal batch at steps spread over a whole batch
+    /// (so later ones too), each at the same steps every run; a first batch is never empty.
     #[test]
     fn journal_batches_of_a_runs_processes_fall_at_spread_steps() {
         let per = 186; // an 11-column agent file
