@@ -168,9 +168,11 @@ enum Cmd {
         /// Interleaved repetitions of every case.
         #[arg(long)]
         reps: Option<u32>,
-        /// Where results.md and results.json go.
-        #[arg(long, default_value = "bench")]
-        out: PathBuf,
+        /// Where results.md and results.json go [default: `bench` for a whole run; for `--quick`
+        /// or `--only`, `target/bench-partial`, so that a partial run never replaces the
+        /// committed tables].
+        #[arg(long)]
+        out: Option<PathBuf>,
         /// Only the cases whose key starts with this, e.g. `headline/` or `ring/N=20` (the keys are in
         /// results.json).
         #[arg(long, value_name = "PREFIX")]
@@ -531,7 +533,10 @@ fn generic(command: Cmd) -> ExitCode {
             }
             soak_command(file, &wall, realtime, rate, faults.as_deref(), out, seed)
         }
-        Cmd::Bench { quick, reps, out, only } => bench_command(quick, reps, &out, only.as_deref()),
+        Cmd::Bench { quick, reps, out, only } => {
+            let out = out.unwrap_or_else(|| bench::default_out(quick, only.as_deref()));
+            bench_command(quick, reps, &out, only.as_deref())
+        }
         Cmd::Completions { shell } => {
             let mut cmd = command_line();
             let mut buf = Vec::new();

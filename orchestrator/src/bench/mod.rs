@@ -1,6 +1,7 @@
 //! `orchestrator bench`: what the multi-process run costs, measured in one invocation with
 //! interleaved repetitions (the machine is shared and noisy: medians, min–max, and ratios taken
-//! within the same invocation). Writes `bench/results.json` and `bench/results.md`.
+//! within the same invocation). Writes `results.json` and `results.md` to `--out`, by default
+//! `bench/` for a whole run and `target/bench-partial/` for a quick or `--only` one.
 //!
 //! Cases: each paper's headline scenario (`PaperHost::bench_scenarios`, e.g. the Lb-DNN
 //! servicing case, 360 s) multi-process vs in-process reference; the consensus ring at
@@ -45,3 +46,25 @@ mod types;
 mod zenoh;
 
 pub use run::run;
+
+use std::path::PathBuf;
+
+/// Where the bench writes without `--out`: the committed tables (`bench/`) only for a whole run;
+/// a quick or `--only` run's partial tables go under `target/`, where they replace nothing kept.
+pub fn default_out(quick: bool, only: Option<&str>) -> PathBuf {
+    if quick || only.is_some() { PathBuf::from("target/bench-partial") } else { PathBuf::from("bench") }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_a_whole_run_writes_the_committed_tables_by_default() {
+        assert_eq!(default_out(false, None), PathBuf::from("bench"));
+        for (quick, only) in [(true, None), (false, Some("ring/")), (true, Some("scale/N=1000"))] {
+            let out = default_out(quick, only);
+            assert!(out.starts_with("target"), "--quick {quick}, --only {only:?}: {}", out.display());
+        }
+    }
+}
