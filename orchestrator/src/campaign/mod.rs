@@ -308,7 +308,7 @@ fn run(job: &Job, workers: usize, done: Vec<Option<CaseRow>>, mode: &str) -> Exi
         }
         let mut est = until::Running::default();
         rows.iter().flatten().filter_map(|r| r.value(&metric)).for_each(|x| est.push(x));
-        info!("[{finished}/{total}] {metric}: {:.6} ± {:.6} (95 %, n = {})", est.mean(), est.half_width(), est.n);
+        info!("[{finished}/{total}] {metric}: {}", est.describe());
     };
     let stop = || SIGNALLED.load(Ordering::SeqCst) != 0 || bad_metric.load(Ordering::SeqCst) || until_met().is_some();
     let result = Campaign::new(n).workers(workers).progress(&progress).stop(&stop).run(|i| {

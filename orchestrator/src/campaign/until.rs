@@ -52,16 +52,22 @@ impl Running {
         self.m2 += d * (x - self.mean);
     }
 
-    pub fn mean(&self) -> f64 {
-        if self.n == 0 { f64::NAN } else { self.mean }
-    }
-
     /// Half-width of the 95 % interval (infinite below two values).
     pub fn half_width(&self) -> f64 {
         if self.n < 2 {
             return f64::INFINITY;
         }
         1.959964 * (self.m2 / (self.n - 1) as f64).sqrt() / (self.n as f64).sqrt()
+    }
+
+    /// The estimate as a progress line says it: the mean and its 95 % interval, or why there is
+    /// none yet (never a NaN or an infinite width).
+    pub fn describe(&self) -> String {
+        match self.n {
+            0 => "no value yet".to_string(),
+            1 => format!("{:.6} (n = 1, no interval before 2 cases)", self.mean),
+            n => format!("{:.6} ± {:.6} (95 %, n = {n})", self.mean, self.half_width()),
+        }
     }
 }
 
@@ -95,6 +101,19 @@ mod tests {
         for bad in ["e_m", ":1", "e_m:x", "e_m:-1", "e_m:0", "e_m:inf"] {
             assert!(u(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn a_progress_line_names_no_nan_nor_an_infinite_interval() {
+        let mut r = Running::default();
+        assert_eq!(r.describe(), "no value yet");
+        r.push(2.5);
+        assert_eq!(r.describe(), "2.500000 (n = 1, no interval before 2 cases)");
+        r.push(f64::NAN);
+        assert_eq!(r.n, 1, "a non-finite value is not counted");
+        r.push(3.5);
+        assert_eq!(r.describe(), format!("3.000000 ± {:.6} (95 %, n = 2)", r.half_width()));
+        assert!(r.half_width().is_finite());
     }
 
     #[test]
