@@ -20,18 +20,18 @@
 //! and then takes 30–70 ms (another program's burst) where its neighbours take 1 ms, and one or
 //! two of those in a half decided a summed comparison. A 100-agent ring whose spinning half held
 //! two 36 ms steps among 1.2 ms ones gave spinning up against blocking's 2.4 ms steps and blocked
-//! for the rest of its 2 000 steps at 439 steps/s, where its spinning neighbours in the same
-//! hour ran at 915–980; the bench had `adaptive` at 0.80 of `poll` at N = 100 (three repetitions).
+//! for the rest of its 2 000 steps at 439 steps/s, where launches that chose spinning in the
+//! same hour ran at 915–980.
 //! Spinning is given up once half of its steps were no faster than blocking's median (its own
 //! median cannot be faster then), once [`SPIN_LOSS_STEPS`] were twice as slow (where it is many
 //! times slower), or once it has cost [`SPIN_COST_MAX`] blocking halves, so a trial costs at most
-//! [`TRIAL_STEPS`] blocking steps and four times as long again: with [`PERIOD_STEPS`] = 8 192 and [`TRIAL_STEPS`] = 32, about 1 % of a run
-//! where spinning is three times as fast. The blocking half is cut short too, after
-//! [`MIN_BLOCK_STEPS`], once its median step is [`BLOCK_LOSS`] times that of the [`REF_STEPS`]
-//! steps before the trial (waited as the last choice, or, before
-//! the first trial, spinning): at N = 6 on an idle machine blocking is four times slower, and the
-//! first trial's 32 blocking steps cost ≈ 2.6 ms of the ≈ 9 ms by which `adaptive` trailed `poll`
-//! in a 2 000-step bench run (0.87). The first trial's reference spins rather than waiting as
+//! [`TRIAL_STEPS`] blocking steps and four times as long again: with [`PERIOD_STEPS`] = 8 192
+//! and [`TRIAL_STEPS`] = 32, about 1 % of a run where spinning is three times as fast. The
+//! blocking half is cut short too, after [`MIN_BLOCK_STEPS`], once its median step is
+//! [`BLOCK_LOSS`] times that of the [`REF_STEPS`] steps before the trial (waited as the last
+//! choice, or, before the first trial, spinning): at N = 6 on an idle machine blocking is four
+//! times slower, and the first trial's 32 blocking steps cost ≈ 2.6 ms of the ≈ 9 ms by which
+//! `adaptive` trailed `poll` in a 2 000-step bench run (0.87). The first trial's reference spins rather than waiting as
 //! start-up does: at N = 1 000 start-up's steps are too long for its spinning, so it waited as
 //! blocking does and the blocking half ran whole (32 steps at the `event` rate, a quarter of a
 //! 200-step run). Where blocking was chosen, or spinning is slower (under contention), the
@@ -67,6 +67,7 @@ const SPIN_COST_MAX: f64 = 4.0;
 /// up after four steps, while a burst of another program's (one or two steps in a row) does not
 /// decide.
 const SPIN_LOSS_STEPS: usize = 4;
+/// How many times blocking's median a spinning step takes to count towards [`SPIN_LOSS_STEPS`].
 const SPIN_LOSS: f64 = 2.0;
 
 /// How a wait is to go.
