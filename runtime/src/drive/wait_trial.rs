@@ -408,22 +408,23 @@ mod tests {
     /// up after [`SPIN_LOSS_STEPS`] steps: here 1 ms steps against blocking's 50 µs.
     #[test]
     fn a_much_slower_spin_is_given_up_after_a_few_steps() {
-        let (mut t, mut clock) = (Trial::new(), Instant::now());
-        let (spin, block) = (Duration::from_millis(1), Duration::from_micros(50));
-        let modes = run(&mut t, FIRST_TRIAL..FIRST_TRIAL + 2 * TRIAL_STEPS + 1, spin, block, &mut clock);
-        assert_eq!(modes.iter().filter(|&&m| m == Mode::Spin).count(), SPIN_LOSS_STEPS, "{modes:?}");
-        assert_eq!((t.chose_spin, t.chose_block), (0, 1));
+        assert_eq!(spun_choosing_block(Duration::from_millis(1), Duration::from_micros(50)), SPIN_LOSS_STEPS);
     }
 
     /// Spinning a little slower than blocking (1.5×, never twice as slow) is given up once half
     /// the spinning half (16 steps) was slower than blocking's median: its median cannot win.
     #[test]
     fn a_slightly_slower_spin_is_given_up_when_its_median_cannot_win() {
+        assert_eq!(spun_choosing_block(Duration::from_micros(150), Duration::from_micros(100)), 16);
+    }
+
+    /// One trial in which every spinning step takes `spin` and every blocking one `block`: how
+    /// many steps spun, once it is checked that blocking was chosen.
+    fn spun_choosing_block(spin: Duration, block: Duration) -> usize {
         let (mut t, mut clock) = (Trial::new(), Instant::now());
-        let (spin, block) = (Duration::from_micros(150), Duration::from_micros(100));
         let modes = run(&mut t, FIRST_TRIAL..FIRST_TRIAL + 2 * TRIAL_STEPS + 1, spin, block, &mut clock);
-        assert_eq!(modes.iter().filter(|&&m| m == Mode::Spin).count(), 16, "{modes:?}");
-        assert_eq!((t.chose_spin, t.chose_block), (0, 1));
+        assert_eq!((t.chose_spin, t.chose_block), (0, 1), "{modes:?}");
+        modes.iter().filter(|&&m| m == Mode::Spin).count()
     }
 
     /// Two steps of 36 ms among spinning steps of 1.2 ms (another program's burst; a 100-agent
