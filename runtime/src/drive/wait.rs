@@ -228,9 +228,9 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
         WaitStats { chose_spin: self.trial.chose_spin, chose_block: self.trial.chose_block, ..self.stats }
     }
 
-    /// How long a wait of `kind` for step `step` may spin, and whether it learns from contention
-    /// (only before the first trial ended: see `wait_trial`).
-    fn spin_for(&mut self, kind: usize, step: u64) -> (Duration, bool) {
+    /// How long a wait of `kind` for step `step`, begun at `started`, may spin, and whether it
+    /// learns from contention (only before the first trial ended: see `wait_trial`).
+    fn spin_for(&mut self, kind: usize, step: u64, started: Instant) -> (Duration, bool) {
         // Spinning through the start-up (`poll` spins for the step timeout) only takes the CPU
         // from the processes still being started; a thousand-agent ring with `wait = "poll"`
         // never finished starting.
@@ -240,7 +240,7 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
         let typical = self.typical_wait_us[kind];
         let mode = match self.p.spin {
             SpinPolicy::Fixed(d) => return (d, false),
-            SpinPolicy::Adaptive => self.adaptive_mode(step),
+            SpinPolicy::Adaptive => self.adaptive_mode(step, started),
         };
         let budget =
             || Duration::from_secs_f64((ADAPTIVE_MARGIN * typical).clamp(ADAPTIVE_FLOOR_US, ADAPTIVE_CAP_US) * 1e-6);
@@ -257,8 +257,8 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
 
     /// Adaptive waiting's mode for `step`: this process's trial's; between trials, the plant's
     /// choice where its host's processes can read it ([`wait_trial::advice`]).
-    fn adaptive_mode(&mut self, step: u64) -> Mode {
-        let own = self.trial.mode(step);
+    fn adaptive_mode(&mut self, step: u64, now: Instant) -> Mode {
+        let own = self.trial.mode_at(step, now);
         if self.me == PLANT_ID {
             if let Some(a) = self.trial.advice(step) {
                 self.t.set_wait_advice(a);
@@ -321,7 +321,7 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
         let started = Instant::now();
         let mut silent_since = started;
         let kind = usize::from(what == "share");
-        let (mut spin, learning) = self.spin_for(kind, step);
+        let (mut spin, learning) = self.spin_for(kind, step, started);
         let spun = spin > Duration::ZERO;
         let mut stalled = false;
         let mut reported = false;

@@ -126,7 +126,8 @@ impl StepTimes {
         }
     }
 
-    /// The median (the upper one of an even count); none when empty.
+    /// The median, the upper one of an even count (so that "half the steps at least `x`" means
+    /// the median is at least `x`, which [`Trial::spinning_lost`] counts on); none when empty.
     fn median(&self) -> Option<f64> {
         let mut v = self.s;
         let v = &mut v[..self.n];
@@ -182,13 +183,9 @@ impl Trial {
         }
     }
 
-    /// The mode of a wait for step `k`.
-    pub(super) fn mode(&mut self, k: u64) -> Mode {
-        self.mode_at(k, Instant::now())
-    }
-
-    /// The same, at time `now`.
-    fn mode_at(&mut self, k: u64, now: Instant) -> Mode {
+    /// The mode of a wait for step `k` that began at `now` (the wait's own start: one clock
+    /// read serves both).
+    pub(super) fn mode_at(&mut self, k: u64, now: Instant) -> Mode {
         self.clock(k, now);
         // The last REF_STEPS steps before a trial are its reference. Before the first trial,
         // they spin: start-up's own waiting is as slow as blocking where its steps are too long
