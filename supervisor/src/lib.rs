@@ -13,7 +13,7 @@
 //!   orchestrator elsewhere, relays its signals and sends the run's files back.
 //! - [`farm`]: a campaign's cases sent to the host daemons' worker pools (`orchestrator
 //!   campaign --hosts`), a lost host's unanswered cases sent again to the others.
-//! - [`netlab`] and [`zping`]: three network namespaces with host daemons and a delay on their
+//! - [`netlab`] and [`zping`]: four network namespaces with host daemons and a delay on their
 //!   links, and a zenoh ping-pong, both for `orchestrator bench`.
 //! - [`observe`]: each timeline event as it happens, for the live view (`launch --live`).
 //! - [`linkemu`]: a user-space `tc netem` (a TAP pair with a pump that delays, jitters and drops

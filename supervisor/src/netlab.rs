@@ -1,4 +1,4 @@
-//! A three-machine lab on this one for `orchestrator bench`: network namespaces a, b and c joined
+//! A four-machine lab on this one for `orchestrator bench`: network namespaces a, b, c and d joined
 //! to a bridge (198.18.77.0/24, the benchmarking range; the bridge itself is 198.18.77.254, so
 //! this process reaches them), a host daemon in each, and a delay each namespace adds to what it
 //! sends. Needs root (CAP_NET_ADMIN); everything is removed when the lab is dropped.
@@ -14,13 +14,16 @@
 //! Either way a hop between two namespaces is delayed once per direction, so a delay d adds 2 d
 //! to a round trip between namespaces, and d to one between a namespace and this process.
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
 use crate::linkemu;
 
-pub const NAMES: [&str; 3] = ["a", "b", "c"];
+/// The lab's hosts: the plant goes on `a`, agents on the others (the issue's four namespaces; fig1
+/// uses b and c for its servicers, a ring spreads over all three).
+pub const NAMES: [&str; 4] = ["a", "b", "c", "d"];
 const BRIDGE_ADDR: &str = "198.18.77.254";
 /// How many campaign cases each daemon of the lab runs at once (`orchestrator host --workers`).
 pub const CASE_WORKERS: u32 = 2;
@@ -212,37 +215,47 @@ impl Lab {
         }
     }
 
-    /// A hosts file of the three daemons, placing nothing (for `campaign --hosts`).
-    pub fn bare_hosts_file(dir: &std::path::Path) -> Result<PathBuf, LabError> {
+    /// A hosts file of the lab's first `hosts` daemons (at most all), placing nothing (for
+    /// `campaign --hosts`).
+    pub fn bare_hosts_file(dir: &std::path::Path, hosts: usize) -> Result<PathBuf, LabError> {
         let text: String = NAMES
             .iter()
+            .take(hosts)
             .enumerate()
             .map(|(k, x)| format!("[[hosts]]\nname = \"{x}\"\nendpoint = \"{}\"\n\n", Self::endpoint(k)))
             .collect();
-        std::fs::create_dir_all(dir).map_err(|source| LabError::File { path: dir.into(), source })?;
-        let path = dir.join("hosts-campaign.toml");
-        std::fs::write(&path, text).map_err(|source| LabError::File { path: path.clone(), source })?;
-        Ok(path)
+        write_hosts(dir, "hosts-campaign.toml", &text)
     }
 
-    /// A hosts file: the plant on a, agents alternately on b and c.
-    pub fn hosts_file(dir: &std::path::Path, n: u32) -> Result<PathBuf, LabError> {
-        let b: Vec<String> = (1..=n).filter(|i| i % 2 == 1).map(|i| i.to_string()).collect();
-        let c: Vec<String> = (1..=n).filter(|i| i % 2 == 0).map(|i| i.to_string()).collect();
-        let text = format!(
-            "[[hosts]]\nname = \"a\"\nendpoint = \"{}\"\nplant = true\n\n[[hosts]]\nname = \"b\"\nendpoint = \"{}\"\n\
-             agents = [{}]\n\n[[hosts]]\nname = \"c\"\nendpoint = \"{}\"\nagents = [{}]\n",
-            Self::endpoint(0),
-            Self::endpoint(1),
-            b.join(", "),
-            Self::endpoint(2),
-            c.join(", ")
-        );
-        std::fs::create_dir_all(dir).map_err(|source| LabError::File { path: dir.into(), source })?;
-        let path = dir.join(format!("hosts-{n}.toml"));
-        std::fs::write(&path, text).map_err(|source| LabError::File { path: path.clone(), source })?;
-        Ok(path)
+    /// A hosts file: the plant on a, agents 1..=n dealt in turn to the next `agent_hosts` hosts
+    /// (b, c, …; at least one, at most the lab's three), so agent 1 is on b, agent 2 on c.
+    pub fn hosts_file(dir: &std::path::Path, n: u32, agent_hosts: usize) -> Result<PathBuf, LabError> {
+        write_hosts(dir, &format!("hosts-{n}-{agent_hosts}.toml"), &placement(n, agent_hosts))
     }
+}
+
+/// The hosts file's text of [`Lab::hosts_file`].
+fn placement(n: u32, agent_hosts: usize) -> String {
+    let m = agent_hosts.clamp(1, NAMES.len() - 1);
+    let mut text = format!("[[hosts]]\nname = \"a\"\nendpoint = \"{}\"\nplant = true\n", Lab::endpoint(0));
+    for k in 1..=m {
+        let ids: Vec<String> = (1..=n).filter(|i| (*i as usize - 1) % m + 1 == k).map(|i| i.to_string()).collect();
+        let _ = write!(
+            text,
+            "\n[[hosts]]\nname = \"{}\"\nendpoint = \"{}\"\nagents = [{}]\n",
+            NAMES[k],
+            Lab::endpoint(k),
+            ids.join(", ")
+        );
+    }
+    text
+}
+
+fn write_hosts(dir: &std::path::Path, name: &str, text: &str) -> Result<PathBuf, LabError> {
+    std::fs::create_dir_all(dir).map_err(|source| LabError::File { path: dir.into(), source })?;
+    let path = dir.join(name);
+    std::fs::write(&path, text).map_err(|source| LabError::File { path: path.clone(), source })?;
+    Ok(path)
 }
 
 impl Drop for Lab {
@@ -254,5 +267,38 @@ impl Drop for Lab {
         }
         self.teardown();
         // The pumps (and their TAP devices) go after the namespaces, as the fields drop.
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Host name → its agents, from the hosts file `Lab::hosts_file` wrote and the scenario
+    /// crate read back.
+    fn placed(n: u32, agent_hosts: usize) -> Vec<(String, bool, Vec<u32>)> {
+        let dir = std::env::temp_dir().join(format!("cohort-netlab-test-{}-{n}-{agent_hosts}", std::process::id()));
+        let path = Lab::hosts_file(&dir, n, agent_hosts).unwrap();
+        let h = cohort_scenario::hosts::HostsFile::load(&path).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        h.hosts.into_iter().map(|e| (e.name, e.plant, e.agents)).collect()
+    }
+
+    #[test]
+    fn agents_are_dealt_in_turn_to_the_agent_hosts() {
+        let three = placed(7, 3);
+        assert_eq!(
+            three,
+            vec![
+                ("a".into(), true, vec![]),
+                ("b".into(), false, vec![1, 4, 7]),
+                ("c".into(), false, vec![2, 5]),
+                ("d".into(), false, vec![3, 6]),
+            ]
+        );
+        let two = placed(6, 2);
+        assert_eq!(two[1..], [("b".into(), false, vec![1, 3, 5]), ("c".into(), false, vec![2, 4, 6])]);
+        // More agent hosts than the lab has are the lab's three.
+        assert_eq!(placed(3, 9).len(), NAMES.len());
     }
 }

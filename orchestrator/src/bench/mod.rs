@@ -13,7 +13,7 @@
 //! default, goal ≤ 1.2× the time of `event`); the cost of `run.authenticate` (the N = 6 ring
 //! with it, and ns to seal and check one share); and zenoh (issue 20): the round trip between two
 //! processes, and steps/s of the headline (shortened to 2 000 steps) and the ring at N = 6 and 20
-//! over zenoh against iceoryx2 on one host, and over zenoh across three network namespaces
+//! over zenoh against iceoryx2 on one host, and over zenoh across the four-namespace network lab
 //! ([`cohort_supervisor::netlab`], when this runs as root) with no delay and with 1 ms each way, each
 //! reported as steps/s × round trip (1.0: one round trip per step). The lab's links are veth pairs
 //! delayed by the kernel's netem where the kernel has it, else TAP pairs with the user-space pump

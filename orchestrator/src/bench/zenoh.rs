@@ -47,7 +47,8 @@ pub(super) fn zenoh_cases(
             live: None,
         });
     };
-    let mut sets: Vec<(String, u32, Box<LoadFn>)> = Vec::new();
+    // (label, N, the lab hosts its agents are dealt to, loader).
+    let mut sets: Vec<(String, u32, usize, Box<LoadFn>)> = Vec::new();
     // Quick (a smoke run): the 6-agent ring only.
     let headlines =
         if quick { Vec::new() } else { cohort_registry::HOSTS.iter().flat_map(|h| h.bench_scenarios()).collect() };
@@ -66,7 +67,8 @@ pub(super) fn zenoh_cases(
             };
             crate::load(&path, &o).map_err(|e| e.to_string())
         };
-        sets.push((probe.scenario.name.clone(), probe.n_agents(), Box::new(load)));
+        // The headline's servicers on b and c, its plant on a (the placement).
+        sets.push((probe.scenario.name.clone(), probe.n_agents(), HEADLINE_AGENT_HOSTS, Box::new(load)));
     }
     for n in if quick { &[6u32][..] } else { &[6u32, 20][..] } {
         let n = *n;
@@ -74,36 +76,70 @@ pub(super) fn zenoh_cases(
             let transport: &'static str = if transport == "zenoh" { "zenoh" } else { "iceoryx2" };
             ring(n, steps, RingRun { transport, zenoh_links: links, hosts, ..RING })
         };
-        sets.push(("ring".into(), n, Box::new(load)));
+        sets.push(("ring".into(), n, RING_AGENT_HOSTS, Box::new(load)));
     }
-    for (label, n, load) in &sets {
+    for (label, n, spread, load) in &sets {
         push(label.clone(), *n, "iceoryx2", load("iceoryx2", "gateway", None)?, None);
         // Each zenoh row through the hosts' gateways (the default), then with every process a peer.
         for (links, suffix) in [("gateway", ""), ("peers", "-peers")] {
             push(label.clone(), *n, &format!("zenoh{suffix}"), load("zenoh", links, None)?, None);
             if let Some(dir) = lab_dir {
-                let hosts = Lab::hosts_file(dir, *n).map_err(|e| e.to_string())?;
-                let (plain, delayed) = (format!("zenoh-3ns{suffix}"), format!("zenoh-3ns-1ms{suffix}"));
-                push(label.clone(), *n, &plain, load("zenoh", links, Some(&hosts))?, Some(Duration::ZERO));
-                push(label.clone(), *n, &delayed, load("zenoh", links, Some(&hosts))?, Some(DELAY_1MS));
+                let hosts = Lab::hosts_file(dir, *n, *spread).map_err(|e| e.to_string())?;
+                let (plain, delayed) = (lab_variant(*spread, false), lab_variant(*spread, true));
+                push(
+                    label.clone(),
+                    *n,
+                    &format!("{plain}{suffix}"),
+                    load("zenoh", links, Some(&hosts))?,
+                    Some(Duration::ZERO),
+                );
+                push(
+                    label.clone(),
+                    *n,
+                    &format!("{delayed}{suffix}"),
+                    load("zenoh", links, Some(&hosts))?,
+                    Some(DELAY_1MS),
+                );
             }
         }
     }
-    // A thousand agent processes across the lab through the gateways, 200 steps: minutes on two
-    // cores, so only when asked for by name (`--only zenoh/ring/N=1000`).
+    // A thousand agent processes across the lab's four namespaces through the gateways, 200 steps:
+    // minutes on two cores, so only when asked for by name (`--only zenoh/ring/N=1000`).
     if let Some(dir) = lab_dir.filter(|_| only.is_some_and(|o| o.starts_with("zenoh/ring/N=1000"))) {
-        let hosts = Lab::hosts_file(dir, 1000).map_err(|e| e.to_string())?;
+        let hosts = Lab::hosts_file(dir, 1000, RING_AGENT_HOSTS).map_err(|e| e.to_string())?;
         let s = ring(1000, 200, RingRun { transport: "zenoh", hosts: Some(&hosts), ..RING })?;
-        push("ring".into(), 1000, "zenoh-3ns", s, Some(Duration::ZERO));
+        push("ring".into(), 1000, &lab_variant(RING_AGENT_HOSTS, false), s, Some(Duration::ZERO));
     }
     Ok(out)
+}
+
+/// The lab hosts a headline's agents go to (b, c) and a ring's (b, c, d).
+const HEADLINE_AGENT_HOSTS: usize = 2;
+const RING_AGENT_HOSTS: usize = 3;
+
+/// A lab row's variant: `zenoh-<namespaces used>ns`, `-1ms` when delayed (fig1 `zenoh-3ns`,
+/// a ring `zenoh-4ns`).
+fn lab_variant(agent_hosts: usize, delayed: bool) -> String {
+    format!("zenoh-{}ns{}", agent_hosts + 1, if delayed { "-1ms" } else { "" })
+}
+
+/// The round trip a row is read against: `zenoh` (one host), `lab` or `lab-1ms` (see
+/// [`lab_rtts`]); a peers row goes with its gateway row's.
+fn rtt_place(variant: &str) -> &str {
+    let v = variant.strip_suffix("-peers").unwrap_or(variant);
+    match v.strip_prefix("zenoh-") {
+        Some(lab) if lab.ends_with("ns-1ms") => "lab-1ms",
+        Some(lab) if lab.ends_with("ns") => "lab",
+        _ => v,
+    }
 }
 
 /// Round trips measured in this bench run: (where, p50 µs, p99 µs).
 #[derive(Debug, Clone, Serialize)]
 pub(super) struct Rtt {
     place: String,
-    /// The zenoh case variant whose steps/s this round trip goes with (none: a reference row).
+    /// The rows this round trip goes with (see [`rtt_place`]: `zenoh`, `lab`, `lab-1ms`; none: a
+    /// reference row).
     variant: Option<&'static str>,
     p50_us: f64,
     p99_us: f64,
@@ -184,12 +220,13 @@ pub(super) fn start_lab() -> (Option<Lab>, Option<Rtt>) {
     }
 }
 
-/// The round trip from namespace a to b in the lab, without and with the 1 ms delay.
+/// The round trip from namespace a to b in the lab, without and with the 1 ms delay (places
+/// `lab`, `lab-1ms`: every lab row, whichever namespaces it uses, is read against them).
 pub(super) fn lab_rtts(l: &Lab) -> Result<Vec<Rtt>, String> {
     let how = l.links().describe();
-    let plain = measure_rtt(Some(l), &format!("namespace a → b ({how}, no delay)"), Some("zenoh-3ns"))?;
+    let plain = measure_rtt(Some(l), &format!("namespace a → b ({how}, no delay)"), Some("lab"))?;
     l.set_delay(DELAY_1MS).map_err(|e| e.to_string())?;
-    let delayed = measure_rtt(Some(l), &format!("namespace a → b, 1 ms each way ({how})"), Some("zenoh-3ns-1ms"));
+    let delayed = measure_rtt(Some(l), &format!("namespace a → b, 1 ms each way ({how})"), Some("lab-1ms"));
     l.set_delay(Duration::ZERO).map_err(|e| e.to_string())?;
     Ok(vec![plain, delayed?])
 }
@@ -204,7 +241,7 @@ pub(super) fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt], links: Option<Links>
     }
     // A peers row goes with the round trip of its place, as its gateway row does.
     let rtt_of = |variant: &str| {
-        let place = variant.strip_suffix("-peers").unwrap_or(variant);
+        let place = rtt_place(variant);
         rtts.iter().find(|r| r.variant == Some(place)).map(|r| r.p50_us)
     };
     if let (Some(veth), Some(pumped), Some(Links::Pumped)) =
@@ -231,6 +268,8 @@ pub(super) fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt], links: Option<Links>
             "zenoh" => format!("zenoh, one host (TCP loopback), {links}"),
             "zenoh-3ns" => format!("zenoh, plant on a, agents on b and c ({how}, no delay), {links}"),
             "zenoh-3ns-1ms" => format!("zenoh, a / b / c, 1 ms each way ({how}), {links}"),
+            "zenoh-4ns" => format!("zenoh, plant on a, agents on b, c and d ({how}, no delay), {links}"),
+            "zenoh-4ns-1ms" => format!("zenoh, a / b / c / d, 1 ms each way ({how}), {links}"),
             other => other.to_string(),
         };
         let rtt = rtt_of(&x.variant);
@@ -247,4 +286,26 @@ pub(super) fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt], links: Option<Links>
         );
     }
     md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_lab_row_and_its_peers_row_is_read_against_the_lab_round_trip() {
+        assert_eq!(lab_variant(2, false), "zenoh-3ns");
+        assert_eq!(lab_variant(3, true), "zenoh-4ns-1ms");
+        for (variant, place) in [
+            ("zenoh-3ns", "lab"),
+            ("zenoh-4ns-peers", "lab"),
+            ("zenoh-3ns-1ms", "lab-1ms"),
+            ("zenoh-4ns-1ms-peers", "lab-1ms"),
+            ("zenoh", "zenoh"),
+            ("zenoh-peers", "zenoh"),
+            ("iceoryx2", "iceoryx2"),
+        ] {
+            assert_eq!(rtt_place(variant), place, "{variant}");
+        }
+    }
 }
