@@ -238,12 +238,11 @@ impl Lab {
 fn placement(n: u32, agent_hosts: usize) -> String {
     let m = agent_hosts.clamp(1, NAMES.len() - 1);
     let mut text = format!("[[hosts]]\nname = \"a\"\nendpoint = \"{}\"\nplant = true\n", Lab::endpoint(0));
-    for k in 1..=m {
+    for (k, name) in NAMES.iter().enumerate().skip(1).take(m) {
         let ids: Vec<String> = (1..=n).filter(|i| (*i as usize - 1) % m + 1 == k).map(|i| i.to_string()).collect();
         let _ = write!(
             text,
-            "\n[[hosts]]\nname = \"{}\"\nendpoint = \"{}\"\nagents = [{}]\n",
-            NAMES[k],
+            "\n[[hosts]]\nname = \"{name}\"\nendpoint = \"{}\"\nagents = [{}]\n",
             Lab::endpoint(k),
             ids.join(", ")
         );
