@@ -53,6 +53,31 @@ mod tests {
     }
 
     #[test]
+    fn each_bad_neighbour_is_named_with_its_reason() {
+        let bad = ring()
+            .replace("neighbours = [6, 2]", "neighbours = [6, 9, 1]")
+            .replace("neighbours = [1, 3]", "neighbours = [1, 3, 1]");
+        let s = parse(&bad, Path::new("x.toml"), &Overrides::default()).unwrap();
+        let problems: Vec<String> = validate::validate(&s).1.iter().map(|p| p.to_string()).collect();
+        assert_eq!(problems.len(), 3, "{problems:?}");
+        assert!(problems[0].contains("agents[0].neighbours[1] = 9: not an agent of this scenario"), "{problems:?}");
+        assert!(
+            problems[1].contains("agents[0].neighbours[2] = 1: an agent cannot be its own neighbour"),
+            "{problems:?}"
+        );
+        assert!(problems[2].contains("agents[1].neighbours[2] = 1: listed twice"), "{problems:?}");
+        // An id out of range is reported as such; a neighbour naming it is not "not an agent".
+        let odd = ring()
+            .replace("id = 6\n", "id = 60\n")
+            .replace("neighbours = [4, 6]", "neighbours = [4, 60]")
+            .replace("neighbours = [6, 2]", "neighbours = [60, 2]");
+        let s = parse(&odd, Path::new("x.toml"), &Overrides::default()).unwrap();
+        let problems: Vec<String> = validate::validate(&s).1.iter().map(|p| p.to_string()).collect();
+        assert!(problems.iter().any(|p| p.contains("agents[5].id = 60: out of range")), "{problems:?}");
+        assert!(!problems.iter().any(|p| p.contains("not an agent")), "{problems:?}");
+    }
+
+    #[test]
     fn every_generic_problem_is_reported_at_once() {
         let bad = ring().replace("dt_s = 0.01", "dt_s = -0.01").replace("step_timeout_s = ", "step_timeout_s = -");
         let s = parse(&bad, Path::new("x.toml"), &Overrides::default()).unwrap();

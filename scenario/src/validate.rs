@@ -139,16 +139,27 @@ fn agents(c: &mut Checker, agents: &[AgentConfig]) -> bool {
             seen[a.id as usize] = true;
         }
     }
+    // Every process validates the whole scenario at its start, so nothing here should grow as N²
+    // (a search of the agents for each neighbour did; a key path was formatted for each one).
+    // Not what makes a thousand-agent start-up slow: `orchestrator check` of a 1 000-agent ring
+    // took 16–20 ms of CPU before and after.
+    let mut ids: Vec<u32> = agents.iter().map(|a| a.id).collect();
+    ids.sort_unstable();
+    let mut listed = Vec::new();
     for (k, a) in agents.iter().enumerate() {
-        let mut listed = Vec::new();
+        listed.clear();
         for (m, &j) in a.neighbours.iter().enumerate() {
-            let path = format!("agents[{k}].neighbours[{m}]");
-            if !agents.iter().any(|b| b.id == j) {
-                c.fail(path, j, "not an agent of this scenario");
+            let why = if ids.binary_search(&j).is_err() {
+                Some("not an agent of this scenario")
             } else if j == a.id {
-                c.fail(path, j, "an agent cannot be its own neighbour");
+                Some("an agent cannot be its own neighbour")
             } else if listed.contains(&j) {
-                c.fail(path, j, "listed twice");
+                Some("listed twice")
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                c.fail(format!("agents[{k}].neighbours[{m}]"), j, why);
             }
             listed.push(j);
         }

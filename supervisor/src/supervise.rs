@@ -1233,7 +1233,7 @@ fn blame(s: &Setup, dirs: &RunDirs, kids: &[Kid], waiting: &[Option<Waiting>], p
         return format!(
             "{} refused to run: built from other sources than this orchestrator ({}). Rebuild the whole \
              workspace: cargo build --release",
-            refused.join(", "),
+            first_names(&refused, NAMES_SHOWN),
             cohort_wire::build_id()
         );
     }
@@ -1284,6 +1284,18 @@ fn blame(s: &Setup, dirs: &RunDirs, kids: &[Kid], waiting: &[Option<Waiting>], p
         ),
         _ => msg,
     }
+}
+
+/// How many process names a message lists before it counts the rest.
+const NAMES_SHOWN: usize = 6;
+
+/// `names` joined, the first `shown` of a longer list and how many more: a thousand-agent run
+/// whose children all refuse gets one line, not a thousand names.
+fn first_names(names: &[String], shown: usize) -> String {
+    if names.len() <= shown + 1 {
+        return names.join(", ");
+    }
+    format!("{} and {} more ({} processes)", names[..shown].join(", "), names.len() - shown, names.len())
 }
 
 /// Below this many free bytes a file system counts as full: a process's first log line or report
@@ -1391,5 +1403,19 @@ pub struct SignalHandlerError {
 impl cohort_runtime::exit::ToExitCode for SignalHandlerError {
     fn exit_code(&self) -> u8 {
         cohort_runtime::exit::FAILED
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_list_of_names_is_cut_and_counted() {
+        let names: Vec<String> =
+            std::iter::once("plant".to_string()).chain((1..=1000).map(|i| Proc::Agent(i).name())).collect();
+        assert_eq!(first_names(&names, 3), "plant, agent-1, agent-2 and 998 more (1001 processes)");
+        assert_eq!(first_names(&names[..4], 3), "plant, agent-1, agent-2, agent-3");
+        assert_eq!(first_names(&names[..1], 3), "plant");
     }
 }
