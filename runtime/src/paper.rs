@@ -340,11 +340,7 @@ pub fn agent_keys<T: serde::de::DeserializeOwned>(s: &Scenario, c: &mut Checker)
     let mut out = Vec::with_capacity(s.agents.len());
     let mut ok = true;
     for (k, a) in s.agents.iter().enumerate() {
-        match cohort_scenario::section::<T>(
-            toml::Value::Table(a.extra.clone()),
-            &format!("agents[{k}]"),
-            &mut c.problems,
-        ) {
+        match cohort_scenario::section_of::<T>(&a.extra, || format!("agents[{k}]"), &mut c.problems) {
             Some(t) => out.push(t),
             None => ok = false,
         }
@@ -354,7 +350,7 @@ pub fn agent_keys<T: serde::de::DeserializeOwned>(s: &Scenario, c: &mut Checker)
 
 /// Deserialise a paper section's body as a `T` at key path `path` (`plant`, `algorithm`).
 pub fn section_as<T: serde::de::DeserializeOwned>(body: &toml::Table, path: &str, c: &mut Checker) -> Option<T> {
-    cohort_scenario::section::<T>(toml::Value::Table(body.clone()), path, &mut c.problems)
+    cohort_scenario::section_of::<T>(body, || path.to_string(), &mut c.problems)
 }
 
 /// Every plant kind and algorithm kind of `papers`, with the paper providing it.

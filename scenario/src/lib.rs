@@ -17,7 +17,7 @@ pub mod validate;
 
 pub use checker::{Checker, fmt_f64};
 pub use error::{Problem, ScenarioError};
-pub use parse::{Overrides, load, load_all, parse, parse_all, section};
+pub use parse::{Overrides, load, load_all, parse, parse_all, section, section_of};
 pub use schema::*;
 pub use validate::MessageSizes;
 

@@ -345,6 +345,23 @@ fn tagged(v: toml::Value, path: &str, problems: &mut Vec<Problem>) -> Option<Sec
     }
 }
 
+/// [`section`] of a table the caller keeps, its key path made only when it has a problem: the
+/// common case, a table that reads, costs one copy and no key-path tracking. Every process reads
+/// each agent's per-agent keys at its start, so a thousand-agent run does this a million times
+/// (`orchestrator check` of a 1 000-agent ring: 2 330 → 2 275 page faults; its time moved less
+/// than the noise).
+pub fn section_of<T: DeserializeOwned>(
+    t: &toml::Table,
+    path: impl FnOnce() -> String,
+    problems: &mut Vec<Problem>,
+) -> Option<T> {
+    match T::deserialize(toml::Value::Table(t.clone())) {
+        Ok(x) => Some(x),
+        // Read again with its key paths tracked, for the problems' places.
+        Err(_) => section(toml::Value::Table(t.clone()), &path(), problems),
+    }
+}
+
 /// Deserialise one section (or any value inside one) at key path `path`, recording a problem with
 /// its full key path on failure. Papers parse their `[plant]`/`[algorithm]` bodies and per-agent
 /// keys with it.
