@@ -239,7 +239,7 @@ fn placement(n: u32, agent_hosts: usize) -> String {
     let m = agent_hosts.clamp(1, NAMES.len() - 1);
     let mut text = format!("[[hosts]]\nname = \"a\"\nendpoint = \"{}\"\nplant = true\n", Lab::endpoint(0));
     for (k, name) in NAMES.iter().enumerate().skip(1).take(m) {
-        let ids: Vec<String> = (1..=n).filter(|i| (*i as usize - 1) % m + 1 == k).map(|i| i.to_string()).collect();
+        let ids: Vec<String> = (k as u32..=n).step_by(m).map(|i| i.to_string()).collect();
         let _ = write!(
             text,
             "\n[[hosts]]\nname = \"{name}\"\nendpoint = \"{}\"\nagents = [{}]\n",

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use cohort_runtime::paper::Setup;
 use cohort_scenario::Overrides;
-use cohort_supervisor::netlab::{Lab, Links};
+use cohort_supervisor::netlab::{Lab, Links, NAMES};
 use serde::Serialize;
 
 use super::report::f0;
@@ -80,26 +80,14 @@ pub(super) fn zenoh_cases(
     }
     for (label, n, spread, load) in &sets {
         push(label.clone(), *n, "iceoryx2", load("iceoryx2", "gateway", None)?, None);
+        let hosts = lab_dir.map(|dir| Lab::hosts_file(dir, *n, *spread)).transpose().map_err(|e| e.to_string())?;
         // Each zenoh row through the hosts' gateways (the default), then with every process a peer.
         for (links, suffix) in [("gateway", ""), ("peers", "-peers")] {
             push(label.clone(), *n, &format!("zenoh{suffix}"), load("zenoh", links, None)?, None);
-            if let Some(dir) = lab_dir {
-                let hosts = Lab::hosts_file(dir, *n, *spread).map_err(|e| e.to_string())?;
-                let (plain, delayed) = (lab_variant(*spread, false), lab_variant(*spread, true));
-                push(
-                    label.clone(),
-                    *n,
-                    &format!("{plain}{suffix}"),
-                    load("zenoh", links, Some(&hosts))?,
-                    Some(Duration::ZERO),
-                );
-                push(
-                    label.clone(),
-                    *n,
-                    &format!("{delayed}{suffix}"),
-                    load("zenoh", links, Some(&hosts))?,
-                    Some(DELAY_1MS),
-                );
+            let Some(hosts) = &hosts else { continue };
+            for (delayed, delay) in [(false, Duration::ZERO), (true, DELAY_1MS)] {
+                let variant = format!("{}{suffix}", lab_variant(*spread, delayed));
+                push(label.clone(), *n, &variant, load("zenoh", links, Some(hosts))?, Some(delay));
             }
         }
     }
@@ -123,15 +111,36 @@ fn lab_variant(agent_hosts: usize, delayed: bool) -> String {
     format!("zenoh-{}ns{}", agent_hosts + 1, if delayed { "-1ms" } else { "" })
 }
 
+/// A lab row's namespaces and whether it is delayed, from its variant (`zenoh-4ns-1ms-peers` →
+/// (4, true)); none for a row outside the lab.
+fn lab_row(variant: &str) -> Option<(usize, bool)> {
+    let v = variant.strip_suffix("-peers").unwrap_or(variant).strip_prefix("zenoh-")?;
+    let (v, delayed) = v.strip_suffix("-1ms").map_or((v, false), |v| (v, true));
+    Some((v.strip_suffix("ns")?.parse().ok()?, delayed))
+}
+
 /// The round trip a row is read against: `zenoh` (one host), `lab` or `lab-1ms` (see
 /// [`lab_rtts`]); a peers row goes with its gateway row's.
 fn rtt_place(variant: &str) -> &str {
-    let v = variant.strip_suffix("-peers").unwrap_or(variant);
-    match v.strip_prefix("zenoh-") {
-        Some(lab) if lab.ends_with("ns-1ms") => "lab-1ms",
-        Some(lab) if lab.ends_with("ns") => "lab",
-        _ => v,
+    match lab_row(variant) {
+        Some((_, false)) => "lab",
+        Some((_, true)) => "lab-1ms",
+        None => variant.strip_suffix("-peers").unwrap_or(variant),
     }
+}
+
+/// Where a lab row's processes ran: "plant on a, agents on b and c", or "a / b / c" when delayed.
+fn lab_placement(namespaces: usize, delayed: bool) -> String {
+    let used = &NAMES[..namespaces.clamp(2, NAMES.len())];
+    if delayed {
+        return used.join(" / ");
+    }
+    let agents = match used[1..].split_last() {
+        Some((last, [])) => last.to_string(),
+        Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    format!("plant on a, agents on {agents}")
 }
 
 /// Round trips measured in this bench run: (where, p50 µs, p99 µs).
@@ -266,11 +275,11 @@ pub(super) fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt], links: Option<Links>
         let place = match variant {
             "iceoryx2" => "iceoryx2, one host".to_string(),
             "zenoh" => format!("zenoh, one host (TCP loopback), {links}"),
-            "zenoh-3ns" => format!("zenoh, plant on a, agents on b and c ({how}, no delay), {links}"),
-            "zenoh-3ns-1ms" => format!("zenoh, a / b / c, 1 ms each way ({how}), {links}"),
-            "zenoh-4ns" => format!("zenoh, plant on a, agents on b, c and d ({how}, no delay), {links}"),
-            "zenoh-4ns-1ms" => format!("zenoh, a / b / c / d, 1 ms each way ({how}), {links}"),
-            other => other.to_string(),
+            other => match lab_row(other) {
+                Some((k, false)) => format!("zenoh, {} ({how}, no delay), {links}", lab_placement(k, false)),
+                Some((k, true)) => format!("zenoh, {}, 1 ms each way ({how}), {links}", lab_placement(k, true)),
+                None => other.to_string(),
+            },
         };
         let rtt = rtt_of(&x.variant);
         let ratio = rtt.map_or("–".to_string(), |r| format!("{:.2}", x.steps_per_s_median * r * 1e-6));
@@ -307,5 +316,8 @@ mod tests {
         ] {
             assert_eq!(rtt_place(variant), place, "{variant}");
         }
+        assert_eq!(lab_placement(3, false), "plant on a, agents on b and c");
+        assert_eq!(lab_placement(4, false), "plant on a, agents on b, c and d");
+        assert_eq!(lab_placement(4, true), "a / b / c / d");
     }
 }

@@ -31,10 +31,10 @@
 //! [`BLOCK_LOSS`] times that of the [`REF_STEPS`] steps before the trial (waited as the last
 //! choice, or, before the first trial, spinning): at N = 6 on an idle machine blocking is four
 //! times slower, and the first trial's 32 blocking steps cost ≈ 2.6 ms of the ≈ 9 ms by which
-//! `adaptive` trailed `poll` in a 2 000-step bench run (0.87). The first trial's reference spins rather than waiting as
-//! start-up does: at N = 1 000 start-up's steps are too long for its spinning, so it waited as
-//! blocking does and the blocking half ran whole (32 steps at the `event` rate, a quarter of a
-//! 200-step run). Where blocking was chosen, or spinning is slower (under contention), the
+//! `adaptive` trailed `poll` in a 2 000-step bench run (0.87). The first trial's reference spins
+//! rather than waiting as start-up does: at N = 1 000 start-up's steps are too long for its
+//! spinning, so it waited as blocking does and the blocking half ran whole (32 steps at the
+//! `event` rate, a quarter of a 200-step run). Where blocking was chosen, or spinning is slower (under contention), the
 //! blocking half is as fast as its reference or faster, and runs whole. Spinning is taken only
 //! when it is clearly faster ([`SPIN_GAIN`]): a paced run's steps take as long either way, and
 //! blocking then leaves the cores idle. The first steps (start-up) wait as
