@@ -230,10 +230,9 @@ pub fn prepare(s: &Setup, out: Option<&Path>) -> Result<RunDirs, PrepareRunError
         e
     };
     let dirs = rundir::create(out, &s.scenario.name).map_err(|reason| logged(PrepareRunError::Directory { reason }))?;
-    let path = dirs.root.join("scenario.toml");
-    let text = s.to_toml().map_err(|source| logged(PrepareRunError::Serialise { path: path.clone(), source }))?;
-    cohort_runtime::record::write_atomic(&path, text.as_bytes())
-        .map_err(|source| logged(PrepareRunError::Write { path: path.clone(), source }))?;
+    let path = dirs.scenario();
+    let text = s.to_toml().map_err(|source| logged(PrepareRunError::Serialise { path, source }))?;
+    dirs.write_scenario(&text).map_err(|e| logged(PrepareRunError::Write { path: e.path, source: e.source }))?;
     Ok(dirs)
 }
 

@@ -467,6 +467,17 @@ pub fn load(file: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -
     finish_load(file, scenario, problems, overrides, papers)
 }
 
+/// [`load`] for a run's processes: the table from the run's digest of the file when it has one
+/// made from the file's text ([`cohort_scenario::digest`]), with why it was not used.
+pub fn load_digested(
+    file: &Path,
+    overrides: &Overrides,
+    papers: &[&'static dyn Paper],
+) -> Result<(Setup, Option<cohort_scenario::digest::DigestError>), ScenarioError> {
+    let ((scenario, problems), unused) = cohort_scenario::load_all_digested(file, overrides)?;
+    Ok((finish_load(file, scenario, problems, overrides, papers)?, unused))
+}
+
 /// [`load`] of scenario text standing for `file` (a campaign's drawn case: its relative paths
 /// resolve beside `file`, its problems name it).
 pub fn load_text(

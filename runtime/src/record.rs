@@ -45,12 +45,38 @@ impl RunDirs {
             let _ = std::fs::remove_dir_all(d);
         }
     }
+    /// The run's resolved scenario, which each of its processes reads.
+    pub fn scenario(&self) -> PathBuf {
+        self.root.join("scenario.toml")
+    }
+    /// Write the run's scenario text and its digest ([`cohort_scenario::digest`]), each
+    /// atomically: the text for the user and the tools, the digest so that each process of the
+    /// run need not parse the text again. Text that does not parse gets no digest (a process
+    /// reading it reports the problem).
+    pub fn write_scenario(&self, text: &str) -> Result<(), WriteScenarioError> {
+        let file = self.scenario();
+        let digest = cohort_scenario::digest::path_for(&file);
+        let _ = std::fs::remove_file(&digest);
+        write_atomic(&file, text.as_bytes()).map_err(|source| WriteScenarioError { path: file.clone(), source })?;
+        match cohort_scenario::digest::encode(text) {
+            Ok(bytes) => write_atomic(&digest, &bytes).map_err(|source| WriteScenarioError { path: digest, source }),
+            Err(_) => Ok(()),
+        }
+    }
     pub fn create_all(&self) -> std::io::Result<()> {
         for d in [self.telemetry(), self.timing(), self.status(), self.logs()] {
             std::fs::create_dir_all(d)?;
         }
         Ok(())
     }
+}
+
+/// A run's scenario or its digest could not be written ([`RunDirs::write_scenario`]).
+#[derive(Debug, thiserror::Error)]
+#[error("{}: cannot write: {source}", path.display())]
+pub struct WriteScenarioError {
+    pub path: PathBuf,
+    pub source: std::io::Error,
 }
 
 /// One CSV of sim-time rows. Numbers are written in their shortest form that parses back to the
@@ -678,6 +704,22 @@ mod tests {
         let (_, hwm) = cpu_and_rss();
         assert!(pss > 0, "no Pss in /proc/self/smaps_rollup");
         assert!(pss <= hwm, "PSS {pss} kB above the peak RSS {hwm} kB");
+    }
+
+    #[test]
+    fn a_runs_scenario_is_written_with_its_digest_and_a_text_that_does_not_parse_without() {
+        let dirs = RunDirs::new(std::env::temp_dir().join(format!("cohort-digest-w-{}", std::process::id())));
+        std::fs::create_dir_all(&dirs.root).unwrap();
+        let digest = cohort_scenario::digest::path_for(&dirs.scenario());
+        let text = "[scenario]\nname = \"x\"\n";
+        dirs.write_scenario(text).unwrap();
+        assert_eq!(std::fs::read_to_string(dirs.scenario()).unwrap(), text);
+        let table = cohort_scenario::digest::read(&digest, &dirs.scenario(), text).unwrap();
+        assert_eq!(table, text.parse::<toml::Table>().unwrap());
+        // The digest of the text before must not outlive it.
+        dirs.write_scenario("[scenario\n").unwrap();
+        assert!(!digest.exists(), "a digest of a text that does not parse, or of the one before");
+        std::fs::remove_dir_all(&dirs.root).unwrap();
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! the runtime hands each to the paper that registered its kind.
 
 pub mod checker;
+pub mod digest;
 pub mod dispersion;
 pub mod error;
 pub mod faults;
@@ -17,7 +18,7 @@ pub mod validate;
 
 pub use checker::{Checker, fmt_f64};
 pub use error::{Problem, ScenarioError};
-pub use parse::{Overrides, load, load_all, parse, parse_all, section, section_of};
+pub use parse::{Overrides, load, load_all, load_all_digested, parse, parse_all, section, section_of};
 pub use schema::*;
 pub use validate::MessageSizes;
 
@@ -37,6 +38,31 @@ mod tests {
         assert_eq!(s.n_steps(), 2000);
         assert_eq!(s.plant.kind, "double-integrator");
         assert!(validate::validate(&s).1.is_empty());
+    }
+
+    #[test]
+    fn a_run_reads_the_same_scenario_from_its_digest_from_a_damaged_one_and_without() {
+        let dir = std::env::temp_dir().join(format!("cohort-digest-l-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("scenario.toml");
+        std::fs::write(&file, ring()).unwrap();
+        let o = Overrides { step_timeout_s: Some(7.5), ..Default::default() };
+        let parsed = load_all(&file, &o).unwrap();
+        let ((none, _), why) = load_all_digested(&file, &o).unwrap();
+        assert!(matches!(why, Some(digest::DigestError::Read { .. })), "{why:?}");
+        assert_eq!(none, parsed.0);
+        let mut bytes = digest::encode(&ring()).unwrap();
+        std::fs::write(digest::path_for(&file), &bytes).unwrap();
+        let (from_digest, why) = load_all_digested(&file, &o).unwrap();
+        assert!(why.is_none(), "{why:?}");
+        assert_eq!(from_digest, parsed);
+        assert_eq!(from_digest.0.run.step_timeout_s, 7.5, "the overrides apply to the digest's table");
+        *bytes.last_mut().unwrap() ^= 1;
+        std::fs::write(digest::path_for(&file), &bytes).unwrap();
+        let ((damaged, _), why) = load_all_digested(&file, &o).unwrap();
+        assert!(matches!(why, Some(digest::DigestError::Damaged { .. })), "{why:?}");
+        assert_eq!(damaged, parsed.0);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -154,7 +154,38 @@ pub fn parse_all(text: &str, file: &Path, overrides: &Overrides) -> Result<(Scen
         overrides.mark(&mut problems);
         ScenarioError { file: file.to_path_buf(), problems }.located(text)
     };
-    let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| err(vec![syntax_problem(text, &e)]))?;
+    let table: toml::Table = text.parse().map_err(|e: toml::de::Error| err(vec![syntax_problem(text, &e)]))?;
+    from_table(table, text, file, overrides)
+}
+
+/// [`load_all`] for a run's processes: the table from the file's digest ([`crate::digest`]) when
+/// it has one made from its text, else parsed from the text; with why the digest was not used.
+#[allow(clippy::type_complexity)]
+pub fn load_all_digested(
+    file: &Path,
+    overrides: &Overrides,
+) -> Result<((Scenario, Vec<Problem>), Option<crate::digest::DigestError>), ScenarioError> {
+    let text = read_bounded(file).map_err(|reason| ScenarioError {
+        file: file.to_path_buf(),
+        problems: vec![Problem::new("(file)", None, reason)],
+    })?;
+    match crate::digest::read(&crate::digest::path_for(file), file, &text) {
+        Ok(table) => Ok((from_table(table, &text, file, overrides)?, None)),
+        Err(e) => Ok((parse_all(&text, file, overrides)?, Some(e))),
+    }
+}
+
+/// [`parse_all`] from the table `text` parses to.
+fn from_table(
+    mut table: toml::Table,
+    text: &str,
+    file: &Path,
+    overrides: &Overrides,
+) -> Result<(Scenario, Vec<Problem>), ScenarioError> {
+    let err = |mut problems: Vec<Problem>| {
+        overrides.mark(&mut problems);
+        ScenarioError { file: file.to_path_buf(), problems }.located(text)
+    };
     let faults_in_file = match table.get("faults") {
         Some(toml::Value::Array(a)) => a.len(),
         _ => 0,

@@ -98,6 +98,8 @@ fn multi_process_and_reference_telemetry_are_bit_identical() {
         assert!(mp.join(d).is_dir() && rf.join(d).is_dir(), "{d}/ missing");
     }
     assert!(mp.join("scenario.toml").is_file());
+    // What the processes read the scenario from (bit-identical to the reference above).
+    assert!(mp.join("scenario.digest").is_file());
     assert_clean(&mp, &run_id(&mp));
 }
 

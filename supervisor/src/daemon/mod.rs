@@ -66,6 +66,9 @@ struct RunState {
     orphaned: Arc<AtomicBool>,
     /// The journals a live view follows through `rows` requests, by process.
     tails: HashMap<String, Journal>,
+    /// The scenario text written to `dir` (with its digest), written again only when a request
+    /// brings another: each of a run's processes brings it.
+    scenario_written: Option<std::sync::Arc<str>>,
     _watch: Subscriber<()>,
 }
 
@@ -301,8 +304,10 @@ impl Daemon {
         let state = self.runs.get_mut(&run_id).expect("inserted above");
         let dirs = RunDirs::new(&state.dir);
         dirs.create_all().map_err(|e| format!("{}: {e}", dirs.root.display()))?;
-        cohort_runtime::record::write_atomic(&dirs.root.join("scenario.toml"), r.scenario_toml.as_bytes())
-            .map_err(|e| format!("scenario.toml: {e}"))?;
+        if state.scenario_written.as_deref() != Some(r.scenario_toml.as_str()) {
+            dirs.write_scenario(&r.scenario_toml).map_err(|e| e.to_string())?;
+            state.scenario_written = Some(r.scenario_toml.as_str().into());
+        }
         let key = match &r.key_hex {
             Some(h) => Some(crate::supervise::key_pipe(&parse_key(h)?)?),
             None => None,
@@ -399,7 +404,14 @@ impl Daemon {
             })
             .wait()
             .map_err(|e| format!("cannot watch the orchestrator: {e}"))?;
-        Ok(RunState { dir, kids: HashMap::new(), orphaned, tails: HashMap::new(), _watch: watch })
+        Ok(RunState {
+            dir,
+            kids: HashMap::new(),
+            orphaned,
+            tails: HashMap::new(),
+            scenario_written: None,
+            _watch: watch,
+        })
     }
 
     fn signal(&self, r: &SignalRequest) -> Result<(), String> {
