@@ -8,6 +8,7 @@ use std::path::Path;
 
 use serde::de::DeserializeOwned;
 
+use crate::digest::DigestError;
 use crate::error::{Problem, ScenarioError};
 use crate::schema::*;
 
@@ -68,6 +69,9 @@ impl Overrides {
     }
 }
 
+/// A scenario with the problems of its `[run]` and `[[faults]]` ([`load_all`]).
+pub type Parsed = (Scenario, Vec<Problem>);
+
 /// Read and parse a scenario file: the generic sections typed and checked for their own form
 /// (not yet validated: see [`crate::validate::validate`]), the paper sections raw.
 pub fn load(file: &Path, overrides: &Overrides) -> Result<Scenario, ScenarioError> {
@@ -83,11 +87,15 @@ pub fn load(file: &Path, overrides: &Overrides) -> Result<Scenario, ScenarioErro
 /// (with the defaults there) together with those problems, so the paper sections can be checked
 /// too and every problem of the file reported at once.
 pub fn load_all(file: &Path, overrides: &Overrides) -> Result<(Scenario, Vec<Problem>), ScenarioError> {
-    let text = read_bounded(file).map_err(|reason| ScenarioError {
+    parse_all(&read_text(file)?, file, overrides)
+}
+
+/// A scenario's text ([`read_bounded`]), its problem as the file's.
+fn read_text(file: &Path) -> Result<String, ScenarioError> {
+    read_bounded(file).map_err(|reason| ScenarioError {
         file: file.to_path_buf(),
         problems: vec![Problem::new("(file)", None, reason)],
-    })?;
-    parse_all(&text, file, overrides)
+    })
 }
 
 /// The largest scenario or hosts file read, bytes (the largest in `topologies/` is ≈ 6 kB; a
@@ -160,15 +168,8 @@ pub fn parse_all(text: &str, file: &Path, overrides: &Overrides) -> Result<(Scen
 
 /// [`load_all`] for a run's processes: the table from the file's digest ([`crate::digest`]) when
 /// it has one made from its text, else parsed from the text; with why the digest was not used.
-#[allow(clippy::type_complexity)]
-pub fn load_all_digested(
-    file: &Path,
-    overrides: &Overrides,
-) -> Result<((Scenario, Vec<Problem>), Option<crate::digest::DigestError>), ScenarioError> {
-    let text = read_bounded(file).map_err(|reason| ScenarioError {
-        file: file.to_path_buf(),
-        problems: vec![Problem::new("(file)", None, reason)],
-    })?;
+pub fn load_all_digested(file: &Path, overrides: &Overrides) -> Result<(Parsed, Option<DigestError>), ScenarioError> {
+    let text = read_text(file)?;
     match crate::digest::read(&crate::digest::path_for(file), file, &text) {
         Ok(table) => Ok((from_table(table, &text, file, overrides)?, None)),
         Err(e) => Ok((parse_all(&text, file, overrides)?, Some(e))),
@@ -176,12 +177,7 @@ pub fn load_all_digested(
 }
 
 /// [`parse_all`] from the table `text` parses to.
-fn from_table(
-    mut table: toml::Table,
-    text: &str,
-    file: &Path,
-    overrides: &Overrides,
-) -> Result<(Scenario, Vec<Problem>), ScenarioError> {
+fn from_table(mut table: toml::Table, text: &str, file: &Path, overrides: &Overrides) -> Result<Parsed, ScenarioError> {
     let err = |mut problems: Vec<Problem>| {
         overrides.mark(&mut problems);
         ScenarioError { file: file.to_path_buf(), problems }.located(text)
