@@ -467,15 +467,22 @@ pub fn load(file: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -
     finish_load(file, scenario, problems, overrides, papers)
 }
 
-/// [`load`] for a run's processes: the table from the run's digest of the file when it has one
-/// made from the file's text ([`cohort_scenario::digest`]), with why it was not used.
-pub fn load_digested(
-    file: &Path,
-    overrides: &Overrides,
-    papers: &[&'static dyn Paper],
-) -> Result<(Setup, Option<cohort_scenario::digest::DigestError>), ScenarioError> {
-    let ((scenario, problems), unused) = cohort_scenario::load_all_digested(file, overrides)?;
-    Ok((finish_load(file, scenario, problems, overrides, papers)?, unused))
+/// [`load`] of a run's scenario (`run_dir/scenario.toml`) for one of the run's processes: its
+/// table from the run's digest when it has one made from the file's text
+/// ([`cohort_scenario::digest`]); why the digest was not used is logged (a warning unless the run
+/// has none, as one prepared by hand).
+pub fn load_run(run_dir: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -> Result<Setup, ScenarioError> {
+    use cohort_scenario::digest::DigestError;
+    let file = run_dir.join("scenario.toml");
+    let ((scenario, problems), unused) = cohort_scenario::load_all_digested(&file, overrides)?;
+    match unused {
+        None => tracing::debug!("scenario read from its digest"),
+        Some(DigestError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+            tracing::debug!("scenario parsed: the run has no digest of it")
+        }
+        Some(e) => tracing::warn!("scenario parsed, its digest not used: {e}"),
+    }
+    finish_load(&file, scenario, problems, overrides, papers)
 }
 
 /// [`load`] of scenario text standing for `file` (a campaign's drawn case: its relative paths

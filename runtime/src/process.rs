@@ -14,7 +14,6 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use cohort_scenario::digest::DigestError;
 use cohort_scenario::{ScenarioError, TransportKind};
 use cohort_wire::auth::MacKey;
 use cohort_wire::transport::iox::{IoxData, IoxRun};
@@ -22,7 +21,7 @@ use cohort_wire::transport::udp;
 use cohort_wire::transport::zenoh::{ZenohData, ZenohRun};
 use cohort_wire::transport::{Proc, Transport, TransportError};
 
-use tracing::{debug, error, info, warn};
+use tracing::{debug, error, info};
 
 use crate::drive::DriveParams;
 use crate::exit::ToExitCode;
@@ -241,15 +240,7 @@ fn start_child(spec: &ChildSpec, papers: &[&'static dyn Paper], start: Instant) 
     let dirs = RunDirs::new(&spec.run_dir);
     let overrides = cohort_scenario::Overrides { step_timeout_s: spec.step_timeout_s, ..Default::default() };
     crate::paper::skip_deep_checks();
-    let (scenario, unused) = crate::paper::load_digested(&spec.run_dir.join("scenario.toml"), &overrides, papers)?;
-    match unused {
-        None => debug!("scenario read from its digest"),
-        // A run prepared by hand (or by an older tool) has none.
-        Some(DigestError::Read { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
-            debug!("scenario parsed: the run has no digest of it")
-        }
-        Some(e) => warn!("scenario parsed, its digest not used: {e}"),
-    }
+    let scenario = crate::paper::load_run(&spec.run_dir, &overrides, papers)?;
     if let Proc::Agent(id) = me
         && (id == 0 || id > scenario.n_agents())
     {
