@@ -52,16 +52,23 @@ impl RunDirs {
     /// Write the run's scenario text and its digest ([`cohort_scenario::digest`]), each
     /// atomically: the text for the user and the tools, the digest so that each process of the
     /// run need not parse the text again. Text that does not parse gets no digest (a process
-    /// reading it reports the problem).
+    /// reading it reports the problem). The digest only saves work: one that cannot be written
+    /// (a full disk) is a warning, and the processes parse the text.
     pub fn write_scenario(&self, text: &str) -> Result<(), WriteScenarioError> {
         let file = self.scenario();
         let digest = cohort_scenario::digest::path_for(&file);
         let _ = std::fs::remove_file(&digest);
         write_atomic(&file, text.as_bytes()).map_err(|source| WriteScenarioError { path: file.clone(), source })?;
-        match cohort_scenario::digest::encode(text) {
-            Ok(bytes) => write_atomic(&digest, &bytes).map_err(|source| WriteScenarioError { path: digest, source }),
-            Err(_) => Ok(()),
+        if let Ok(bytes) = cohort_scenario::digest::encode(text)
+            && let Err(e) = write_atomic(&digest, &bytes)
+        {
+            tracing::warn!(
+                "{}: cannot write: {e}; the run's processes parse {} instead",
+                digest.display(),
+                file.display()
+            );
         }
+        Ok(())
     }
     pub fn create_all(&self) -> std::io::Result<()> {
         for d in [self.telemetry(), self.timing(), self.status(), self.logs()] {
@@ -707,7 +714,7 @@ mod tests {
     }
 
     #[test]
-    fn a_runs_scenario_is_written_with_its_digest_and_a_text_that_does_not_parse_without() {
+    fn a_runs_scenario_is_written_with_its_digest_unless_its_text_does_not_parse_or_it_cannot_be() {
         let dirs = RunDirs::new(std::env::temp_dir().join(format!("cohort-digest-w-{}", std::process::id())));
         std::fs::create_dir_all(&dirs.root).unwrap();
         let digest = cohort_scenario::digest::path_for(&dirs.scenario());
@@ -719,6 +726,11 @@ mod tests {
         // The digest of the text before must not outlive it.
         dirs.write_scenario("[scenario\n").unwrap();
         assert!(!digest.exists(), "a digest of a text that does not parse, or of the one before");
+        // A digest that cannot be written (here a directory in its place) leaves the text alone.
+        std::fs::create_dir(&digest).unwrap();
+        dirs.write_scenario(text).unwrap();
+        assert_eq!(std::fs::read_to_string(dirs.scenario()).unwrap(), text);
+        assert!(digest.is_dir());
         std::fs::remove_dir_all(&dirs.root).unwrap();
     }
 

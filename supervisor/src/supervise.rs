@@ -424,8 +424,8 @@ impl Resources {
                 check_descriptors(s.n_agents(), spare)?;
             }
             let gateways = if s.uses_gateways() {
-                let toml = std::fs::read_to_string(dirs.root.join("scenario.toml"))
-                    .map_err(|e| format!("{}: {e}", dirs.root.join("scenario.toml").display()))?;
+                let toml = std::fs::read_to_string(dirs.scenario())
+                    .map_err(|e| format!("{}: {e}", dirs.scenario().display()))?;
                 Some(Gateways::start(s, dirs, run, &remote, &toml)?)
             } else {
                 None
@@ -571,9 +571,9 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) ->
         (Ok(p), Ok(a)) => (p, a),
         (Err(e), _) | (_, Err(e)) => return failed(e),
     };
-    let scenario_toml = match std::fs::read_to_string(dirs.root.join("scenario.toml")) {
+    let scenario_toml = match std::fs::read_to_string(dirs.scenario()) {
         Ok(t) => t,
-        Err(e) => return failed(format!("{}: {e}", dirs.root.join("scenario.toml").display())),
+        Err(e) => return failed(format!("{}: {e}", dirs.scenario().display())),
     };
     let plan = FaultPlan::from_scenario(s);
     let spare = plan.faults.iter().filter(|f| f.spec.kind == "restart").count();
