@@ -470,7 +470,8 @@ pub fn load(file: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -
 /// [`load`] of a run's scenario (`run_dir/scenario.toml`) for one of the run's processes: its
 /// table from the run's digest when it has one made from the file's text
 /// ([`cohort_scenario::digest`]); why the digest was not used is logged (a warning unless the run
-/// has none, as one prepared by hand).
+/// has none, as one prepared by hand). The text is kept only to locate problems found while
+/// loading, so the setup keeps none (a thousand-agent scenario's is 123 kB in each process).
 pub fn load_run(run_dir: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -> Result<Setup, ScenarioError> {
     use cohort_scenario::digest::DigestError;
     let file = run_dir.join("scenario.toml");
@@ -482,7 +483,9 @@ pub fn load_run(run_dir: &Path, overrides: &Overrides, papers: &[&'static dyn Pa
         }
         Some(e) => tracing::warn!("scenario parsed, its digest not used: {e}"),
     }
-    finish_load(&file, scenario, problems, overrides, papers)
+    let mut setup = finish_load(&file, scenario, problems, overrides, papers)?;
+    setup.parsed.source = "".into();
+    Ok(setup)
 }
 
 /// [`load`] of scenario text standing for `file` (a campaign's drawn case: its relative paths

@@ -240,10 +240,7 @@ fn start_child(spec: &ChildSpec, papers: &[&'static dyn Paper], start: Instant) 
     let dirs = RunDirs::new(&spec.run_dir);
     let overrides = cohort_scenario::Overrides { step_timeout_s: spec.step_timeout_s, ..Default::default() };
     crate::paper::skip_deep_checks();
-    let mut scenario = crate::paper::load_run(&spec.run_dir, &overrides, papers)?;
-    // The text is kept only to locate problems found while loading; a thousand-agent scenario's
-    // is 123 kB in each of the run's processes. Dropped here, before the freed heap is returned.
-    scenario.parsed.source = "".into();
+    let scenario = crate::paper::load_run(&spec.run_dir, &overrides, papers)?;
     if let Proc::Agent(id) = me
         && (id == 0 || id > scenario.n_agents())
     {

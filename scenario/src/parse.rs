@@ -158,12 +158,16 @@ pub fn parse(text: &str, file: &Path, overrides: &Overrides) -> Result<Scenario,
 
 /// [`parse`], keeping going past problems of `[run]` and `[[faults]]` (see [`load_all`]).
 pub fn parse_all(text: &str, file: &Path, overrides: &Overrides) -> Result<(Scenario, Vec<Problem>), ScenarioError> {
-    let err = |mut problems: Vec<Problem>| {
-        overrides.mark(&mut problems);
-        ScenarioError { file: file.to_path_buf(), problems }.located(text)
-    };
-    let table: toml::Table = text.parse().map_err(|e: toml::de::Error| err(vec![syntax_problem(text, &e)]))?;
+    let table: toml::Table =
+        text.parse().map_err(|e: toml::de::Error| failed(vec![syntax_problem(text, &e)], text, file, overrides))?;
     from_table(table, text, file, overrides)
+}
+
+/// The error of a scenario that did not parse: its problems marked with the flags that set
+/// them, located in its text.
+fn failed(mut problems: Vec<Problem>, text: &str, file: &Path, overrides: &Overrides) -> ScenarioError {
+    overrides.mark(&mut problems);
+    ScenarioError { file: file.to_path_buf(), problems }.located(text)
 }
 
 /// [`load_all`] for a run's processes: the table from the file's digest ([`crate::digest`]) when
@@ -178,10 +182,6 @@ pub fn load_all_digested(file: &Path, overrides: &Overrides) -> Result<(Parsed, 
 
 /// [`parse_all`] from the table `text` parses to.
 fn from_table(mut table: toml::Table, text: &str, file: &Path, overrides: &Overrides) -> Result<Parsed, ScenarioError> {
-    let err = |mut problems: Vec<Problem>| {
-        overrides.mark(&mut problems);
-        ScenarioError { file: file.to_path_buf(), problems }.located(text)
-    };
     let faults_in_file = match table.get("faults") {
         Some(toml::Value::Array(a)) => a.len(),
         _ => 0,
@@ -189,7 +189,7 @@ fn from_table(mut table: toml::Table, text: &str, file: &Path, overrides: &Overr
     apply_overrides(&mut table, overrides);
     let base_dir = file.parent().unwrap_or(Path::new("")).to_path_buf();
     let (s, mut problems) = parse_table(table, base_dir);
-    let Some(mut s) = s else { return Err(err(problems)) };
+    let Some(mut s) = s else { return Err(failed(problems, text, file, overrides)) };
     if let Some(h) = &overrides.hosts {
         problems.extend(crate::hosts::unplaced_ids(h, &s));
     }

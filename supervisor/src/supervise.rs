@@ -412,8 +412,9 @@ impl Resources {
             Resources::Iox { .. } => None,
         }
     }
-    /// Create them; `spare`: agent relaunches the fault plan needs.
-    fn create(s: &Setup, dirs: &RunDirs, run: &IoxRun, spare: usize) -> Result<Self, String> {
+    /// Create them; `spare`: agent relaunches the fault plan needs; `scenario_toml`: the run's
+    /// scenario text, which the gateways' hosts are sent.
+    fn create(s: &Setup, dirs: &RunDirs, run: &IoxRun, spare: usize, scenario_toml: &str) -> Result<Self, String> {
         if s.run.transport == TransportKind::Zenoh {
             let remote = Remote::open(run.run_id, &s.hosts, dirs)?;
             let zrun = ZenohRun::new(run.run_id).with_key(run.key);
@@ -423,13 +424,8 @@ impl Resources {
                 // This machine's plant opens iceoryx2 ports for every agent.
                 check_descriptors(s.n_agents(), spare)?;
             }
-            let gateways = if s.uses_gateways() {
-                let toml = std::fs::read_to_string(dirs.scenario())
-                    .map_err(|e| format!("{}: {e}", dirs.scenario().display()))?;
-                Some(Gateways::start(s, dirs, run, &remote, &toml)?)
-            } else {
-                None
-            };
+            let gateways =
+                if s.uses_gateways() { Some(Gateways::start(s, dirs, run, &remote, scenario_toml)?) } else { None };
             if !remote.hosts.is_empty() {
                 crate::observe::hosts(Some(&remote));
             }
@@ -577,7 +573,7 @@ pub fn launch(s: &Setup, dirs: &RunDirs, run: &IoxRun, on_step: &dyn Fn(u64)) ->
     };
     let plan = FaultPlan::from_scenario(s);
     let spare = plan.faults.iter().filter(|f| f.spec.kind == "restart").count();
-    let resources = match Resources::create(s, dirs, run, spare) {
+    let resources = match Resources::create(s, dirs, run, spare, &scenario_toml) {
         Ok(r) => r,
         Err(e) => return failed(e),
     };

@@ -34,10 +34,10 @@
 //! `adaptive` trailed `poll` in a 2 000-step bench run (0.87). The first trial's reference spins
 //! rather than waiting as start-up does: at N = 1 000 start-up's steps are too long for its
 //! spinning, so it waited as blocking does and the blocking half ran whole (32 steps at the
-//! `event` rate, a quarter of a 200-step run). Where blocking was chosen, or spinning is slower (under contention), the
-//! blocking half is as fast as its reference or faster, and runs whole. Spinning is taken only
-//! when it is clearly faster ([`SPIN_GAIN`]): a paced run's steps take as long either way, and
-//! blocking then leaves the cores idle. The first steps (start-up) wait as
+//! `event` rate, a quarter of a 200-step run). Where blocking was chosen, or spinning is slower
+//! (under contention), the blocking half is as fast as its reference or faster, and runs whole.
+//! Spinning is taken only when it is clearly faster ([`SPIN_GAIN`]): a paced run's steps take as
+//! long either way, and blocking then leaves the cores idle. The first steps (start-up) wait as
 //! [`super::wait::SpinPolicy::Adaptive`] always did, with its contention back-off; between the
 //! first trial and the next, each process waits as its trial chose. Telemetry does not depend on
 //! how a process waits.

@@ -68,7 +68,7 @@ struct RunState {
     tails: HashMap<String, Journal>,
     /// The scenario text written to `dir` (with its digest), written again only when a request
     /// brings another: each of a run's processes brings it.
-    scenario_written: Option<std::sync::Arc<str>>,
+    scenario_written: Option<String>,
     _watch: Subscriber<()>,
 }
 
@@ -306,7 +306,7 @@ impl Daemon {
         dirs.create_all().map_err(|e| format!("{}: {e}", dirs.root.display()))?;
         if state.scenario_written.as_deref() != Some(r.scenario_toml.as_str()) {
             dirs.write_scenario(&r.scenario_toml).map_err(|e| e.to_string())?;
-            state.scenario_written = Some(r.scenario_toml.as_str().into());
+            state.scenario_written = Some(r.scenario_toml.clone());
         }
         let key = match &r.key_hex {
             Some(h) => Some(crate::supervise::key_pipe(&parse_key(h)?)?),
