@@ -177,6 +177,10 @@ enum Cmd {
         /// results.json).
         #[arg(long, value_name = "PREFIX")]
         only: Option<String>,
+        /// Keep every run's directory (telemetry, timing, logs, status) under this directory,
+        /// one per case and repetition, instead of removing it after the run is measured.
+        #[arg(long, value_name = "DIR")]
+        keep_runs: Option<PathBuf>,
     },
     /// Serve this machine to multi-host runs: a long-lived daemon that starts, signals and
     /// watches this machine's plant and agent processes for an orchestrator (see the README's
@@ -533,9 +537,9 @@ fn generic(command: Cmd) -> ExitCode {
             }
             soak_command(file, &wall, realtime, rate, faults.as_deref(), out, seed)
         }
-        Cmd::Bench { quick, reps, out, only } => {
+        Cmd::Bench { quick, reps, out, only, keep_runs } => {
             let out = out.unwrap_or_else(|| bench::default_out(quick, only.as_deref()));
-            bench_command(quick, reps, &out, only.as_deref())
+            bench_command(quick, reps, &out, only.as_deref(), keep_runs.as_deref())
         }
         Cmd::Completions { shell } => {
             let mut cmd = command_line();
@@ -627,8 +631,8 @@ fn soak_command(
 }
 
 /// `orchestrator bench`: exit 2 when `--only` chooses nothing, 1 when a case failed.
-fn bench_command(quick: bool, reps: Option<u32>, out: &Path, only: Option<&str>) -> ExitCode {
-    match bench::run(quick, reps.unwrap_or(if quick { 1 } else { 3 }), only, out) {
+fn bench_command(quick: bool, reps: Option<u32>, out: &Path, only: Option<&str>, keep: Option<&Path>) -> ExitCode {
+    match bench::run(quick, reps.unwrap_or(if quick { 1 } else { 3 }), only, out, keep) {
         Ok(md) => {
             outln!("{md}");
             outln!("written: {} and {}", out.join("results.md").display(), out.join("results.json").display());

@@ -55,8 +55,15 @@ impl From<String> for BenchError {
     }
 }
 
-/// Run every case (or only those whose key starts with `only`), `reps` times interleaved.
-pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result<String, BenchError> {
+/// Run every case (or only those whose key starts with `only`), `reps` times interleaved; each
+/// run's directory kept under `keep` when given.
+pub fn run(
+    quick: bool,
+    reps: u32,
+    only: Option<&str>,
+    out_dir: &Path,
+    keep: Option<&Path>,
+) -> Result<String, BenchError> {
     let repo = std::env::current_dir().map_err(|e| e.to_string())?;
     let scratch = std::env::temp_dir().join(format!("cohort-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&scratch);
@@ -76,9 +83,10 @@ pub fn run(quick: bool, reps: u32, only: Option<&str>, out_dir: &Path) -> Result
         return Ok(md);
     }
     let cases = choose(cases(quick, &repo, Some(lab_dir.as_path()), &scratch, only)?, only)?;
+    let runs = RunsDir::new(keep, &scratch)?;
     let (cases, lab, rtts) = lab_and_rtts(cases, only)?;
     let started = Instant::now();
-    let aggregates = measure(&cases, reps, &scratch, lab.as_ref(), started)?;
+    let aggregates = measure(&cases, reps, &runs, lab.as_ref(), started)?;
     let links = lab.as_ref().map(|l| l.links());
     drop(lab);
     let floor = floor::measure_for(&aggregates, reps).map_err(|e| BenchError::Failed(e.to_string()))?;
@@ -147,19 +155,49 @@ fn lab_and_rtts(mut cases: Vec<Case>, only: Option<&str>) -> Result<CasesAndLab,
     Ok((cases, lab, rtts))
 }
 
+/// Where the runs' directories go: the scratch directory (each removed once measured), or the
+/// directory `--keep-runs` names (created owner-only if missing; each kept).
+struct RunsDir {
+    root: PathBuf,
+    keep: bool,
+}
+
+impl RunsDir {
+    fn new(keep: Option<&Path>, scratch: &Path) -> Result<Self, BenchError> {
+        let Some(dir) = keep else { return Ok(Self { root: scratch.to_path_buf(), keep: false }) };
+        use std::os::unix::fs::DirBuilderExt;
+        std::fs::DirBuilder::new()
+            .recursive(true)
+            .mode(0o700)
+            .create(dir)
+            .map_err(|e| BenchError::Invalid(format!("--keep-runs {}: {e}", dir.display())))?;
+        Ok(Self { root: dir.to_path_buf(), keep: true })
+    }
+    fn for_run(&self, key: &str, rep: u32) -> PathBuf {
+        self.root.join(format!("{}-{rep}", key.replace(['/', '='], "_")))
+    }
+    fn done(&self, dir: &Path) {
+        if self.keep {
+            tracing::info!("kept: {}", dir.display());
+        } else {
+            let _ = std::fs::remove_dir_all(dir);
+        }
+    }
+}
+
 /// Every case once per repetition (interleaved, so slow phases of a shared machine hit all),
-/// each run's directory under `scratch` removed after it; the aggregates in the cases' order.
+/// each run's directory removed after it unless kept; the aggregates in the cases' order.
 fn measure(
     cases: &[Case],
     reps: u32,
-    scratch: &Path,
+    runs: &RunsDir,
     lab: Option<&Lab>,
     started: Instant,
 ) -> Result<Vec<Aggregate>, BenchError> {
     let mut samples: BTreeMap<String, Vec<Sample>> = BTreeMap::new();
     for rep in 0..reps {
         for c in cases {
-            let dir = scratch.join(format!("{}-{rep}", c.key.replace(['/', '='], "_")));
+            let dir = runs.for_run(&c.key, rep);
             let smp = run_case(c, rep, &dir, lab)?;
             tracing::info!(
                 "[{:6.1} s] rep {}/{reps} {:32} {:9.0} steps/s  round p50 {:8.1} µs  max {:7.2} ms",
@@ -171,7 +209,7 @@ fn measure(
                 smp.round_max_ms
             );
             samples.entry(c.key.clone()).or_default().push(smp);
-            let _ = std::fs::remove_dir_all(&dir);
+            runs.done(&dir);
         }
     }
     Ok(cases.iter().map(|c| aggregate(c, samples.remove(&c.key).unwrap_or_default())).collect())
@@ -255,4 +293,35 @@ fn write_results(out_dir: &Path, json: &serde_json::Value, md: &str) -> Result<(
     write("results.json", serde_json::to_string_pretty(json).map_err(|e| e.to_string())? + "\n")?;
     write("results.md", md.to_string())?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::os::unix::fs::PermissionsExt;
+
+    use super::*;
+
+    #[test]
+    fn a_runs_directory_is_removed_once_measured_unless_kept_owner_only() {
+        let base = std::env::temp_dir().join(format!("cohort-bench-runs-test-{}", std::process::id()));
+        let _clean = RemoveOnDrop(base.clone());
+        let scratch = base.join("scratch");
+        let removed = RunsDir::new(None, &scratch).unwrap();
+        let dir = removed.for_run("zenoh/fig1/N=6/zenoh-3ns", 1);
+        assert_eq!(dir, scratch.join("zenoh_fig1_N_6_zenoh-3ns-1"));
+        std::fs::create_dir_all(dir.join("timing")).unwrap();
+        removed.done(&dir);
+        assert!(!dir.exists());
+        let keep = base.join("kept/runs");
+        let kept = RunsDir::new(Some(&keep), &scratch).unwrap();
+        assert_eq!(std::fs::metadata(&keep).unwrap().permissions().mode() & 0o777, 0o700);
+        let dir = kept.for_run("ring/N=6/poll", 0);
+        std::fs::create_dir_all(dir.join("timing")).unwrap();
+        kept.done(&dir);
+        assert!(dir.join("timing").is_dir());
+        // A --keep-runs path that cannot be a directory is invalid input, named.
+        std::fs::write(base.join("file"), b"").unwrap();
+        let e = RunsDir::new(Some(&base.join("file")), &scratch).err().expect("a file is no directory");
+        assert!(matches!(&e, BenchError::Invalid(m) if m.contains("--keep-runs") && m.contains("file")), "{e}");
+    }
 }
