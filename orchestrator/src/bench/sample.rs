@@ -41,6 +41,9 @@ pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> S
         wait.chose_spin += p.wait.chose_spin;
         wait.chose_block += p.wait.chose_block;
         if p.process == "plant" {
+            // The plant's trial is the one its host follows (and the one-host runs' all).
+            wait.trial_block_step_us = p.wait.trial_block_step_us;
+            wait.trial_spin_step_us = p.wait.trial_spin_step_us;
             plant_cpu = per_k(p.cpu_s);
             plant_rss = mb(p.max_rss_kb);
             plant_pss = mb(p.pss_kb);
@@ -67,6 +70,7 @@ pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> S
         })
         .collect();
     let agent_compute_us = (!per_agent.is_empty()).then(|| median(&mut per_agent));
+    let (meas_latency_us, share_latency_max_us) = legs_us(s, dir);
     Sample {
         wall_s,
         steps: summary.steps_completed,
@@ -89,5 +93,22 @@ pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> S
         solver_max_us: largest(&solver_max),
         wait,
         agent_compute_us,
+        meas_latency_us,
+        share_latency_max_us,
     }
+}
+
+/// Steps left out of the one-way legs: start-up's first steps and adaptive waiting's first
+/// trial's reference (its trial begins at step 16).
+const LEGS_FROM_STEP: usize = 8;
+
+/// The step's two one-way legs, µs ([`Sample::meas_latency_us`], [`Sample::share_latency_max_us`]).
+fn legs_us(s: &Setup, dir: &Path) -> (Option<f64>, Option<f64>) {
+    let median_after =
+        |mut v: Vec<f64>| (v.len() > LEGS_FROM_STEP).then(|| median(&mut v.split_off(LEGS_FROM_STEP)) / 1e3);
+    let mut meas: Vec<f64> = (1..=s.n_agents().min(8))
+        .filter_map(|i| median_after(timing_column(dir, &format!("agent-{i}"), "meas_latency_ns")))
+        .collect();
+    let meas = (!meas.is_empty()).then(|| median(&mut meas));
+    (meas, median_after(timing_column(dir, "plant", "share_latency_max_ns")))
 }

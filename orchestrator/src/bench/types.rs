@@ -62,6 +62,12 @@ pub(super) struct Sample {
     /// An agent's own computation per step (share and step, from timing/): the median over the
     /// first agents of each one's median, µs.
     pub(super) agent_compute_us: Option<f64>,
+    /// The step's two one-way legs (from timing/, the start-up steps left out): a measurement's
+    /// latency from the plant's send to an agent's receipt (the median over the first agents of
+    /// each one's median), and the latency of the last share the plant waited for in a step (its
+    /// median), µs. Both clocks are one machine's in the lab, whose namespaces share it.
+    pub(super) meas_latency_us: Option<f64>,
+    pub(super) share_latency_max_us: Option<f64>,
 }
 
 #[derive(Debug, Serialize)]
@@ -76,6 +82,14 @@ pub(super) struct Aggregate {
     pub(super) steps_per_s_min: f64,
     pub(super) steps_per_s_max: f64,
     pub(super) wall_s_median: f64,
+}
+
+impl Aggregate {
+    /// The median over the samples of what `f` gives (those that have it); none when none has.
+    pub(super) fn median_of(&self, f: impl Fn(&Sample) -> Option<f64>) -> Option<f64> {
+        let mut xs: Vec<f64> = self.samples.iter().filter_map(f).collect();
+        (!xs.is_empty()).then(|| median(&mut xs))
+    }
 }
 
 /// The median of `xs` (sorted in place) by `cohort_report::stats`'s rule; NaN when empty.

@@ -264,7 +264,10 @@ pub(super) fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt], links: Option<Links>
         );
     }
     md.push_str(
-        "\n| case | N | transport, placement | steps/s | RTT p50 µs | steps/s × RTT |\n|---|---|---|---|---|---|\n",
+        "\nThe step's legs: a measurement's latency from the plant's send to an agent's receipt, and that of the \
+         last share the plant waited for in a step (medians; the lockstep's path is one of each, against one \
+         round trip).\n\n| case | N | transport, placement | steps/s | RTT p50 µs | steps/s × RTT | plant → agent µs | \
+         last share → plant µs |\n|---|---|---|---|---|---|---|---|\n",
     );
     let how = links.map_or("", Links::describe);
     for x in a.iter().filter(|x| x.group == "zenoh") {
@@ -283,15 +286,18 @@ pub(super) fn zenoh_markdown(a: &[Aggregate], rtts: &[Rtt], links: Option<Links>
         };
         let rtt = rtt_of(&x.variant);
         let ratio = rtt.map_or("–".to_string(), |r| format!("{:.2}", x.steps_per_s_median * r * 1e-6));
+        let us = |v: Option<f64>| v.map_or("–".to_string(), |v| format!("{v:.0}"));
         let _ = writeln!(
             md,
-            "| {} | {} | {place} | {} [{}–{}] | {} | {ratio} |",
+            "| {} | {} | {place} | {} [{}–{}] | {} | {ratio} | {} | {} |",
             x.label,
             x.n,
             f0(x.steps_per_s_median),
             f0(x.steps_per_s_min),
             f0(x.steps_per_s_max),
-            rtt.map_or("–".to_string(), |r| format!("{r:.0}"))
+            us(rtt),
+            us(x.median_of(|s| s.meas_latency_us)),
+            us(x.median_of(|s| s.share_latency_max_us)),
         );
     }
     md
