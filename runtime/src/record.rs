@@ -374,6 +374,13 @@ pub struct WaitStats {
     /// Adaptive waiting: the trials (every 8 192 steps) that chose spinning, and blocking.
     pub chose_spin: u64,
     pub chose_block: u64,
+    /// Adaptive waiting's last trial: the median step of its blocking half and of its spinning
+    /// half (none where spinning was given up before its median could win), µs: what the choice
+    /// was made on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trial_block_step_us: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trial_spin_step_us: Option<f64>,
 }
 
 impl WaitStats {

@@ -225,7 +225,14 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
 
     /// The waits' statistics, with the trials' choices.
     pub(super) fn stats(&self) -> WaitStats {
-        WaitStats { chose_spin: self.trial.chose_spin, chose_block: self.trial.chose_block, ..self.stats }
+        let (trial_block_step_us, trial_spin_step_us) = self.trial.last_medians_us;
+        WaitStats {
+            chose_spin: self.trial.chose_spin,
+            chose_block: self.trial.chose_block,
+            trial_block_step_us,
+            trial_spin_step_us,
+            ..self.stats
+        }
     }
 
     /// How long a wait of `kind` for step `step`, begun at `started`, may spin, and whether it

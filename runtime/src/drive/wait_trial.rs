@@ -107,6 +107,9 @@ pub(super) struct Trial {
     /// Trials that ended choosing spinning, and blocking.
     pub(super) chose_spin: u64,
     pub(super) chose_block: u64,
+    /// The last concluded trial's median steps, blocking and spinning, µs (spinning's none when
+    /// it was given up).
+    pub(super) last_medians_us: (Option<f64>, Option<f64>),
 }
 
 /// The times of up to [`TRIAL_STEPS`] steps, seconds each.
@@ -180,6 +183,7 @@ impl Trial {
             concluded: false,
             chose_spin: 0,
             chose_block: 0,
+            last_medians_us: (None, None),
         }
     }
 
@@ -280,11 +284,21 @@ impl Trial {
         }
         self.concluded = true;
         let Some(block) = self.block.median() else { return };
-        if let Some(spin) = self.spin.median().filter(|_| !self.gave_up) {
+        let spin = self.spin.median().filter(|_| !self.gave_up);
+        if let Some(spin) = spin {
             self.choice = if spin < SPIN_GAIN * block { Mode::Spin } else { Mode::Block };
         } else if self.gave_up {
             self.choice = Mode::Block;
         }
+        self.last_medians_us = (Some(block * 1e6), spin.map(|s| s * 1e6));
+        tracing::debug!(
+            "wait trial: blocking {:.0} µs a step (median of {}), spinning {} (of {}): {:?} until the next",
+            block * 1e6,
+            self.block.n,
+            spin.map_or("given up".to_string(), |s| format!("{:.0} µs", s * 1e6)),
+            self.spin.n,
+            self.choice
+        );
         if self.choice == Mode::Spin {
             self.chose_spin += 1;
         } else {
@@ -382,6 +396,10 @@ mod tests {
         assert!(modes[..n].iter().all(|&m| m == Mode::Block), "{modes:?}");
         assert!(modes[n..].iter().all(|&m| m == Mode::Spin), "{modes:?}");
         assert_eq!((t.chose_spin, t.chose_block), (1, 0));
+        // What the choice was made on, as the status reports it.
+        let (block, spin) = t.last_medians_us;
+        assert!(block.is_some_and(|b| (b - 400.0).abs() < 1.0), "{block:?}");
+        assert!(spin.is_some_and(|s| (s - 50.0).abs() < 1.0), "{spin:?}");
     }
 
     #[test]
@@ -394,6 +412,8 @@ mod tests {
         assert_eq!(modes.iter().filter(|&&m| m == Mode::Spin).count(), SPIN_LOSS_STEPS, "{modes:?}");
         assert_eq!(t.mode_at(end + 1, clock), Mode::Block);
         assert_eq!((t.chose_spin, t.chose_block), (0, 1));
+        // Spinning given up: no median of it is reported.
+        assert!(t.last_medians_us.0.is_some_and(|b| (b - 50.0).abs() < 1.0) && t.last_medians_us.1.is_none());
         // Next period: spinning became faster.
         let next = FIRST_TRIAL + PERIOD_STEPS;
         run(&mut t, next..next + 2 * TRIAL_STEPS + 1, fast, slow, &mut clock);
