@@ -98,8 +98,8 @@ pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> S
     }
 }
 
-/// Steps left out of the one-way legs: start-up's first steps and adaptive waiting's first
-/// trial's reference (its trial begins at step 16).
+/// Steps left out of the one-way legs: the first ones, whose measurements wake agents one by one
+/// from their start-up wait (the trial's steps stay in: both ways of waiting are the run's).
 const LEGS_FROM_STEP: usize = 8;
 
 /// The step's two one-way legs, µs ([`Sample::meas_latency_us`], [`Sample::share_latency_max_us`]).
