@@ -467,14 +467,14 @@ pub fn load(file: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -
     finish_load(file, scenario, problems, overrides, papers)
 }
 
-/// [`load`] of a run's scenario (`run_dir/scenario.toml`) for one of the run's processes: its
+/// [`load`] of a run's scenario ([`RunDirs::scenario`]) for one of the run's processes: its
 /// table from the run's digest when it has one made from the file's text
 /// ([`cohort_scenario::digest`]); why the digest was not used is logged (a warning unless the run
 /// has none, as one prepared by hand). The text is kept only to locate problems found while
 /// loading, so the setup keeps none (a thousand-agent scenario's is 123 kB in each process).
-pub fn load_run(run_dir: &Path, overrides: &Overrides, papers: &[&'static dyn Paper]) -> Result<Setup, ScenarioError> {
+pub fn load_run(dirs: &RunDirs, overrides: &Overrides, papers: &[&'static dyn Paper]) -> Result<Setup, ScenarioError> {
     use cohort_scenario::digest::DigestError;
-    let file = run_dir.join("scenario.toml");
+    let file = dirs.scenario();
     let ((scenario, problems), unused) = cohort_scenario::load_all_digested(&file, overrides)?;
     match unused {
         None => tracing::debug!("scenario read from its digest"),

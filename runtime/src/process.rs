@@ -240,7 +240,7 @@ fn start_child(spec: &ChildSpec, papers: &[&'static dyn Paper], start: Instant) 
     let dirs = RunDirs::new(&spec.run_dir);
     let overrides = cohort_scenario::Overrides { step_timeout_s: spec.step_timeout_s, ..Default::default() };
     crate::paper::skip_deep_checks();
-    let scenario = crate::paper::load_run(&spec.run_dir, &overrides, papers)?;
+    let scenario = crate::paper::load_run(&dirs, &overrides, papers)?;
     if let Proc::Agent(id) = me
         && (id == 0 || id > scenario.n_agents())
     {

@@ -96,7 +96,7 @@ fn ratios(a: &Aggregate, b: &Aggregate, f: impl Fn(&super::types::Sample) -> f64
 }
 
 fn compute(a: &Aggregate) -> f64 {
-    median(&mut a.samples.iter().filter_map(|s| s.agent_compute_us).collect::<Vec<_>>())
+    a.median_of(|s| s.agent_compute_us).unwrap_or(f64::NAN)
 }
 
 pub(super) fn markdown(a: &[Aggregate]) -> String {

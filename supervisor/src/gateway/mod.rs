@@ -123,8 +123,12 @@ fn start(g: &GatewayArgs, papers: &[&'static dyn Paper]) -> Result<GatewaySpec, 
     let run_id = u64::from_str_radix(&args.run_id, 16)
         .map_err(|_| (INVALID, format!("--run-id {:?}: not a hexadecimal run id", args.run_id)))?;
     cohort_runtime::paper::skip_deep_checks();
-    let s = cohort_runtime::paper::load_run(&args.run_dir, &Default::default(), papers)
-        .map_err(|e| (INVALID, e.to_string()))?;
+    let s = cohort_runtime::paper::load_run(
+        &cohort_runtime::record::RunDirs::new(&args.run_dir),
+        &Default::default(),
+        papers,
+    )
+    .map_err(|e| (INVALID, e.to_string()))?;
     let placement = s.placement();
     if !placement.hosts().contains(&g.host_index) {
         return Err((INVALID, format!("--host-index {}: no process of the run is placed there", g.host_index)));
