@@ -374,6 +374,10 @@ pub struct WaitStats {
     /// Adaptive waiting: the trials (every 8 192 steps) that chose spinning, and blocking.
     pub chose_spin: u64,
     pub chose_block: u64,
+    /// Adaptive waiting: waits that went as the plant's trial chose rather than as this
+    /// process's own (every process's but the plant's, between trials, once the plant's choice
+    /// reached it: on its host through the doorbell file, on another through the gateways).
+    pub advised: u64,
     /// Adaptive waiting's last trial: the median step of its blocking half and of its spinning
     /// half (none where spinning was given up before its median could win), µs: what the choice
     /// was made on.

@@ -474,6 +474,14 @@ fn a_sixty_agent_ring_across_three_hosts_through_gateways_is_bit_identical() {
     assert_eq!(rejected, 0, "{}", s["messages_rejected"]);
     assert_eq!(s["messages_unaccounted"].as_array().map(Vec::len), Some(0), "{}", s["messages_unaccounted"]);
     assert_eq!(telemetry_bits(&run), telemetry_bits(&reference), "the ring through gateways differs from --reference");
+    // Adaptive waiting: the plant's first trial ends at step 80, and its choice reached the
+    // agents of the other hosts with the gateways' batches; they waited as it chose.
+    for i in 21..=60 {
+        let status = std::fs::read_to_string(run.join(format!("status/agent-{i}.json"))).unwrap();
+        let st: Value = serde_json::from_str(&status).unwrap();
+        let advised = st["wait"]["advised"].as_u64().unwrap_or_else(|| panic!("agent-{i}: {}", st["wait"]));
+        assert!(advised > 0, "agent-{i} (host b or c) never waited as the plant's trial chose: {}", st["wait"]);
+    }
     for k in 1..=3 {
         let log = std::fs::read_to_string(run.join(format!("logs/gateway-{k}.log"))).unwrap_or_default();
         let done = log.lines().find(|l| l.contains("done: out:")).unwrap_or_else(|| panic!("gateway-{k}: {log}"));

@@ -40,6 +40,7 @@ pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> S
         wait.spin_s += p.wait.spin_s;
         wait.chose_spin += p.wait.chose_spin;
         wait.chose_block += p.wait.chose_block;
+        wait.advised += p.wait.advised;
         if p.process == "plant" {
             // The plant's trial is the one its host follows (and the one-host runs' all).
             wait.trial_block_step_us = p.wait.trial_block_step_us;

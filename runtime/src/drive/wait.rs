@@ -272,7 +272,13 @@ impl<'a, T: Transport + ?Sized> Waiter<'a, T> {
             }
             return own;
         }
-        wait_trial::follow(self.t.wait_advice(), step).unwrap_or(own)
+        match wait_trial::follow(self.t.wait_advice(), step) {
+            Some(mode) => {
+                self.stats.advised += 1;
+                mode
+            }
+            None => own,
+        }
     }
 
     /// Yield until a peer rings ([`DataPath::rung`]), `end` passes, SIGTERM comes or, when

@@ -322,8 +322,9 @@ fn period_of(k: u64) -> Option<u64> {
     k.checked_sub(FIRST_TRIAL).map(|d| d / PERIOD_STEPS)
 }
 
-/// Between trials, every process of the plant's host waits as the plant's trial chose (the
-/// plant publishes it, `DataPath::wait_advice`): each process measures the same lockstep, but
+/// Between trials, every process waits as the plant's trial chose (the plant publishes it,
+/// `DataPath::wait_advice`, in its host's doorbell file; the gateways carry it to the other
+/// hosts' with their batches, per-process zenoh peers do not): each process measures the same lockstep, but
 /// over its own step boundaries, and near a tie their verdicts split — in one launch of a
 /// thousand-agent ring 529 agents chose spinning and 472 blocking, a mixture slower than either.
 /// Encoded as (period + 1) · 2 + (1 for spinning); 0 is none.

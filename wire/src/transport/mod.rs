@@ -139,8 +139,9 @@ pub trait DataPath {
     fn control_rung(&mut self) -> bool {
         true
     }
-    /// A word the plant publishes to every process of its host (adaptive waiting's choice,
-    /// encoded by the runtime), 0 when none was published or the transport has no such place.
+    /// A word the plant publishes to every process of its host, and through the gateways to
+    /// the other hosts' (adaptive waiting's choice, encoded by the runtime), 0 when none was
+    /// published or the transport has no such place.
     fn wait_advice(&self) -> u64 {
         0
     }

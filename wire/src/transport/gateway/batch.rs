@@ -2,7 +2,12 @@
 //! one zenoh payload.
 //!
 //! Layout (little-endian, as every payload of ours is the host's `#[repr(C)]` bytes):
-//! - header, 20 bytes: magic `CGW1`, [`SCHEMA_VERSION`] (u32), run id (u64), record count (u32);
+//! - header, 28 bytes: magic `CGW2`, [`SCHEMA_VERSION`] (u32), run id (u64), record count (u32),
+//!   the plant's waiting advice (u64; `DataPath::wait_advice`, 0 for none): the plant's host's
+//!   gateway sends its host's word, and a receiving gateway writes it to its own host's, so that
+//!   every process of the run waits as the plant's trial chose (processes on other hosts had
+//!   kept their own choice, and near a tie the hosts split: 2 of 12 fig1 runs through the lab's
+//!   gateways had agents spinning beside blocking ones, 2026-12-07);
 //! - each record: kind (u8: 1 measurement, 2 share), three zero bytes, sender id (u32),
 //!   receiver id (u32: the agent a measurement is for; 0 for a share), payload length (u32), then
 //!   the payload: the message's bytes up to its last non-zero byte. A share is 4.2 kB of which a
@@ -10,16 +15,17 @@
 //!   so the message it publishes is bit for bit the one sent.
 //!
 //! [`decode`] checks everything before anything is delivered: header, lengths, kinds, and that
-//! every sender runs on the host the batch came from and every measurement is for a process of
-//! this host (a host cannot speak for another's processes). The receiving process's driver then
+//! every sender runs on the host the batch came from, every measurement is for a process of
+//! this host and only the plant's host gives advice (a host cannot speak for another's
+//! processes). The receiving process's driver then
 //! checks each message as it checks any (its header's sender, run, version, tag).
 
 use super::Placement;
 use crate::msg::{Measurement, PLANT_ID, SCHEMA_VERSION, Share};
 use crate::transport::{Proc, bytes_of, read_payload_prefix};
 
-const MAGIC: [u8; 4] = *b"CGW1";
-const HEADER_BYTES: usize = 20;
+const MAGIC: [u8; 4] = *b"CGW2";
+const HEADER_BYTES: usize = 28;
 const RECORD_BYTES: usize = 16;
 const KIND_MEASUREMENT: u8 = 1;
 const KIND_SHARE: u8 = 2;
@@ -37,6 +43,7 @@ impl Batch {
         buf.extend_from_slice(&SCHEMA_VERSION.to_le_bytes());
         buf.extend_from_slice(&run_id.to_le_bytes());
         buf.extend_from_slice(&0u32.to_le_bytes());
+        buf.extend_from_slice(&0u64.to_le_bytes());
         Self { buf, count: 0 }
     }
     pub fn is_empty(&self) -> bool {
@@ -60,9 +67,11 @@ impl Batch {
         self.buf.extend_from_slice(&bytes[..used]);
         self.count += 1;
     }
-    /// The payload, leaving this batch empty for the next drain.
-    pub fn take(&mut self) -> Vec<u8> {
+    /// The payload, with the plant's waiting advice (0 from a host without the plant), leaving
+    /// this batch empty for the next drain.
+    pub fn take(&mut self, wait_advice: u64) -> Vec<u8> {
         self.buf[16..20].copy_from_slice(&self.count.to_le_bytes());
+        self.buf[20..28].copy_from_slice(&wait_advice.to_le_bytes());
         let run_id = u64::from_le_bytes(self.buf[8..16].try_into().expect("8 bytes"));
         std::mem::replace(self, Batch::new(run_id)).buf
     }
@@ -87,6 +96,13 @@ impl Record<'_> {
     }
 }
 
+/// A received batch, checked: the plant's waiting advice it carries (0: none) and its messages.
+#[derive(Debug)]
+pub struct Received<'a> {
+    pub wait_advice: u64,
+    pub records: Vec<Record<'a>>,
+}
+
 /// Why a received batch was refused (as a whole: nothing of it is delivered).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum BatchError {
@@ -102,20 +118,22 @@ pub enum BatchError {
     Record { index: u32, reason: String },
     #[error("{0} bytes after the last record")]
     Trailing(usize),
+    #[error("waiting advice from host {0}, which does not run the plant")]
+    Advice(u16),
 }
 
 fn u32_at(b: &[u8], at: usize) -> u32 {
     u32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
 }
 
-/// The records of a batch that host `from_host` sent to host `here`, every one checked.
+/// The advice and records of a batch that host `from_host` sent to host `here`, every one checked.
 pub fn decode<'a>(
     bytes: &'a [u8],
     run_id: u64,
     placement: &Placement,
     from_host: u16,
     here: u16,
-) -> Result<Vec<Record<'a>>, BatchError> {
+) -> Result<Received<'a>, BatchError> {
     if bytes.len() < HEADER_BYTES {
         return Err(BatchError::Short(bytes.len()));
     }
@@ -132,6 +150,10 @@ pub fn decode<'a>(
         return Err(BatchError::Run(run));
     }
     let count = u32_at(bytes, 16);
+    let wait_advice = u64::from_le_bytes(bytes[20..28].try_into().expect("8 bytes"));
+    if wait_advice != 0 && placement.host(Proc::Plant) != from_host {
+        return Err(BatchError::Advice(from_host));
+    }
     let mut at = HEADER_BYTES;
     let mut out = Vec::with_capacity((count as usize).min(2 * crate::msg::MAX_AGENTS));
     for index in 0..count {
@@ -177,7 +199,7 @@ pub fn decode<'a>(
     if at != bytes.len() {
         return Err(BatchError::Trailing(bytes.len() - at));
     }
-    Ok(out)
+    Ok(Received { wait_advice, records: out })
 }
 
 #[cfg(test)]
@@ -200,14 +222,15 @@ mod tests {
         let share = Share::new(header(3), &[1.5], &[-0.25, 1e-300]);
         let mut b = Batch::new(7);
         b.push_share(&share);
-        let bytes = b.take();
+        let bytes = b.take(0);
         assert!(bytes.len() < 200, "{} bytes: the share's unused tail is not sent", bytes.len());
         let got = decode(&bytes, 7, &placement(), 2, 0).unwrap();
-        let [Record::Share { from: 3, bytes }] = got.as_slice() else { panic!("{got:?}") };
+        let [Record::Share { from: 3, bytes }] = got.records.as_slice() else { panic!("{got:?}") };
         assert_eq!(bytes_of(&Record::share(bytes)), bytes_of(&share));
+        assert_eq!(got.wait_advice, 0);
         // The batch is empty again after take, with the same run.
         assert!(b.is_empty());
-        assert_eq!(decode(&b.take(), 7, &placement(), 2, 0).unwrap().len(), 0);
+        assert_eq!(decode(&b.take(0), 7, &placement(), 2, 0).unwrap().records.len(), 0);
     }
 
     #[test]
@@ -218,17 +241,19 @@ mod tests {
         m.readings[1] = 4.0;
         let mut b = Batch::new(7);
         b.push_measurement(2, &m);
-        let bytes = b.take();
+        // The plant's host (0) passes on its advice with the measurements.
+        let bytes = b.take(u64::MAX - 1);
         let got = decode(&bytes, 7, &placement(), 0, 1).unwrap();
-        let [Record::Measurement { to: 2, bytes }] = got.as_slice() else { panic!("{got:?}") };
+        let [Record::Measurement { to: 2, bytes }] = got.records.as_slice() else { panic!("{got:?}") };
         assert_eq!(bytes_of(&Record::measurement(bytes)), bytes_of(&m));
+        assert_eq!(got.wait_advice, u64::MAX - 1);
     }
 
     #[test]
     fn a_host_cannot_speak_for_another_hosts_processes() {
         let mut b = Batch::new(7);
         b.push_share(&Share::new(header(3), &[], &[1.0]));
-        let bytes = b.take();
+        let bytes = b.take(0);
         // Agent 3 runs on host 2: a batch from host 1 carrying its share is refused.
         let e = decode(&bytes, 7, &placement(), 1, 0).unwrap_err();
         assert_eq!(e.to_string(), "record 0: agent-3 does not run on host 1");
@@ -236,15 +261,19 @@ mod tests {
         let m: Measurement = read_payload(&vec![0u8; std::mem::size_of::<Measurement>()]);
         let mut b = Batch::new(7);
         b.push_measurement(3, &m);
-        let e = decode(&b.take(), 7, &placement(), 0, 1).unwrap_err();
+        let e = decode(&b.take(0), 7, &placement(), 0, 1).unwrap_err();
         assert!(e.to_string().contains("agent 3, which does not run here"), "{e}");
+        // Waiting advice from a host without the plant (agent 3's host 2, even an empty batch).
+        let e = decode(&Batch::new(7).take(5), 7, &placement(), 2, 0).unwrap_err();
+        assert_eq!(e, BatchError::Advice(2));
+        assert_eq!(e.to_string(), "waiting advice from host 2, which does not run the plant");
     }
 
     #[test]
     fn damaged_batches_are_refused_whole() {
         let mut b = Batch::new(7);
         b.push_share(&Share::new(header(1), &[], &[1.0]));
-        let good = b.take();
+        let good = b.take(0);
         assert_eq!(decode(&good, 8, &placement(), 1, 0).unwrap_err(), BatchError::Run(7));
         assert_eq!(decode(&good[..10], 7, &placement(), 1, 0).unwrap_err(), BatchError::Short(10));
         let mut cut = good.clone();

@@ -91,6 +91,8 @@ struct OutPorts {
     share: Vec<Option<ShareOut>>,
     batches: Vec<Batch>,
     pubs: Vec<Arc<Publisher<'static>>>,
+    /// The plant runs on this host: its waiting advice goes out with every batch.
+    plant_here: bool,
     _node: Node<Svc>,
 }
 
@@ -144,7 +146,8 @@ impl OutPorts {
         }
         let batches = pubs.iter().map(|_| Batch::new(run.run_id)).collect();
         let pubs = pubs.into_iter().map(|(_, p)| p).collect();
-        Ok(Self { bells, meas, share, batches, pubs, _node: node })
+        let plant_here = d.is_local(Proc::Plant);
+        Ok(Self { bells, meas, share, batches, pubs, plant_here, _node: node })
     }
 
     fn drain_meas(&mut self) -> Result<(), String> {
@@ -184,13 +187,14 @@ impl OutPorts {
                 self.drain_share(j)?;
             }
         }
+        let advice = if self.plant_here { self.bells.advice() } else { 0 };
         for (b, p) in self.batches.iter_mut().zip(&self.pubs) {
             if b.is_empty() {
                 continue;
             }
             counts.messages_out.fetch_add(u64::from(b.len()), Ordering::Relaxed);
             counts.batches_out.fetch_add(1, Ordering::Relaxed);
-            p.put(b.take()).wait().map_err(|e| format!("zenoh put {}: {e}", p.key_expr()))?;
+            p.put(b.take(advice)).wait().map_err(|e| format!("zenoh put {}: {e}", p.key_expr()))?;
         }
         Ok(())
     }
@@ -333,7 +337,7 @@ impl Inbound {
         let checked = source_of(key)
             .ok_or_else(|| format!("a batch on {key}, which names no host"))
             .and_then(|from| decode(&payload, run_id, &d.placement, from, d.here).map_err(|e| format!("{key}: {e}")));
-        let records = match checked {
+        let received = match checked {
             Ok(r) => r,
             Err(e) => {
                 if self.sh.counts.rejected.fetch_add(1, Ordering::Relaxed) < 10 {
@@ -343,8 +347,12 @@ impl Inbound {
             }
         };
         self.sh.counts.batches_in.fetch_add(1, Ordering::Relaxed);
-        self.sh.counts.messages_in.fetch_add(records.len() as u64, Ordering::Relaxed);
-        if let Err(e) = records.iter().try_for_each(|r| self.ports.deliver(r)) {
+        self.sh.counts.messages_in.fetch_add(received.records.len() as u64, Ordering::Relaxed);
+        // The plant's advice first: a process woken by this batch's messages reads it.
+        if received.wait_advice != 0 {
+            self.ports.bells.set_advice(received.wait_advice);
+        }
+        if let Err(e) = received.records.iter().try_for_each(|r| self.ports.deliver(r)) {
             self.sh.fail(e);
         }
     }
