@@ -58,7 +58,12 @@ fn linger<T: Transport + ?Sized>(t: &mut T, p: &DriveParams) {
     }
     let until = Instant::now().checked_add(p.step_timeout.saturating_mul(2));
     while until.is_none_or(|u| Instant::now() < u) && !t.stop_requested() && !p.terminate.load(Ordering::Relaxed) {
-        // Nothing is awaited but the stop: a wakeup from a late share only shortens the nap.
+        // Nothing is awaited but the stop: a wakeup from a late share only shortens the nap. What
+        // rang is taken and dropped, or every later wait returns at once: with a link delay the
+        // neighbours' last shares are never read, and a 100-agent ring's lingering agents kept
+        // both cores busy, the plant's telemetry writer (nice 19) finishing its file behind them,
+        // until their bound ran out 120 s later.
+        let _ = t.drain(&mut |_| {});
         let nap = repoll_after(&*t, false, Duration::ZERO);
         if t.wait(nap).is_err() {
             std::thread::sleep(nap);
