@@ -64,13 +64,7 @@ pub(super) fn sample(s: &Setup, dir: &Path, summary: &Summary, wall_s: f64) -> S
         let mut r: Vec<f64> = compute.iter().zip(&rounds).map(|(c, r)| c / r.max(1.0)).collect();
         median(&mut r)
     });
-    let mut per_agent: Vec<f64> = (1..=s.n_agents().min(8))
-        .filter_map(|i| {
-            let mut c = timing_column(dir, &format!("agent-{i}"), "compute_ns");
-            (!c.is_empty()).then(|| median(&mut c) / 1e3)
-        })
-        .collect();
-    let agent_compute_us = (!per_agent.is_empty()).then(|| median(&mut per_agent));
+    let agent_compute_us = first_agents_median_us(s, dir, "compute_ns", 0);
     let (meas_latency_us, share_latency_max_us) = legs_us(s, dir);
     Sample {
         wall_s,
@@ -105,11 +99,20 @@ const LEGS_FROM_STEP: usize = 8;
 
 /// The step's two one-way legs, µs ([`Sample::meas_latency_us`], [`Sample::share_latency_max_us`]).
 fn legs_us(s: &Setup, dir: &Path) -> (Option<f64>, Option<f64>) {
-    let median_after =
-        |mut v: Vec<f64>| (v.len() > LEGS_FROM_STEP).then(|| median(&mut v.split_off(LEGS_FROM_STEP)) / 1e3);
-    let mut meas: Vec<f64> = (1..=s.n_agents().min(8))
-        .filter_map(|i| median_after(timing_column(dir, &format!("agent-{i}"), "meas_latency_ns")))
+    let meas = first_agents_median_us(s, dir, "meas_latency_ns", LEGS_FROM_STEP);
+    (meas, median_us_after(timing_column(dir, "plant", "share_latency_max_ns"), LEGS_FROM_STEP))
+}
+
+/// The median, µs, of the first eight agents' medians of timing column `col` (ns), each from
+/// step `from` on; none when no agent has steps past it.
+fn first_agents_median_us(s: &Setup, dir: &Path, col: &str, from: usize) -> Option<f64> {
+    let mut each: Vec<f64> = (1..=s.n_agents().min(8))
+        .filter_map(|i| median_us_after(timing_column(dir, &format!("agent-{i}"), col), from))
         .collect();
-    let meas = (!meas.is_empty()).then(|| median(&mut meas));
-    (meas, median_after(timing_column(dir, "plant", "share_latency_max_ns")))
+    (!each.is_empty()).then(|| median(&mut each))
+}
+
+/// The median, µs, of a column of ns from step `from` on; none when it has no steps past it.
+fn median_us_after(mut v: Vec<f64>, from: usize) -> Option<f64> {
+    (v.len() > from).then(|| median(&mut v.split_off(from)) / 1e3)
 }

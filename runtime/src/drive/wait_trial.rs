@@ -46,10 +46,11 @@
 //! both ways measured in 32-step stretches beside each other favour spinning (the plant's
 //! trial medians of six runs: blocking 706 µs a step (532–879) where steady blocking took 540
 //! (498–620), spinning 569 (497–784) where steady spinning took 649 (591–760)), so the trial
-//! chose spinning in most runs and `adaptive` ran at ≈ 0.85 of `event`. Turns of 4 steps (block, spin, spin, block, …) were tried and not kept: the same
-//! choice across hosts, and under two hogs one 100-agent run chose spinning on a trial that had
-//! blocking at 3 762 µs a step and spinning at 1 393 where `event` ran 1.5 times as fast as
-//! `poll` (README, "Where a step across hosts goes").
+//! chose spinning in most runs and `adaptive` ran at ≈ 0.85 of `event`. Turns of 4 steps
+//! (block, spin, spin, block, …) were tried and not kept: the same choice across hosts, and under
+//! two hogs one 100-agent run chose spinning on a trial that had blocking at 3 762 µs a step and
+//! spinning at 1 393 where `event` ran 1.5 times as fast as `poll` (README, "Where a step across
+//! hosts goes").
 
 use std::time::Instant;
 
@@ -333,7 +334,8 @@ fn period_of(k: u64) -> Option<u64> {
 
 /// Between trials, every process waits as the plant's trial chose (the plant publishes it,
 /// `DataPath::wait_advice`, in its host's doorbell file; the gateways carry it to the other
-/// hosts' with their batches, per-process zenoh peers do not): each process measures the same lockstep, but
+/// hosts' with their batches, per-process zenoh peers do not): each process measures the same
+/// lockstep, but
 /// over its own step boundaries, and near a tie their verdicts split — in one launch of a
 /// thousand-agent ring 529 agents chose spinning and 472 blocking, a mixture slower than either.
 /// Encoded as (period + 1) · 2 + (1 for spinning); 0 is none.

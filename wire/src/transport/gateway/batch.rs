@@ -25,6 +25,11 @@ use crate::msg::{Measurement, PLANT_ID, SCHEMA_VERSION, Share};
 use crate::transport::{Proc, bytes_of, read_payload_prefix};
 
 const MAGIC: [u8; 4] = *b"CGW2";
+/// Where the header's fields start (the magic at 0), and its length.
+const VERSION_AT: usize = 4;
+const RUN_AT: usize = 8;
+const COUNT_AT: usize = 16;
+const ADVICE_AT: usize = 20;
 const HEADER_BYTES: usize = 28;
 const RECORD_BYTES: usize = 16;
 const KIND_MEASUREMENT: u8 = 1;
@@ -70,9 +75,9 @@ impl Batch {
     /// The payload, with the plant's waiting advice (0 from a host without the plant), leaving
     /// this batch empty for the next drain.
     pub fn take(&mut self, wait_advice: u64) -> Vec<u8> {
-        self.buf[16..20].copy_from_slice(&self.count.to_le_bytes());
-        self.buf[20..28].copy_from_slice(&wait_advice.to_le_bytes());
-        let run_id = u64::from_le_bytes(self.buf[8..16].try_into().expect("8 bytes"));
+        self.buf[COUNT_AT..COUNT_AT + 4].copy_from_slice(&self.count.to_le_bytes());
+        self.buf[ADVICE_AT..HEADER_BYTES].copy_from_slice(&wait_advice.to_le_bytes());
+        let run_id = u64_at(&self.buf, RUN_AT);
         std::mem::replace(self, Batch::new(run_id)).buf
     }
 }
@@ -126,6 +131,10 @@ fn u32_at(b: &[u8], at: usize) -> u32 {
     u32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
 }
 
+fn u64_at(b: &[u8], at: usize) -> u64 {
+    u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
+}
+
 /// The advice and records of a batch that host `from_host` sent to host `here`, every one checked.
 pub fn decode<'a>(
     bytes: &'a [u8],
@@ -141,16 +150,16 @@ pub fn decode<'a>(
     if magic != MAGIC {
         return Err(BatchError::Magic(magic));
     }
-    let version = u32_at(bytes, 4);
+    let version = u32_at(bytes, VERSION_AT);
     if version != SCHEMA_VERSION {
         return Err(BatchError::Version(version));
     }
-    let run = u64::from_le_bytes(bytes[8..16].try_into().expect("8 bytes"));
+    let run = u64_at(bytes, RUN_AT);
     if run != run_id {
         return Err(BatchError::Run(run));
     }
-    let count = u32_at(bytes, 16);
-    let wait_advice = u64::from_le_bytes(bytes[20..28].try_into().expect("8 bytes"));
+    let count = u32_at(bytes, COUNT_AT);
+    let wait_advice = u64_at(bytes, ADVICE_AT);
     if wait_advice != 0 && placement.host(Proc::Plant) != from_host {
         return Err(BatchError::Advice(from_host));
     }
