@@ -34,8 +34,11 @@
 //! `adaptive` trailed `poll` in a 2 000-step bench run (0.87). The first trial's reference spins
 //! rather than waiting as start-up does: at N = 1 000 start-up's steps are too long for its
 //! spinning, so it waited as blocking does and the blocking half ran whole (32 steps at the
-//! `event` rate, a quarter of a 200-step run). Where blocking was chosen, or spinning is slower
-//! (under contention), the blocking half is as fast as its reference or faster, and runs whole.
+//! `event` rate, a quarter of a 200-step run) — unless that spinning is many times slower than
+//! start-up was (two hogs: a hog's slice a step, [`REF_LOSS`]); then the rest of the reference
+//! waits as start-up did, and the blocking half runs whole. Where blocking was chosen, or
+//! spinning is slower (under contention), the blocking half is as fast as its reference or
+//! faster, and runs whole.
 //! Spinning is taken only when it is clearly faster ([`SPIN_GAIN`]): a paced run's steps take as
 //! long either way, and blocking then leaves the cores idle. The first steps (start-up) wait as
 //! [`super::wait::SpinPolicy::Adaptive`] always did, with its contention back-off; between the
@@ -53,6 +56,8 @@
 //! hosts goes").
 
 use std::time::Instant;
+
+use super::wait::YIELD_STALL;
 
 /// Steps of each measurement of a mode.
 pub(super) const TRIAL_STEPS: u64 = 32;
@@ -79,6 +84,17 @@ const SPIN_COST_MAX: f64 = 4.0;
 const SPIN_LOSS_STEPS: usize = 4;
 /// How many times blocking's median a spinning step takes to count towards [`SPIN_LOSS_STEPS`].
 const SPIN_LOSS: f64 = 2.0;
+/// The first trial's reference stops spinning once this many of its steps took [`REF_LOSS`]
+/// times the lower quartile of start-up's steps before it (which waited with the contention
+/// back-off), and at least a stalled yield ([`YIELD_STALL`]: spinning loses to blocking by waiting
+/// behind another program's slice). Under two hogs at N = 6 each of its 8 spinning steps took 3–8
+/// ms, a hog's slice, against start-up's 0.1–0.4 ms: 35 of the 45–50 ms by which `adaptive`
+/// trailed `event` in a 2 000-step run. Two steps, so that one burst of another program's does
+/// not decide; the quartile, as start-up's own steps include its stalls (3–5 ms in 1–4 of its 8
+/// steps under the hogs, whose median then missed a reference of 4 ms steps); a millisecond, so
+/// that an idle machine's spread (20–800 µs a step at N = 6) does not.
+const REF_LOSS_STEPS: usize = 2;
+const REF_LOSS: f64 = 8.0;
 
 /// How a wait is to go.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -103,11 +119,14 @@ pub(super) struct Trial {
     /// The latest step seen, and when its first wait began: a step's time is known when the next
     /// one begins.
     last: Option<(u64, Instant)>,
-    /// Seconds per step of the [`REF_STEPS`] steps before the trial, of its blocking half and of
-    /// its spinning half.
+    /// Seconds per step of start-up's steps before the first trial's reference, of the
+    /// [`REF_STEPS`] steps before the trial, of its blocking half and of its spinning half.
+    start: StepTimes,
     reference: StepTimes,
     block: StepTimes,
     spin: StepTimes,
+    /// The first trial's reference stopped spinning ([`REF_LOSS`]).
+    ref_gave_up: bool,
     /// Blocking was given up (it was [`BLOCK_LOSS`] times slower than the reference).
     block_gave_up: bool,
     /// Spinning was given up (it cannot be faster any more, or it cost [`SPIN_COST_MAX`]).
@@ -142,10 +161,19 @@ impl StepTimes {
     /// The median, the upper one of an even count (so that "half the steps at least `x`" means
     /// the median is at least `x`, which [`Trial::spinning_lost`] counts on); none when empty.
     fn median(&self) -> Option<f64> {
+        self.at_rank(self.n / 2)
+    }
+
+    /// The lower quartile (the step at rank ⌊n/4⌋ from the fastest); none when empty.
+    fn lower_quartile(&self) -> Option<f64> {
+        self.at_rank(self.n / 4)
+    }
+
+    fn at_rank(&self, rank: usize) -> Option<f64> {
         let mut v = self.s;
         let v = &mut v[..self.n];
         v.sort_unstable_by(f64::total_cmp);
-        v.get(self.n / 2).copied()
+        v.get(rank).copied()
     }
 
     fn total(&self) -> f64 {
@@ -185,7 +213,9 @@ impl Trial {
             choice: Mode::Spin,
             period: None,
             last: None,
+            start: StepTimes::EMPTY,
             reference: StepTimes::EMPTY,
+            ref_gave_up: false,
             block: StepTimes::EMPTY,
             spin: StepTimes::EMPTY,
             block_gave_up: false,
@@ -204,9 +234,9 @@ impl Trial {
         // The last REF_STEPS steps before a trial are its reference. Before the first trial,
         // they spin: start-up's own waiting is as slow as blocking where its steps are too long
         // for its spinning (a thousand agents), and the first trial's blocking half then ran
-        // whole at the blocking rate.
+        // whole at the blocking rate. Unless spinning is many times slower than start-up was.
         let Some(since) = k.checked_sub(FIRST_TRIAL) else {
-            return if zone(k) == Zone::Reference { Mode::Spin } else { Mode::Learning };
+            return if zone(k) == Zone::Reference && !self.reference_lost() { Mode::Spin } else { Mode::Learning };
         };
         let period = since / PERIOD_STEPS;
         if self.period != Some(period) {
@@ -238,7 +268,10 @@ impl Trial {
             Some((k0, t0)) => {
                 let s = per_step(k0, t0, k, now);
                 match zone(k0) {
-                    Zone::Reference => self.reference.push(s),
+                    Zone::Between if k0 < FIRST_TRIAL => self.start.push(s),
+                    // The rest of a first reference given up waits as start-up does: not
+                    // spinning's measure either.
+                    Zone::Reference if !self.ref_gave_up => self.reference.push(s),
                     // The rest of a blocking half given up spins, and is no one's measure.
                     Zone::BlockHalf if !self.block_gave_up => self.block.push(s),
                     Zone::SpinHalf if !self.gave_up => self.spin.push(s),
@@ -254,6 +287,27 @@ impl Trial {
     /// ([`advice`]); none during a trial or before the first.
     pub(super) fn advice(&self, k: u64) -> Option<u64> {
         advice(k, self.choice)
+    }
+
+    /// Whether the first trial's reference stops spinning: once [`REF_LOSS_STEPS`] of its steps
+    /// took [`REF_LOSS`] times start-up's lower quartile and at least [`YIELD_STALL`]. The blocking
+    /// half is then held against those few spinning steps, which it beats, and runs whole.
+    fn reference_lost(&mut self) -> bool {
+        if !self.ref_gave_up
+            && let Some(start) = self.start.lower_quartile()
+        {
+            let slow = (REF_LOSS * start).max(YIELD_STALL.as_secs_f64());
+            self.ref_gave_up = self.reference.at_least(slow) >= REF_LOSS_STEPS;
+            if self.ref_gave_up {
+                tracing::debug!(
+                    "wait trial: the first reference's spinning steps took {REF_LOSS_STEPS} times over {:.0} µs \
+                     (start-up's lower quartile {:.0} µs): it waits as start-up did",
+                    slow * 1e6,
+                    start * 1e6
+                );
+            }
+        }
+        self.ref_gave_up
     }
 
     /// Whether the blocking half is given up: once its median step over at least
@@ -551,6 +605,46 @@ mod tests {
             .collect();
         assert_eq!(modes.iter().filter(|&&m| m == Mode::Block).count() as u64, MIN_BLOCK_STEPS, "{modes:?}");
         assert_eq!((t.chose_spin, t.chose_block), (1, 0));
+    }
+
+    /// Two hogs: start-up waited with the contention back-off (0.2 ms a step, but half of its
+    /// steps stalled behind a hog: 4 ms), spinning through a yield takes a hog's slice (4 ms),
+    /// blocking 0.15 ms. The first trial's reference gives spinning up after two steps, and the
+    /// blocking half, held against those, runs whole.
+    #[test]
+    fn the_first_reference_stops_spinning_when_far_slower_than_start_up() {
+        let (mut t, mut clock) = (Trial::new(), Instant::now());
+        let (learning, spin, block) =
+            (Duration::from_micros(200), Duration::from_millis(4), Duration::from_micros(150));
+        let modes: Vec<Mode> = (0..FIRST_TRIAL + 2 * TRIAL_STEPS + 1)
+            .map(|k| {
+                let m = t.mode_at(k, clock);
+                clock += match m {
+                    Mode::Learning if k < FIRST_TRIAL - REF_STEPS && k % 2 == 1 => spin,
+                    Mode::Learning => learning,
+                    Mode::Spin => spin,
+                    Mode::Block => block,
+                };
+                m
+            })
+            .collect();
+        let reference = &modes[(FIRST_TRIAL - REF_STEPS) as usize..FIRST_TRIAL as usize];
+        assert_eq!(reference.iter().filter(|&&m| m == Mode::Spin).count(), REF_LOSS_STEPS, "{modes:?}");
+        assert!(reference[REF_LOSS_STEPS..].iter().all(|&m| m == Mode::Learning), "{modes:?}");
+        let trial = &modes[FIRST_TRIAL as usize..];
+        assert!(trial[..TRIAL_STEPS as usize].iter().all(|&m| m == Mode::Block), "{modes:?}");
+        assert_eq!((t.chose_spin, t.chose_block), (0, 1));
+        // Spinning three times as slow as start-up (a yield behind peers, not a hog) keeps the
+        // whole reference spinning.
+        let (mut t, mut clock) = (Trial::new(), Instant::now());
+        let modes: Vec<Mode> = (0..FIRST_TRIAL)
+            .map(|k| {
+                let m = t.mode_at(k, clock);
+                clock += if m == Mode::Spin { learning * 3 } else { learning };
+                m
+            })
+            .collect();
+        assert!(modes[(FIRST_TRIAL - REF_STEPS) as usize..].iter().all(|&m| m == Mode::Spin), "{modes:?}");
     }
 
     #[test]
