@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use ::zenoh::Wait;
 use ::zenoh::pubsub::Publisher;
@@ -15,6 +15,7 @@ use iceoryx2::port::subscriber::Subscriber as IoxSubscriber;
 use iceoryx2::prelude::*;
 
 use super::batch::{Batch, Record, decode};
+use super::hold::ShareHold;
 use super::source_of;
 use crate::msg::{Measurement, PLANT_ID, Share};
 use crate::transport::doorbell::Doorbells;
@@ -24,6 +25,8 @@ use crate::transport::{Proc, Topology, TransportError};
 /// A wait with no ring ends after this and the out thread looks at every subscriber (a sender
 /// that died between its sample and its ring leaves one unrung).
 const SWEEP_EVERY: Duration = Duration::from_millis(10);
+/// The shortest wait: a hold about to run out is not worth a spin.
+const MIN_NAP: Duration = Duration::from_micros(20);
 
 /// What the out thread and the in callback counted, for the gateway's end line.
 #[derive(Debug, Default)]
@@ -93,6 +96,10 @@ struct OutPorts {
     pubs: Vec<Arc<Publisher<'static>>>,
     /// The plant runs on this host: its waiting advice goes out with every batch.
     plant_here: bool,
+    /// Shares held until their step's last local one ([`ShareHold`]); per destination, whether
+    /// its batch holds a measurement (which goes at once).
+    hold: ShareHold,
+    has_meas: Vec<bool>,
     _node: Node<Svc>,
 }
 
@@ -145,15 +152,22 @@ impl OutPorts {
             }
         }
         let batches = pubs.iter().map(|_| Batch::new(run.run_id)).collect();
+        let mut senders = vec![Vec::new(); pubs.len()];
+        for (j, (_, to)) in share.iter().enumerate().filter_map(|(j, s)| Some((j, s.as_ref()?))) {
+            to.iter().for_each(|&d| senders[d].push(j as u32));
+        }
+        let hold = ShareHold::new(topo.n_agents() as usize, senders);
+        let has_meas = vec![false; pubs.len()];
         let pubs = pubs.into_iter().map(|(_, p)| p).collect();
         let plant_here = d.is_local(Proc::Plant);
-        Ok(Self { bells, meas, share, batches, pubs, plant_here, _node: node })
+        Ok(Self { bells, meas, share, batches, pubs, plant_here, hold, has_meas, _node: node })
     }
 
     fn drain_meas(&mut self) -> Result<(), String> {
         for (i, to, sub) in &self.meas {
             while let Some(s) = sub.receive().map_err(|e| format!("receive meas/{i}: {e:?}"))? {
                 self.batches[*to].push_measurement(*i, s.payload());
+                self.has_meas[*to] = true;
             }
         }
         Ok(())
@@ -165,16 +179,20 @@ impl OutPorts {
             for &d in to {
                 self.batches[d].push_share(s.payload());
             }
+            self.hold.shared(j as u32, s.payload().header.step, to, Instant::now());
         }
         Ok(())
     }
 
     /// One wait and what it brought: drain the senders that woke it (every one after a wait
-    /// without wakeups), then one put per destination with anything for it.
+    /// without wakeups), then one put per destination with anything for it that may go (shares
+    /// are held for the rest of their step's, [`ShareHold`]).
     fn once(&mut self, ids: &mut Vec<usize>, counts: &Counts) -> Result<(), String> {
         ids.clear();
         let slot = self.bells.gateway_slot();
-        self.bells.wait(slot, SWEEP_EVERY);
+        // A hold running out ends the wait; its end needs no ring.
+        let nap = self.hold.until_due(Instant::now()).map_or(SWEEP_EVERY, |d| d.min(SWEEP_EVERY));
+        self.bells.wait(slot, nap.max(MIN_NAP));
         self.bells.take(slot, |id| ids.push(id));
         let woke = !ids.is_empty();
         if woke {
@@ -188,10 +206,13 @@ impl OutPorts {
             }
         }
         let advice = if self.plant_here { self.bells.advice() } else { 0 };
-        for (b, p) in self.batches.iter_mut().zip(&self.pubs) {
-            if b.is_empty() {
+        let now = Instant::now();
+        for (d, (b, p)) in self.batches.iter_mut().zip(&self.pubs).enumerate() {
+            if b.is_empty() || !(self.has_meas[d] || self.hold.ready(d, now)) {
                 continue;
             }
+            self.hold.sent(d);
+            self.has_meas[d] = false;
             counts.messages_out.fetch_add(u64::from(b.len()), Ordering::Relaxed);
             counts.batches_out.fetch_add(1, Ordering::Relaxed);
             p.put(b.take(advice)).wait().map_err(|e| format!("zenoh put {}: {e}", p.key_expr()))?;

@@ -35,6 +35,7 @@
 
 pub mod batch;
 mod carry;
+mod hold;
 mod hub;
 
 pub use hub::{GatewayEnd, GatewaySpec, READY_MARKER, ready_marker, run};
