@@ -15,7 +15,7 @@ use iceoryx2::port::subscriber::Subscriber as IoxSubscriber;
 use iceoryx2::prelude::*;
 
 use super::batch::{Batch, Record, decode};
-use super::hold::ShareHold;
+use super::hold::StepHold;
 use super::source_of;
 use crate::msg::{Measurement, PLANT_ID, Share};
 use crate::transport::doorbell::Doorbells;
@@ -96,10 +96,9 @@ struct OutPorts {
     pubs: Vec<Arc<Publisher<'static>>>,
     /// The plant runs on this host: its waiting advice goes out with every batch.
     plant_here: bool,
-    /// Shares held until their step's last local one ([`ShareHold`]); per destination, whether
-    /// its batch holds a measurement (which goes at once).
-    hold: ShareHold,
-    has_meas: Vec<bool>,
+    /// Shares, and measurements, held until their step's last ([`StepHold`]).
+    hold: StepHold,
+    meas_hold: StepHold,
     _node: Node<Svc>,
 }
 
@@ -156,18 +155,20 @@ impl OutPorts {
         for (j, (_, to)) in share.iter().enumerate().filter_map(|(j, s)| Some((j, s.as_ref()?))) {
             to.iter().for_each(|&d| senders[d].push(j as u32));
         }
-        let hold = ShareHold::new(topo.n_agents() as usize, senders);
-        let has_meas = vec![false; pubs.len()];
+        let hold = StepHold::new(topo.n_agents() as usize, senders);
+        let mut for_agents = vec![Vec::new(); pubs.len()];
+        meas.iter().for_each(|&(i, d, _)| for_agents[d].push(i));
+        let meas_hold = StepHold::new(topo.n_agents() as usize, for_agents);
         let pubs = pubs.into_iter().map(|(_, p)| p).collect();
         let plant_here = d.is_local(Proc::Plant);
-        Ok(Self { bells, meas, share, batches, pubs, plant_here, hold, has_meas, _node: node })
+        Ok(Self { bells, meas, share, batches, pubs, plant_here, hold, meas_hold, _node: node })
     }
 
     fn drain_meas(&mut self) -> Result<(), String> {
         for (i, to, sub) in &self.meas {
             while let Some(s) = sub.receive().map_err(|e| format!("receive meas/{i}: {e:?}"))? {
                 self.batches[*to].push_measurement(*i, s.payload());
-                self.has_meas[*to] = true;
+                self.meas_hold.shared(*i, s.payload().header.step, &[*to], Instant::now());
             }
         }
         Ok(())
@@ -186,12 +187,14 @@ impl OutPorts {
 
     /// One wait and what it brought: drain the senders that woke it (every one after a wait
     /// without wakeups), then one put per destination with anything for it that may go (shares
-    /// are held for the rest of their step's, [`ShareHold`]).
+    /// are held for the rest of their step's, [`StepHold`]).
     fn once(&mut self, ids: &mut Vec<usize>, counts: &Counts) -> Result<(), String> {
         ids.clear();
         let slot = self.bells.gateway_slot();
         // A hold running out ends the wait; its end needs no ring.
-        let nap = self.hold.until_due(Instant::now()).map_or(SWEEP_EVERY, |d| d.min(SWEEP_EVERY));
+        let now = Instant::now();
+        let due = [self.hold.until_due(now), self.meas_hold.until_due(now)].into_iter().flatten().min();
+        let nap = due.map_or(SWEEP_EVERY, |d| d.min(SWEEP_EVERY));
         self.bells.wait(slot, nap.max(MIN_NAP));
         self.bells.take(slot, |id| ids.push(id));
         let woke = !ids.is_empty();
@@ -208,11 +211,11 @@ impl OutPorts {
         let advice = if self.plant_here { self.bells.advice() } else { 0 };
         let now = Instant::now();
         for (d, (b, p)) in self.batches.iter_mut().zip(&self.pubs).enumerate() {
-            if b.is_empty() || !(self.has_meas[d] || self.hold.ready(d, now)) {
+            if b.is_empty() || !(self.hold.ready(d, now) && self.meas_hold.ready(d, now)) {
                 continue;
             }
             self.hold.sent(d);
-            self.has_meas[d] = false;
+            self.meas_hold.sent(d);
             counts.messages_out.fetch_add(u64::from(b.len()), Ordering::Relaxed);
             counts.batches_out.fetch_add(1, Ordering::Relaxed);
             p.put(b.take(advice)).wait().map_err(|e| format!("zenoh put {}: {e}", p.key_expr()))?;

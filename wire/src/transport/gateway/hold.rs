@@ -1,4 +1,4 @@
-//! Holding a remote host's shares until the step's last local one: one batch a step.
+//! Holding what goes to a remote host until the step's last of it: one batch a step.
 //!
 //! This host's agents finish a step one after another, and the out thread, woken by each share,
 //! sent each in a batch of its own: across three hosts (fig1, three servicers on each of two
@@ -7,8 +7,10 @@
 //! step's path waits for an early share: the plant (and every reader) needs all of a step's
 //! shares before the next step. So a destination's shares are held until every local sender read
 //! there has shared the newest step held — every sender still live: one that did not share the
-//! step before (dead, frozen, not started) is not waited for — or for at most [`HOLD_MAX`].
-//! Measurements are never held (the plant publishes all of a step's before it rings).
+//! step before (dead, frozen, not started) is not waited for — or for at most [`HOLD_MAX`]. The
+//! plant's measurements are held the same way, per agent they are for (the plant publishes a
+//! step's one after another and rings after each: the out thread, woken by the first, sent the
+//! rest in a second batch in up to half of the steps).
 
 use std::time::{Duration, Instant};
 
@@ -19,10 +21,10 @@ use std::time::{Duration, Instant};
 /// one batch.
 pub(super) const HOLD_MAX: Duration = Duration::from_millis(5);
 
-/// Per local sender the newest step it shared; per destination the senders read there and what
-/// is held for it.
+/// Per sender (per agent a measurement is for) the newest step it sent; per destination the
+/// senders read there and what is held for it.
 #[derive(Debug)]
-pub(super) struct ShareHold {
+pub(super) struct StepHold {
     /// Indexed by agent id.
     last: Vec<Option<u64>>,
     /// Per destination: the local agents whose shares go there.
@@ -32,11 +34,11 @@ pub(super) struct ShareHold {
     since: Vec<Option<Instant>>,
 }
 
-impl ShareHold {
+impl StepHold {
     /// `senders[d]`: the local agents (ids up to `n_agents`) read at destination `d`.
     pub(super) fn new(n_agents: usize, senders: Vec<Vec<u32>>) -> Self {
         let n_dest = senders.len();
-        ShareHold { last: vec![None; n_agents + 1], senders, newest: vec![None; n_dest], since: vec![None; n_dest] }
+        StepHold { last: vec![None; n_agents + 1], senders, newest: vec![None; n_dest], since: vec![None; n_dest] }
     }
 
     /// Agent `j` shared `step`, now held for destinations `to`.
@@ -82,8 +84,8 @@ mod tests {
     use super::*;
 
     /// Agents 1, 2, 3 here, all read at destination 0; agent 3 also at destination 1.
-    fn hold() -> ShareHold {
-        ShareHold::new(3, vec![vec![1, 2, 3], vec![3]])
+    fn hold() -> StepHold {
+        StepHold::new(3, vec![vec![1, 2, 3], vec![3]])
     }
 
     #[test]
