@@ -187,7 +187,7 @@ impl OutPorts {
 
     /// One wait and what it brought: drain the senders that woke it (every one after a wait
     /// without wakeups), then one put per destination with anything for it that may go (shares
-    /// are held for the rest of their step's, [`StepHold`]).
+    /// and measurements are held for the rest of their step's, [`StepHold`]).
     fn once(&mut self, ids: &mut Vec<usize>, counts: &Counts) -> Result<(), String> {
         ids.clear();
         let slot = self.bells.gateway_slot();

@@ -43,8 +43,10 @@ impl StepHold {
 
     /// Agent `j` shared `step`, now held for destinations `to`.
     pub(super) fn shared(&mut self, j: u32, step: u64, to: &[usize], now: Instant) {
+        // The latest, not the greatest: one sender's messages come in order, and a step garbled
+        // in transit (a `corrupt` fault) is then forgotten at its next message.
         if let Some(last) = self.last.get_mut(j as usize) {
-            *last = Some(last.map_or(step, |s| s.max(step)));
+            *last = Some(step);
         }
         for &d in to {
             self.newest[d] = Some(self.newest[d].map_or(step, |s| s.max(step)));
@@ -128,6 +130,27 @@ mod tests {
         assert!(!h.ready(0, t), "back: agent 2 is awaited at step 3");
         h.shared(2, 3, &[0], t);
         assert!(h.ready(0, t));
+    }
+
+    /// A garbled step (far ahead) lets what is held go, and is forgotten at the sender's next
+    /// message: it is awaited again.
+    #[test]
+    fn a_garbled_step_is_forgotten_at_the_next_message() {
+        let (mut h, t) = (hold(), Instant::now());
+        for j in 1..=3 {
+            h.shared(j, 0, &[0], t);
+        }
+        h.sent(0);
+        h.shared(3, 1 << 40, &[0, 1], t);
+        assert!(h.ready(0, t), "the others look silent since the step before");
+        h.sent(0);
+        h.shared(1, 1, &[0], t);
+        h.shared(2, 1, &[0], t);
+        h.shared(3, 1, &[0, 1], t);
+        h.sent(0);
+        h.shared(1, 2, &[0], t);
+        h.shared(2, 2, &[0], t);
+        assert!(!h.ready(0, t), "agent 3 shared step 1: it is awaited at step 2");
     }
 
     #[test]
