@@ -90,6 +90,21 @@ mod tests {
         StepHold::new(3, vec![vec![1, 2, 3], vec![3]])
     }
 
+    /// Every agent shared step 0, and it went.
+    fn after_step_0() -> (StepHold, Instant) {
+        let (mut h, t) = (hold(), Instant::now());
+        step(&mut h, 0, &[1, 2, 3], t);
+        h.sent(0);
+        (h, t)
+    }
+
+    /// Agents `who` share `k`, for destination 0 (agent 3 also for 1).
+    fn step(h: &mut StepHold, k: u64, who: &[u32], t: Instant) {
+        for &j in who {
+            h.shared(j, k, if j == 3 { &[0, 1] } else { &[0] }, t);
+        }
+    }
+
     #[test]
     fn a_destinations_shares_go_once_every_sender_has_shared_the_step() {
         let (mut h, t) = (hold(), Instant::now());
@@ -112,17 +127,11 @@ mod tests {
     /// shares again it is.
     #[test]
     fn a_sender_silent_since_the_step_before_is_not_waited_for() {
-        let (mut h, t) = (hold(), Instant::now());
-        for j in 1..=3 {
-            h.shared(j, 0, &[0], t);
-        }
-        h.sent(0);
-        h.shared(1, 1, &[0], t);
-        h.shared(2, 1, &[0], t);
+        let (mut h, t) = after_step_0();
+        step(&mut h, 1, &[1, 2], t);
         assert!(!h.ready(0, t), "agent 3 shared step 0: it is awaited at step 1");
         h.sent(0);
-        h.shared(1, 2, &[0], t);
-        h.shared(2, 2, &[0], t);
+        step(&mut h, 2, &[1, 2], t);
         assert!(h.ready(0, t), "agent 3 missed step 1: not awaited at step 2");
         h.sent(0);
         h.shared(3, 3, &[0, 1], t);
@@ -136,20 +145,13 @@ mod tests {
     /// message: it is awaited again.
     #[test]
     fn a_garbled_step_is_forgotten_at_the_next_message() {
-        let (mut h, t) = (hold(), Instant::now());
-        for j in 1..=3 {
-            h.shared(j, 0, &[0], t);
-        }
-        h.sent(0);
+        let (mut h, t) = after_step_0();
         h.shared(3, 1 << 40, &[0, 1], t);
         assert!(h.ready(0, t), "the others look silent since the step before");
         h.sent(0);
-        h.shared(1, 1, &[0], t);
-        h.shared(2, 1, &[0], t);
-        h.shared(3, 1, &[0, 1], t);
+        step(&mut h, 1, &[1, 2, 3], t);
         h.sent(0);
-        h.shared(1, 2, &[0], t);
-        h.shared(2, 2, &[0], t);
+        step(&mut h, 2, &[1, 2], t);
         assert!(!h.ready(0, t), "agent 3 shared step 1: it is awaited at step 2");
     }
 
