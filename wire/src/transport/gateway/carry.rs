@@ -164,23 +164,23 @@ impl OutPorts {
         Ok(Self { bells, meas, share, batches, pubs, plant_here, hold, meas_hold, _node: node })
     }
 
-    fn drain_meas(&mut self) -> Result<(), String> {
+    fn drain_meas(&mut self, now: Instant) -> Result<(), String> {
         for (i, to, sub) in &self.meas {
             while let Some(s) = sub.receive().map_err(|e| format!("receive meas/{i}: {e:?}"))? {
                 self.batches[*to].push_measurement(*i, s.payload());
-                self.meas_hold.shared(*i, s.payload().header.step, &[*to], Instant::now());
+                self.meas_hold.shared(*i, s.payload().header.step, &[*to], now);
             }
         }
         Ok(())
     }
 
-    fn drain_share(&mut self, j: usize) -> Result<(), String> {
+    fn drain_share(&mut self, j: usize, now: Instant) -> Result<(), String> {
         let Some(Some((sub, to))) = self.share.get(j) else { return Ok(()) };
         while let Some(s) = sub.receive().map_err(|e| format!("receive share/{j}: {e:?}"))? {
             for &d in to {
                 self.batches[d].push_share(s.payload());
             }
-            self.hold.shared(j as u32, s.payload().header.step, to, Instant::now());
+            self.hold.shared(j as u32, s.payload().header.step, to, now);
         }
         Ok(())
     }
@@ -197,19 +197,20 @@ impl OutPorts {
         let nap = due.map_or(SWEEP_EVERY, |d| d.min(SWEEP_EVERY));
         self.bells.wait(slot, nap.max(MIN_NAP));
         self.bells.take(slot, |id| ids.push(id));
+        // One clock read a wake: what it drains is held from now, and the holds are judged now.
+        let now = Instant::now();
         let woke = !ids.is_empty();
         if woke {
             for &id in ids.iter() {
-                if id == PLANT_ID as usize { self.drain_meas()? } else { self.drain_share(id)? }
+                if id == PLANT_ID as usize { self.drain_meas(now)? } else { self.drain_share(id, now)? }
             }
         } else {
-            self.drain_meas()?;
+            self.drain_meas(now)?;
             for j in 1..self.share.len() {
-                self.drain_share(j)?;
+                self.drain_share(j, now)?;
             }
         }
         let advice = if self.plant_here { self.bells.advice() } else { 0 };
-        let now = Instant::now();
         for (d, (b, p)) in self.batches.iter_mut().zip(&self.pubs).enumerate() {
             if b.is_empty() || !(self.hold.ready(d, now) && self.meas_hold.ready(d, now)) {
                 continue;
